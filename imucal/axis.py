@@ -1,0 +1,416 @@
+"""Hinge joint axis from two gyroscopes (Seel, Schauer, Raisch 2012, Sec. II-A, III-B/C).
+
+For two segments joined by a hinge, the angular rates' projections into the joint plane
+have the same length at every instant (eq. 1)::
+
+    e(t) = |g1(t) x j1| - |g2(t) x j2| = 0
+
+``j1`` is the unit axis in the first sensor's frame, ``j2`` the same physical axis in the
+second sensor's frame. imucal minimises sum e^2 by Gauss-Newton with the gradient of
+eq. (2), projected onto the tangent plane of each unit vector (no spherical-coordinate
+poles), from many random starts on random data subsets at once.
+
+Eq. (1) cannot see the signs of j1 and j2. Which of the pairs (j1, j2), (j1, -j2) points
+the same physical way is decided from the data without integration: see :func:`align_signs`.
+
+Assumptions: the joint is a hinge, the sensors sit rigidly on their segments, and the
+joint angle changes during the recording (with a rigid joint every pair j1 = R j2 fits).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InputError
+from .gauss_newton import BatchResult, gauss_newton
+from .preprocess import default_cutoff, default_subsample, lowpass, window_slice
+from .restarts import consensus, random_subsets, resolve_seed
+
+#: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
+AGREEMENT_DEG = 2.0
+MAX_ITERATIONS = 50
+#: Stop when the tangent-plane step is below this, rad (about 6e-5 deg).
+STEP_TOLERANCE = 1e-6
+#: Stop when a step lowers the mean squared residual by less than this fraction.
+COST_TOLERANCE = 1e-10
+#: Largest tangent step per iteration, rad (norm over both axes).
+MAX_STEP = 1.0
+#: Fraction of the samples each restart sees (the paper's "different subsets").
+SUBSET_FRACTION = 0.5
+#: Below this many samples (after subsampling) the 4-parameter fit is meaningless.
+MIN_SAMPLES = 20
+#: A restart fraction below this, or a relative residual above the next, is not confident.
+MIN_AGREEING_FRACTION = 0.8
+MAX_RELATIVE_RESIDUAL = 0.25
+#: The sign test must favour one hypothesis by at least this ratio of errors.
+MIN_SIGN_EVIDENCE = 1.5
+
+
+@dataclass
+class AxisResult:
+    """Result of :func:`estimate_axis`.
+
+    Attributes
+    ----------
+    j1, j2 : (3,) unit hinge axis in the first / second sensor's frame, pointing the same
+        physical way (see ``sign_evidence``); overall sign: j1's largest component > 0.
+    rms_residual : RMS of e(t) over all used samples at the estimate, rad/s.
+    relative_residual : ``rms_residual`` over the RMS of the compared projections
+        |g x j|, dimensionless (0 = perfect hinge).
+    sign_evidence : how much better the chosen relative sign explains the data than the
+        opposite one (ratio of weighted errors, > 1; below 1.5 the data barely decides).
+    convergence_fraction : fraction of restarts that ended within ``AGREEMENT_DEG`` of the
+        estimate.
+    reached : (R,) which restarts did.
+    spread_deg : RMS angle between the agreeing restarts and the estimate, per axis, deg.
+    batch : the raw restarts (initial states ``batch.path[0]``, costs, iterations).
+    warnings : plain-language reasons not to trust the estimate; empty when fine.
+    settings : every setting used, including the seed.
+    samples_used : samples after window and subsampling.
+    window : (start, end) in seconds from the first sample.
+    gyr1, gyr2 : the filtered, windowed, subsampled rates used (M, 3), rad/s.
+    """
+
+    j1: np.ndarray
+    j2: np.ndarray
+    rms_residual: float
+    relative_residual: float
+    sign_evidence: float
+    convergence_fraction: float
+    reached: np.ndarray
+    spread_deg: dict
+    batch: BatchResult
+    settings: dict
+    samples_used: int
+    window: tuple[float, float]
+    gyr1: np.ndarray
+    gyr2: np.ndarray
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def confident(self) -> bool:
+        """True when no warning was raised."""
+        return not self.warnings
+
+    @property
+    def iterations(self) -> np.ndarray:
+        return self.batch.iterations
+
+
+def estimate_axis(
+    gyr1: np.ndarray,
+    gyr2: np.ndarray,
+    *,
+    rate: float,
+    restarts: int = 100,
+    seed: int | None = None,
+    cutoff: float | None = None,
+    subsample: int | None = None,
+    subset: float = SUBSET_FRACTION,
+    start: float | None = None,
+    end: float | None = None,
+    max_iterations: int = MAX_ITERATIONS,
+) -> AxisResult:
+    """Estimate the hinge axis seen by two gyroscopes.
+
+    Parameters
+    ----------
+    gyr1, gyr2
+        (N, 3) angular rates of the first (proximal) and second sensor, rad/s, each in
+        its own frame, sampled together.
+    rate
+        Sample rate, Hz.
+    restarts
+        Number of random starts (axes uniform on the sphere), each on its own random
+        ``subset`` of the samples.
+    seed
+        Seed of the random starts and subsets; None draws one (``settings["seed"]``).
+    cutoff
+        Zero-phase low-pass cut-off, Hz; None: :func:`imucal.preprocess.default_cutoff`
+        (10 Hz, at most 0.4 x rate); 0: no filter.
+    subsample
+        Use every k-th sample after filtering; None: about 2.5 samples per cut-off period.
+    subset
+        Fraction of the samples each restart sees, in (0, 1]. The reported estimate is
+        refined on all samples.
+    start, end
+        Window in seconds from the first sample; the filter runs on the whole signal
+        first so the window edges have no filter transients.
+    max_iterations
+        Gauss-Newton iteration limit per restart.
+    """
+    g1, g2 = _check_pair(gyr1, gyr2)
+    rate = _check_rate(rate)
+    restarts = _check_restarts(restarts)
+    seed = resolve_seed(seed)
+    cutoff = default_cutoff(rate) if cutoff is None else float(cutoff)
+    step = default_subsample(rate, cutoff) if subsample is None else int(subsample)
+    if step < 1:
+        raise InputError(f"subsample must be a positive integer, got {subsample}")
+
+    win = window_slice(g1.shape[0], rate, start, end)
+    f1 = lowpass(g1, rate, cutoff)[win]
+    f2 = lowpass(g2, rate, cutoff)[win]
+    d1, d2 = f1[::step], f2[::step]
+    n = d1.shape[0]
+    if n < MIN_SAMPLES:
+        raise InputError(
+            f"only {n} samples left after window and subsampling; the axis needs at least "
+            f"{MIN_SAMPLES} (about {MIN_SAMPLES * step / rate:.1f} s of motion)"
+        )
+
+    rng = np.random.default_rng(seed)
+    x0 = np.concatenate([_random_unit(rng, restarts), _random_unit(rng, restarts)], axis=1)
+    idx = random_subsets(n, restarts, subset, rng)
+    batch = _solve(_HingeProblem(d1, d2, idx), x0, max_iterations)
+
+    dist = _axis_distance(batch.x[:, None, :], batch.x[None, :, :])
+    finite = np.isfinite(batch.x).all(axis=1)
+    dist[~finite] = np.nan
+    dist[:, ~finite] = np.nan
+    centre = consensus(dist, AGREEMENT_DEG, batch.cost[np.arange(restarts), batch.iterations])
+
+    full = _HingeProblem(d1, d2, np.arange(n)[None, :])
+    polished = _solve(full, batch.x[centre][None, :], max_iterations)
+    j1, j2 = _unit(polished.x[0, :3]), _unit(polished.x[0, 3:])
+
+    # Sign from the full-rate window: the test follows the projection's angle
+    # sample by sample, which needs small steps.
+    sign, evidence = align_signs(f1, f2, j1, j2, rate)
+    j2 = sign * j2
+    flip = 1.0 if j1[np.argmax(np.abs(j1))] > 0 else -1.0
+    j1, j2 = flip * j1, flip * j2
+
+    e = _hinge_residual(d1, d2, j1, j2)
+    n1 = np.linalg.norm(np.cross(d1, j1), axis=1)
+    n2 = np.linalg.norm(np.cross(d2, j2), axis=1)
+    rms = float(np.sqrt(np.mean(e**2)))
+    scale = float(np.sqrt(np.mean((n1**2 + n2**2) / 2)))
+    relative = rms / scale if scale > 0 else float("inf")
+
+    to_estimate = _axis_distance(batch.x, np.concatenate([j1, j2]))
+    reached = to_estimate <= AGREEMENT_DEG
+    fraction = float(reached.mean())
+    spread = {}
+    for name, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6))):
+        ang = _angle_deg(batch.x[reached, sl], (j1 if name == "j1" else j2))
+        spread[name] = float(np.sqrt(np.mean(ang**2))) if ang.size else float("nan")
+
+    warnings = []
+    if fraction < MIN_AGREEING_FRACTION:
+        warnings.append(
+            f"restarts disagree: only {fraction:.0%} of them reached the estimate; the axis "
+            "is not identifiable from this recording (joint barely moved, or not a hinge)"
+        )
+    if relative > MAX_RELATIVE_RESIDUAL:
+        warnings.append(
+            f"the hinge model fits poorly (residual {relative:.0%} of the signal): the joint "
+            "may not be a hinge, or the sensors moved on the skin"
+        )
+    if evidence < MIN_SIGN_EVIDENCE:
+        warnings.append(
+            f"the data barely decides whether j1 and j2 point the same way (evidence ratio "
+            f"{evidence:.2f}); check the relative sign by another means"
+        )
+
+    settings = {
+        "restarts": restarts,
+        "seed": seed,
+        "cutoff_hz": cutoff,
+        "filter": f"Butterworth order {2} low-pass, zero phase (sosfiltfilt)" if cutoff else None,
+        "subsample": step,
+        "subset_fraction": subset,
+        "max_iterations": max_iterations,
+        "step_tolerance_rad": STEP_TOLERANCE,
+        "cost_tolerance": COST_TOLERANCE,
+        "agreement_deg": AGREEMENT_DEG,
+        "initial_values": "j1, j2 uniform on the unit sphere",
+    }
+    return AxisResult(
+        j1=j1,
+        j2=j2,
+        rms_residual=rms,
+        relative_residual=relative,
+        sign_evidence=evidence,
+        convergence_fraction=fraction,
+        reached=reached,
+        spread_deg=spread,
+        batch=batch,
+        settings=settings,
+        samples_used=n,
+        window=(win.start / rate, win.stop / rate),
+        gyr1=d1,
+        gyr2=d2,
+        warnings=warnings,
+    )
+
+
+def align_signs(
+    gyr1: np.ndarray, gyr2: np.ndarray, j1: np.ndarray, j2: np.ndarray, rate: float
+) -> tuple[float, float]:
+    """Decide from the data whether ``j2`` (+1) or ``-j2`` (-1) points the same way as ``j1``.
+
+    Without integration (Sec. III-C; method-notes.md): project both rates into their joint
+    planes and follow each projection's angle alpha_i in a basis (u_i, j_i x u_i) of its
+    plane. With aligned axes the angle between the two bases is the joint angle, so
+    d/dt (alpha1 - alpha2) = j2.g2 - j1.g1 at every sample; with one axis flipped one trace
+    is mirrored and the identity fails. Errors are weighted by the projections' lengths
+    (the angle of a short projection is noise).
+
+    Returns ``(sign, evidence)``: the sign to apply to ``j2`` and the ratio of the wrong
+    hypothesis's error to the right one's (large = clear decision).
+    """
+    dt = 1.0 / rate
+    a1, len1 = _plane_angle(gyr1, j1)
+    errors = []
+    for s in (1.0, -1.0):
+        a2, len2 = _plane_angle(gyr2, s * j2)
+        rel = np.diff(a1 - a2)
+        rel = (rel + np.pi) % (2 * np.pi) - np.pi
+        thetadot = gyr2 @ (s * j2) - gyr1 @ j1
+        predicted = 0.5 * (thetadot[1:] + thetadot[:-1]) * dt
+        mismatch = np.abs((rel - predicted + np.pi) % (2 * np.pi) - np.pi)
+        w = np.minimum(len1, len2)
+        w = 0.5 * (w[1:] + w[:-1])
+        errors.append(float(np.sum(w * mismatch)))
+    right = int(np.argmin(errors))
+    wrong = 1 - right
+    evidence = errors[wrong] / errors[right] if errors[right] > 0 else float("inf")
+    return (1.0, -1.0)[right], float(evidence)
+
+
+def _plane_angle(g: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    u = _perpendicular(j)
+    w = np.cross(j, u)
+    x, y = g @ u, g @ w
+    return np.arctan2(y, x), np.hypot(x, y)
+
+
+def joint_plane_projection(g: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """(N, 2) coordinates of the rates ``g`` projected into the plane normal to ``j`` (eq. 6)."""
+    u = _perpendicular(j)
+    return np.stack([g @ u, g @ np.cross(j, u)], axis=1)
+
+
+class _HingeProblem:
+    """Residual (1) and its tangent-plane Jacobian for restarts on sample subsets."""
+
+    def __init__(self, g1: np.ndarray, g2: np.ndarray, idx: np.ndarray):
+        self.idx = idx
+        self.g1, self.g2 = g1, g2
+        self.gg1 = np.einsum("ij,ij->i", g1, g1)
+        self.gg2 = np.einsum("ij,ij->i", g2, g2)
+
+    def _parts(self, g, gg, rows, j, basis):
+        sel = self.idx[rows]
+        gs = g[sel]  # (r, M, 3)
+        dots = np.einsum("rmk,rkc->rmc", gs, basis)  # g.j, g.u, g.v
+        norm = np.sqrt(np.maximum(gg[sel] - dots[..., 0] ** 2, 0.0))
+        return dots, norm
+
+    def residual(self, x, rows):
+        j1, j2 = x[:, :3], x[:, 3:]
+        _, n1 = self._parts(self.g1, self.gg1, rows, j1, j1[:, :, None])
+        _, n2 = self._parts(self.g2, self.gg2, rows, j2, j2[:, :, None])
+        return n1 - n2
+
+    def linearise(self, x, rows):
+        j1, j2 = x[:, :3], x[:, 3:]
+        b1, b2 = _tangent_basis(j1), _tangent_basis(j2)
+        d1, n1 = self._parts(self.g1, self.gg1, rows, j1, b1)
+        d2, n2 = self._parts(self.g2, self.gg2, rows, j2, b2)
+        # d|g x j| / d(step along u) = -(g.j)(g.u) / |g x j|  (eq. 2 projected)
+        s1 = -d1[..., :1] * d1[..., 1:] / np.maximum(n1, 1e-12)[..., None]
+        s2 = d2[..., :1] * d2[..., 1:] / np.maximum(n2, 1e-12)[..., None]
+        return n1 - n2, np.concatenate([s1, s2], axis=-1)
+
+
+def _solve(problem: _HingeProblem, x0: np.ndarray, max_iterations: int) -> BatchResult:
+    return gauss_newton(
+        problem.linearise,
+        problem.residual,
+        _retract,
+        x0,
+        max_iterations=max_iterations,
+        step_tolerance=STEP_TOLERANCE,
+        cost_tolerance=COST_TOLERANCE,
+        max_step=MAX_STEP,
+    )
+
+
+def _retract(x: np.ndarray, step: np.ndarray) -> np.ndarray:
+    out = np.empty_like(x)
+    for sl, st in ((slice(0, 3), slice(0, 2)), (slice(3, 6), slice(2, 4))):
+        basis = _tangent_basis(x[:, sl])
+        moved = x[:, sl] + np.einsum("rkc,rc->rk", basis[:, :, 1:], step[:, st])
+        out[:, sl] = moved / np.linalg.norm(moved, axis=1, keepdims=True)
+    return out
+
+
+def _tangent_basis(j: np.ndarray) -> np.ndarray:
+    """(r, 3, 3) columns j, u, v: u, v orthonormal and perpendicular to the unit j."""
+    u = _perpendicular(j)
+    v = np.cross(j, u)
+    return np.stack([j, u, v], axis=-1)
+
+
+def _perpendicular(j: np.ndarray) -> np.ndarray:
+    """A unit vector perpendicular to each unit ``j`` (..., 3), smooth away from axes."""
+    j = np.asarray(j, dtype=np.float64)
+    helper = np.zeros_like(j)
+    np.put_along_axis(helper, np.argmin(np.abs(j), axis=-1)[..., None], 1.0, axis=-1)
+    u = helper - np.sum(helper * j, axis=-1, keepdims=True) * j
+    return u / np.linalg.norm(u, axis=-1, keepdims=True)
+
+
+def _hinge_residual(g1, g2, j1, j2):
+    return np.linalg.norm(np.cross(g1, j1), axis=1) - np.linalg.norm(np.cross(g2, j2), axis=1)
+
+
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Sign-free angle between unit vectors, deg (axes have no sign in eq. 1)."""
+    c = np.clip(np.abs(np.sum(a * b, axis=-1)), 0.0, 1.0)
+    return np.degrees(np.arccos(c))
+
+
+def _axis_distance(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Larger of the sign-free angles between the j1 parts and the j2 parts, deg."""
+    return np.maximum(_angle_deg(x[..., :3], y[..., :3]), _angle_deg(x[..., 3:], y[..., 3:]))
+
+
+def _random_unit(rng: np.random.Generator, n: int) -> np.ndarray:
+    v = rng.standard_normal((n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
+def _check_pair(a, b) -> tuple[np.ndarray, np.ndarray]:
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    for name, arr in (("first", a), ("second", b)):
+        if arr.ndim != 2 or arr.shape[1] != 3:
+            raise InputError(f"{name} sensor's data has shape {arr.shape}, expected (N, 3)")
+        if not np.isfinite(arr).all():
+            raise InputError(f"{name} sensor's data contains NaN or Inf")
+    if a.shape != b.shape:
+        raise InputError(f"sensors have different lengths ({a.shape[0]} and {b.shape[0]})")
+    return a, b
+
+
+def _check_rate(rate) -> float:
+    rate = float(rate)
+    if not np.isfinite(rate) or rate <= 0:
+        raise InputError(f"sample rate must be a positive number of Hz, got {rate}")
+    return rate
+
+
+def _check_restarts(restarts) -> int:
+    restarts = int(restarts)
+    if restarts < 1:
+        raise InputError(f"restarts must be at least 1, got {restarts}")
+    return restarts

@@ -1,0 +1,169 @@
+"""Batched, safeguarded Gauss-Newton: many restarts of one least-squares problem at once.
+
+Every restart is a row of a state array; residuals and Jacobians of all active restarts
+come from one vectorised call, the normal equations of all restarts are solved as one
+stacked ``numpy.linalg.solve``. Restarts that have converged drop out of the batch, so
+late iterations only cost what the slow restarts need.
+
+Safeguards (so no restart produces NaN or runs away):
+
+- a tiny Levenberg damping relative to the trace of J^T J keeps the normal equations
+  solvable when the problem is rank-deficient (e.g. joint position on a hinge, where
+  every point of the axis fits);
+- a step is capped at ``max_step`` (in the units of the local coordinates);
+- a step must not increase the cost; otherwise it is halved up to ``MAX_HALVINGS`` times,
+  and a restart that still cannot descend stops (it sits at a minimum to machine
+  precision).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+MAX_HALVINGS = 12
+#: Damping added to J^T J, relative to its mean diagonal.
+RELATIVE_DAMPING = 1e-10
+
+
+@dataclass
+class BatchResult:
+    """Outcome of :func:`gauss_newton` for R restarts with state size s.
+
+    Attributes
+    ----------
+    x : (R, s) final states.
+    iterations : (R,) accepted Gauss-Newton steps taken by each restart.
+    converged : (R,) True where the step or cost tolerance was met or no step could
+        lower the cost; False where the iteration limit stopped the restart.
+    cost : (R, K + 1) cost (mean squared residual) at the start and after each
+        iteration; NaN after a restart stopped. K is the largest iteration count.
+    path : (K + 1, R, s) state at the start and after each iteration; after a restart
+        stopped its last state is repeated.
+    """
+
+    x: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    cost: np.ndarray
+    path: np.ndarray
+
+
+def gauss_newton(
+    linearise: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
+    residual: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    retract: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    x0: np.ndarray,
+    *,
+    max_iterations: int,
+    step_tolerance: float,
+    cost_tolerance: float,
+    max_step: float,
+) -> BatchResult:
+    """Run Gauss-Newton from every row of ``x0`` at once.
+
+    Parameters
+    ----------
+    linearise
+        ``(x, rows) -> (e, J)``: residuals (r, M) and Jacobian (r, M, k) with respect to
+        the k local step coordinates, for states ``x`` (r, s) of restarts ``rows``.
+    residual
+        ``(x, rows) -> e`` (r, M), the residual alone (cheaper, for trial steps).
+    retract
+        ``(x, step) -> x_new``: apply a local step (r, k) to states (r, s).
+    x0
+        (R, s) initial states.
+    max_iterations
+        Limit on accepted steps per restart.
+    step_tolerance
+        Stop when the step norm falls below this (local-coordinate units).
+    cost_tolerance
+        Stop when a step lowers the cost by less than this fraction of it.
+    max_step
+        Largest step norm allowed in one iteration.
+    """
+    x = np.array(x0, dtype=np.float64, copy=True)
+    n_restarts = x.shape[0]
+    iterations = np.zeros(n_restarts, dtype=int)
+    converged = np.zeros(n_restarts, dtype=bool)
+    active = np.arange(n_restarts)
+    costs = [None] * (max_iterations + 1)
+    path = [x.copy()]
+
+    e, jac = linearise(x, active)
+    cost = np.mean(e**2, axis=1)
+    costs[0] = cost.copy()
+    current = cost.copy()
+
+    for it in range(1, max_iterations + 1):
+        if active.size == 0:
+            break
+        step = _gauss_newton_step(e, jac)
+        norm = np.linalg.norm(step, axis=1)
+        step *= np.minimum(1.0, max_step / np.maximum(norm, 1e-300))[:, None]
+
+        x_old = x[active]
+        c_old = current[active]
+        x_new, c_new, ok = _descend(residual, retract, x_old, step, c_old, active)
+
+        x[active] = x_new
+        current[active] = c_new
+        iterations[active[ok]] += 1
+        taken = np.linalg.norm(step, axis=1)  # step after halvings
+        small = (taken < step_tolerance) | (c_old - c_new <= cost_tolerance * c_old)
+        # A restart whose step cannot lower the cost even when halved many times sits
+        # at a minimum to machine precision: that is convergence, too.
+        converged[active[(ok & small) | ~ok]] = True
+        row_costs = np.full(n_restarts, np.nan)
+        row_costs[active] = c_new
+        costs[it] = row_costs
+        path.append(x.copy())
+
+        keep = ok & ~small & (iterations[active] < max_iterations)
+        active = active[keep]
+        if active.size:
+            e, jac = linearise(x[active], active)
+
+    n_rows = sum(c is not None for c in costs)
+    cost_table = np.stack(costs[:n_rows], axis=1)
+    # A restart that stopped early has NaN from the next column on; its accepted
+    # iterations fill the columns 0..iterations.
+    for_col = np.arange(n_rows)[None, :]
+    cost_table = np.where(for_col <= iterations[:, None], cost_table, np.nan)
+    return BatchResult(
+        x=x, iterations=iterations, converged=converged, cost=cost_table, path=np.stack(path)
+    )
+
+
+def _gauss_newton_step(e: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    jtj = np.einsum("rmk,rml->rkl", jac, jac)
+    jte = np.einsum("rmk,rm->rk", jac, e)
+    k = jtj.shape[-1]
+    scale = np.trace(jtj, axis1=1, axis2=2) / k
+    damping = RELATIVE_DAMPING * scale + 1e-300
+    jtj = jtj + damping[:, None, None] * np.eye(k)
+    step = -np.linalg.solve(jtj, jte[..., None])[..., 0]
+    return np.where(np.isfinite(step), step, 0.0)
+
+
+def _descend(residual, retract, x_old, step, c_old, rows):
+    """Take ``step`` where it lowers the cost; halve it where it does not."""
+    x_new = x_old.copy()
+    c_new = c_old.copy()
+    ok = np.zeros(x_old.shape[0], dtype=bool)
+    trial = np.arange(x_old.shape[0])
+    for _ in range(MAX_HALVINGS + 1):
+        x_try = retract(x_old[trial], step[trial])
+        c_try = np.mean(residual(x_try, rows[trial]) ** 2, axis=1)
+        good = np.isfinite(c_try) & (c_try <= c_old[trial])
+        x_new[trial[good]] = x_try[good]
+        c_new[trial[good]] = c_try[good]
+        ok[trial[good]] = True
+        trial = trial[~good]
+        if trial.size == 0:
+            break
+        step[trial] *= 0.5
+    step[~ok] = 0.0
+    return x_new, c_new, ok
