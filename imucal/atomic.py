@@ -1,0 +1,60 @@
+"""Atomic file output: write to a temporary name in the target folder, then rename.
+
+A failure or Ctrl-C therefore leaves either the old file or none, never half a file.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+from .errors import InputError
+
+
+def check_writable(path: str | Path) -> Path:
+    """Fail early (before any computation) when ``path`` cannot be written."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder; give a file name")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"{path}: folder '{folder}' does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"{path}: folder '{folder}' is not writable")
+    return path
+
+
+def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
+    """Call ``write(tmp)`` to create a temporary file beside ``path``, then rename it.
+
+    The temporary file keeps the target's suffix (libraries pick formats by it) and gets
+    the usual umask-based permissions rather than tempfile's 0600.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        with tempfile.NamedTemporaryFile(
+            dir=folder, prefix=f".{path.name}.", suffix=path.suffix, delete=False
+        ) as fh:
+            tmp = Path(fh.name)
+    except OSError as err:
+        raise InputError(f"{path}: cannot write to folder '{folder}' ({err.strerror or err})") \
+            from None
+    try:
+        write(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException as err:
+        tmp.unlink(missing_ok=True)
+        if isinstance(err, OSError):
+            raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
+        raise
+
+
+def write_text_atomic(path: str | Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))

@@ -1,0 +1,421 @@
+"""The ``imucal`` command line: wires loaders, estimators, reports and plots together.
+
+Data (JSON) goes to stdout or ``--out``; progress, summaries and errors go to stderr.
+Exit status: 0 success, 2 bad input or usage, 1 the data cannot answer.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from . import __version__
+from .atomic import check_writable, write_atomic, write_text_atomic
+from .errors import ImucalError, InputError
+
+app = typer.Typer(
+    name="imucal",
+    help=(
+        "Knee hinge axis and ankle joint centre from inertial sensors on thigh, shank and "
+        "foot (Seel, Schauer, Raisch 2012). Results are JSON on stdout; messages go to "
+        "stderr. Units: rad/s, m/s^2, Hz, s, m."
+    ),
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+)
+
+# Options shared by `axis` and `position`.
+Rec = Annotated[str, typer.Argument(help="Recording (.h5, .hdf5 or .csv); - reads CSV from stdin.",
+                                    show_default=False)]
+Restarts = Annotated[int, typer.Option(min=1, help="Random restarts (initial values and data "
+                                       "subsets).")]
+Seed = Annotated[int | None, typer.Option(min=0, help="Random seed; default: a fresh one, "
+                                          "recorded in the JSON.", show_default=False)]
+Start = Annotated[float | None, typer.Option(help="Window start, s on the recording's time axis.",
+                                             show_default=False)]
+End = Annotated[float | None, typer.Option(help="Window end, s on the recording's time axis.",
+                                           show_default=False)]
+Cutoff = Annotated[float | None, typer.Option(help="Low-pass cut-off, Hz; default 10 Hz (at most "
+                                              "0.4 x rate); 0 disables the filter.",
+                                              show_default=False)]
+Subsample = Annotated[int | None, typer.Option(min=1, help="Use every k-th sample; default about "
+                                               "2.5 samples per cut-off period.",
+                                               show_default=False)]
+Out = Annotated[Path | None, typer.Option("--out", "-o", help="Write the JSON here instead of "
+                                          "stdout.", show_default=False)]
+Plot = Annotated[Path | None, typer.Option(help="Write a convergence figure (PNG).",
+                                           show_default=False)]
+Rate = Annotated[float | None, typer.Option(help="Sample rate, Hz (CSV without a time column).",
+                                            show_default=False)]
+GyrUnits = Annotated[str | None, typer.Option(help="Gyroscope units of a CSV: rad/s or deg/s.",
+                                              show_default=False)]
+AccUnits = Annotated[str | None, typer.Option(help="Accelerometer units of a CSV: m/s^2 or g.",
+                                              show_default=False)]
+Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")]
+Debug = Annotated[bool, typer.Option(help="Show a traceback on errors.")]
+
+
+@app.command(
+    epilog=(
+        "Examples:  imucal axis walk.h5 | jq .j1   ·   "
+        "imucal axis walk.h5 --sensors left_thigh,left_shank --start 0 --end 55 "
+        "--out knee.json --plot knee.png   ·   "
+        "cat rec.csv | imucal axis - --rate 100 --gyr-units deg/s"
+    )
+)
+def axis(
+    rec: Rec,
+    sensors: Annotated[str, typer.Option(help="First (proximal) and second sensor, comma "
+                                         "separated.")] = "thigh,shank",
+    restarts: Restarts = 100,
+    seed: Seed = None,
+    start: Start = None,
+    end: End = None,
+    cutoff: Cutoff = None,
+    subsample: Subsample = None,
+    out: Out = None,
+    plot: Plot = None,
+    rate: Rate = None,
+    gyr_units: GyrUnits = None,
+    acc_units: AccUnits = None,
+    quiet: Quiet = False,
+    debug: Debug = False,
+) -> None:
+    """Hinge joint axis: j1 in the first sensor's frame, j2 in the second's (unit vectors)."""
+    with _errors(debug):
+        from .axis import estimate_axis
+        from .report import axis_report
+
+        _check_outputs(out, plot)
+        recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
+        s1, s2 = (recording.sensor(n) for n in names)
+        _progress(quiet, recording, names, "axis")
+        result = estimate_axis(
+            s1.gyr, s2.gyr, rate=recording.rate, restarts=restarts, seed=seed,
+            cutoff=cutoff, subsample=subsample, **_window(recording, start, end),
+        )
+        doc = axis_report(result, input_info=_input_info(recording, names))
+        if plot is not None:
+            from .plots import axis_figure
+
+            _save_figure(axis_figure(result, f"Hinge axis: {names[0]} - {names[1]}"), plot)
+        _emit(doc, out)
+        if not quiet:
+            _summary_axis(result, names)
+
+
+@app.command(
+    epilog=(
+        "Examples:  imucal position walk.h5 | jq .o1   ·   "
+        "imucal position walk.h5 --sensors thigh,shank --joint hinge   ·   "
+        "imucal position walk.h5 --out ankle.json --plot ankle.png"
+    )
+)
+def position(
+    rec: Rec,
+    sensors: Annotated[str, typer.Option(help="First (proximal) and second sensor, comma "
+                                         "separated.")] = "shank,foot",
+    joint: Annotated[str, typer.Option(help="spheroidal (ankle) or hinge (knee: reports the "
+                                       "point of the axis closest to both sensors).")]
+    = "spheroidal",
+    restarts: Restarts = 100,
+    seed: Seed = None,
+    start: Start = None,
+    end: End = None,
+    cutoff: Cutoff = None,
+    subsample: Subsample = None,
+    out: Out = None,
+    plot: Plot = None,
+    rate: Rate = None,
+    gyr_units: GyrUnits = None,
+    acc_units: AccUnits = None,
+    quiet: Quiet = False,
+    debug: Debug = False,
+) -> None:
+    """Joint centre: o1, o2 = vectors from the joint centre to each sensor, own frame, m."""
+    with _errors(debug):
+        from .position import JOINTS, estimate_position
+        from .report import position_report
+
+        if joint not in JOINTS:
+            raise InputError(f"--joint must be one of {', '.join(JOINTS)}, got '{joint}'")
+        _check_outputs(out, plot)
+        recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
+        s1, s2 = (recording.sensor(n) for n in names)
+        _progress(quiet, recording, names, f"position ({joint})")
+        result = estimate_position(
+            s1.gyr, s1.acc, s2.gyr, s2.acc, rate=recording.rate, restarts=restarts,
+            seed=seed, joint=joint, cutoff=cutoff, subsample=subsample,
+            **_window(recording, start, end),
+        )
+        doc = position_report(result, input_info=_input_info(recording, names))
+        if plot is not None:
+            from .plots import position_figure
+
+            title = f"Joint position ({joint}): {names[0]} - {names[1]}"
+            _save_figure(position_figure(result, title), plot)
+        _emit(doc, out)
+        if not quiet:
+            _summary_position(result, names)
+
+
+@app.command(
+    epilog=(
+        "Examples:  imucal simulate rec.h5 --seed 1   ·   "
+        "imucal simulate rec.csv --rate 40 --snr 30 --motion walking"
+    )
+)
+def simulate(
+    out: Annotated[Path, typer.Argument(help="Output recording, .h5, .hdf5 or .csv; the truth "
+                                        "goes to OUT.truth.json beside it.", show_default=False)],
+    seed: Seed = None,
+    rate: Annotated[float, typer.Option(min=1.0, help="Sample rate, Hz.")] = 100.0,
+    duration: Annotated[float, typer.Option(min=0.1, help="Duration, s.")] = 20.0,
+    snr: Annotated[float, typer.Option(min=0.0, help="Signal-to-noise ratio (RMS amplitude "
+                                       "ratio per signal); 0 or inf: no noise.")] = 100.0,
+    motion: Annotated[str, typer.Option(help="circling, walking, rigid-knee or static.")]
+    = "circling",
+    quiet: Quiet = False,
+    debug: Debug = False,
+) -> None:
+    """Simulate thigh-knee-shank-ankle-foot with sensors at random poses (paper Sec. III-A)."""
+    with _errors(debug):
+        from .report import clean
+        from .simulate import MOTIONS
+        from .simulate import simulate as run_simulation
+        from .writers import save_recording
+
+        if motion not in MOTIONS:
+            raise InputError(f"--motion must be one of {', '.join(MOTIONS)}, got '{motion}'")
+        truth_path = out.with_name(out.stem + ".truth.json")
+        check_writable(out)
+        recording, truth = run_simulation(
+            seed=seed, rate=rate, duration=duration,
+            snr=None if snr == 0 or not np.isfinite(snr) else snr, motion=motion,
+        )
+        save_recording(recording, out)
+        write_text_atomic(truth_path, json.dumps(clean(truth), indent=2) + "\n")
+        if not quiet:
+            _err(f"imucal simulate: wrote {out} ({recording.n_samples} samples at "
+                 f"{recording.rate:g} Hz, motion {motion}, seed {truth['settings']['seed']}) "
+                 f"and {truth_path}")
+
+
+@app.command(epilog="Examples:  imucal info walk.h5   ·   imucal info rec.csv --rate 100 --json")
+def info(
+    rec: Rec,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")]
+    = False,
+    rate: Rate = None,
+    gyr_units: GyrUnits = None,
+    acc_units: AccUnits = None,
+    debug: Debug = False,
+) -> None:
+    """Sensors, sample rate, duration, units, and how much each sensor moves."""
+    with _errors(debug):
+        from .loaders import load_recording
+        from .report import clean
+
+        recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
+        doc = clean(_describe(recording))
+        if as_json:
+            sys.stdout.write(json.dumps(doc, indent=2) + "\n")
+            return
+        lines = [
+            f"{doc['path']}: {doc['samples']} samples at {doc['sample_rate_hz']:g} Hz "
+            f"({doc['duration_s']:.1f} s, t = {doc['time_s'][0]:g} to {doc['time_s'][1]:g} s)",
+            f"{'sensor':<16}{'file units':<18}{'rms rate':>12}{'peak rate':>12}"
+            f"{'rms |acc|-g':>14}  motion",
+        ]
+        for name, s in doc["sensors"].items():
+            units = f"{s['units']['gyr']}, {s['units']['acc']}"
+            lines.append(
+                f"{name:<16}{units:<18}{s['gyr_rms_deg_s']:>8.1f} d/s{s['gyr_peak_deg_s']:>8.1f}"
+                f" d/s{s['acc_dynamic_rms_m_s2']:>9.2f} m/s2  {s['motion']}"
+            )
+        for w in recording.warnings:
+            lines.append(f"warning: {w}")
+        sys.stdout.write("\n".join(lines) + "\n")
+
+
+#: A sensor whose RMS angular rate stays below this (deg/s) is called still by `info`.
+STILL_RATE_DEG_S = 5.0
+
+
+def _describe(recording) -> dict:
+    sensors = {}
+    for name, s in recording.sensors.items():
+        rate_norm = np.degrees(np.linalg.norm(s.gyr, axis=1))
+        acc_dyn = np.linalg.norm(s.acc, axis=1) - 9.81
+        rms = float(np.sqrt(np.mean(rate_norm**2)))
+        sensors[name] = {
+            "units": recording.units.get(name, {}),
+            "gyr_rms_deg_s": rms,
+            "gyr_peak_deg_s": float(rate_norm.max()),
+            "acc_dynamic_rms_m_s2": float(np.sqrt(np.mean(acc_dyn**2))),
+            "motion": "still" if rms < STILL_RATE_DEG_S else "moves",
+        }
+    return {
+        "path": recording.source,
+        "sample_rate_hz": recording.rate,
+        "samples": recording.n_samples,
+        "duration_s": recording.duration,
+        "time_s": [recording.time[0], recording.time[-1]],
+        "sensors": sensors,
+        "warnings": recording.warnings,
+    }
+
+
+class _errors:
+    """Turn the project's errors into one stderr line and an exit status."""
+
+    def __init__(self, debug: bool):
+        self.debug = debug
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, err, tb):
+        if err is None or isinstance(err, (typer.Exit, SystemExit)):
+            return False
+        if self.debug:
+            return False
+        if isinstance(err, KeyboardInterrupt):
+            _err("imucal: interrupted")
+            raise typer.Exit(130)
+        if isinstance(err, ImucalError):
+            _err(f"imucal: error: {err}")
+            raise typer.Exit(err.exit_code)
+        if isinstance(err, OSError):
+            _err(f"imucal: error: {err.filename or ''}: {err.strerror or err}")
+            raise typer.Exit(2)
+        _err(f"imucal: internal error: {type(err).__name__}: {err} (rerun with --debug and "
+             "report it)")
+        raise typer.Exit(3)
+
+
+def _load(rec, sensors, rate, gyr_units, acc_units):
+    from .loaders import load_recording
+
+    names = [s.strip() for s in sensors.split(",")]
+    if len(names) != 2 or not all(names) or names[0] == names[1]:
+        raise InputError(f"--sensors needs two different sensor names, e.g. thigh,shank; "
+                         f"got '{sensors}'")
+    recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
+    for n in names:
+        recording.sensor(n)  # raises with the list of sensors that exist
+    for w in recording.warnings:
+        _err(f"imucal: warning: {recording.source}: {w}")
+    return recording, names
+
+
+def _window(recording, start, end) -> dict:
+    """--start/--end are on the recording's time axis; estimators count from sample 0."""
+    t0 = float(recording.time[0])
+    return {
+        "start": None if start is None else max(0.0, start - t0) if start >= t0 else start - t0,
+        "end": None if end is None else end - t0,
+    }
+
+
+def _input_info(recording, names) -> dict:
+    return {
+        "path": recording.source,
+        "sensors": names,
+        "sample_rate_hz": recording.rate,
+        "samples_total": recording.n_samples,
+        "duration_s": recording.duration,
+        "units_in_file": {n: recording.units.get(n, {}) for n in names},
+        "time_origin": float(recording.time[0]),
+    }
+
+
+def _check_outputs(out, plot) -> None:
+    for path in (out, plot):
+        if path is not None:
+            check_writable(path)
+    if plot is not None and plot.suffix.lower() != ".png":
+        raise InputError(f"{plot}: --plot writes PNG; give a file name ending in .png")
+
+
+def _emit(doc: dict, out: Path | None) -> None:
+    from .report import dumps
+
+    text = dumps(doc)
+    if out is None:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+    else:
+        write_text_atomic(out, text)
+
+
+def _save_figure(fig, path: Path) -> None:
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
+
+
+def _progress(quiet, recording, names, what) -> None:
+    if not quiet:
+        _err(f"imucal {what}: {recording.source}: {names[0]} -> {names[1]}, "
+             f"{recording.n_samples} samples at {recording.rate:g} Hz ({recording.duration:.1f} s)")
+
+
+def _summary_axis(result, names) -> None:
+    it = result.iterations
+    _err(f"  j1 ({names[0]}) = {_vec(result.j1)}   j2 ({names[1]}) = {_vec(result.j2)}")
+    _err(f"  {int(result.reached.sum())}/{len(result.reached)} restarts reached the estimate "
+         f"(median {np.median(it):g}, max {it.max()} iterations); residual "
+         f"{result.rms_residual:.4f} rad/s ({result.relative_residual:.1%} of signal); "
+         f"spread {result.spread_deg['j1']:.2f}/{result.spread_deg['j2']:.2f} deg")
+    _verdict(result.warnings)
+
+
+def _summary_position(result, names) -> None:
+    it = result.iterations
+    _err(f"  o1 ({names[0]}) = {_vec(result.o1)} m   o2 ({names[1]}) = {_vec(result.o2)} m")
+    _err(f"  {int(result.reached.sum())}/{len(result.reached)} restarts reached the estimate "
+         f"(median {np.median(it):g}, max {it.max()} iterations); residual "
+         f"{result.rms_residual:.4f} m/s^2 ({result.relative_residual:.1%} of signal); "
+         f"spread {result.spread_mm['o1']:.1f}/{result.spread_mm['o2']:.1f} mm")
+    _verdict(result.warnings)
+
+
+def _verdict(warnings) -> None:
+    if not warnings:
+        _err("  verdict: ok")
+    for w in warnings:
+        _err(f"  warning: {w}")
+
+
+def _vec(v) -> str:
+    return "[" + ", ".join(f"{x:+.4f}" for x in v) + "]"
+
+
+def _err(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+def _version_callback(value: bool) -> None:
+    if value:
+        print(f"imucal {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: Annotated[bool, typer.Option("--version", callback=_version_callback,
+                                          is_eager=True, help="Show the version and exit.")]
+    = False,
+) -> None:
+    pass
+
+
+def main() -> None:
+    """Console-script entry point."""
+    app()

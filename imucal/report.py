@@ -1,0 +1,162 @@
+"""Estimator results -> the JSON documents the command line prints (schema: docs/json.md).
+
+Pure functions: they build plain dicts (lists, floats, str, None; never NaN, which JSON
+lacks) and serialise them deterministically, so the same input and seed give the same
+bytes.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from . import __version__
+from .axis import AxisResult
+from .position import PositionResult
+
+AXIS_CONVENTION = (
+    "j1 is the unit hinge axis in the first sensor's frame, j2 the same physical axis in "
+    "the second sensor's frame; j1 and j2 point the same physical way (decided from the "
+    "data), overall sign chosen so that j1's largest component is positive"
+)
+POSITION_CONVENTION = (
+    "o1 and o2 are the vectors from the joint centre to the first and second sensor's "
+    "origin, each in its own sensor's frame, in metres (Seel et al. 2012)"
+)
+
+
+def axis_report(result: AxisResult, *, input_info: dict) -> dict:
+    """JSON document for an axis estimate; ``input_info`` describes the recording."""
+    batch = result.batch
+    restarts = [
+        {
+            "initial": {"j1": batch.path[0, r, :3], "j2": batch.path[0, r, 3:]},
+            "final": {"j1": batch.x[r, :3], "j2": batch.x[r, 3:]},
+            "iterations": int(batch.iterations[r]),
+            "converged": bool(batch.converged[r]),
+            "reached_estimate": bool(result.reached[r]),
+            "cost": _cost_trace(batch.cost[r]),
+        }
+        for r in range(batch.x.shape[0])
+    ]
+    doc = {
+        "imucal_version": __version__,
+        "command": "axis",
+        "input": _input_block(input_info, result),
+        "settings": result.settings,
+        "convention": AXIS_CONVENTION,
+        "units": {"j1": "unit vector", "j2": "unit vector", "rms_residual": "rad/s",
+                  "cost": "rad/s (RMS residual)", "spread": "deg"},
+        "j1": result.j1,
+        "j2": result.j2,
+        "rms_residual": result.rms_residual,
+        "relative_residual": result.relative_residual,
+        "sign": {
+            "method": "joint-plane projection angles vs. j2.g2 - j1.g1 (no integration)",
+            "evidence": result.sign_evidence,
+        },
+        "convergence": _convergence_block(result, "agreement_deg", "spread_deg",
+                                          result.spread_deg),
+        "confident": result.confident,
+        "warnings": result.warnings,
+        "restarts": restarts,
+    }
+    return clean(doc)
+
+
+def position_report(result: PositionResult, *, input_info: dict) -> dict:
+    """JSON document for a joint-position estimate."""
+    batch = result.batch
+    restarts = [
+        {
+            "initial": {"o1": batch.path[0, r, :3], "o2": batch.path[0, r, 3:]},
+            "final": {"o1": batch.x[r, :3], "o2": batch.x[r, 3:]},
+            "iterations": int(batch.iterations[r]),
+            "converged": bool(batch.converged[r]),
+            "reached_estimate": bool(result.reached[r]),
+            "cost": _cost_trace(batch.cost[r]),
+        }
+        for r in range(batch.x.shape[0])
+    ]
+    doc = {
+        "imucal_version": __version__,
+        "command": "position",
+        "input": _input_block(input_info, result),
+        "settings": result.settings,
+        "convention": POSITION_CONVENTION,
+        "units": {"o1": "m", "o2": "m", "rms_residual": "m/s^2",
+                  "cost": "m/s^2 (RMS residual)", "spread": "mm"},
+        "joint": result.joint,
+        "o1": result.o1,
+        "o2": result.o2,
+        "rms_residual": result.rms_residual,
+        "relative_residual": result.relative_residual,
+        "identifiability": {"singular_ratio": result.singular_ratio},
+    }
+    if result.joint == "hinge" and result.axis is not None:
+        doc["axis_line"] = {
+            "j1": result.axis.j1,
+            "j2": result.axis.j2,
+            "description": "every point o1 + lambda*j1, o2 + lambda*j2 fits the data; o1, o2 "
+            "is the point of this line closest to both sensors",
+        }
+    doc.update(
+        {
+            "convergence": _convergence_block(result, "agreement_mm", "spread_mm",
+                                              result.spread_mm),
+            "confident": result.confident,
+            "warnings": result.warnings,
+            "restarts": restarts,
+        }
+    )
+    return clean(doc)
+
+
+def dumps(doc: dict) -> str:
+    """Serialise a report: deterministic key order as built, two-space indent, newline."""
+    return json.dumps(doc, indent=2, allow_nan=False) + "\n"
+
+
+def clean(value):
+    """Recursively turn numpy values into plain Python; NaN and Inf become None."""
+    if isinstance(value, dict):
+        return {str(k): clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [clean(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return [clean(v) for v in value.tolist()]
+    if isinstance(value, (np.bool_, bool)):
+        return bool(value)
+    if isinstance(value, (np.integer, int)):
+        return int(value)
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    return value
+
+
+def _cost_trace(cost_row: np.ndarray) -> list:
+    """RMS residual per iteration (start first), without the NaN padding."""
+    return np.sqrt(cost_row[np.isfinite(cost_row)]).tolist()
+
+
+def _input_block(info: dict, result) -> dict:
+    out = dict(info)
+    t0 = out.pop("time_origin", 0.0)
+    out["samples_used"] = result.samples_used
+    out["window_s"] = [t0 + result.window[0], t0 + result.window[1]]
+    return out
+
+
+def _convergence_block(result, tol_key: str, spread_key: str, spread: dict) -> dict:
+    it = result.batch.iterations
+    return {
+        "fraction": result.convergence_fraction,
+        tol_key: result.settings[tol_key],
+        "median_iterations": float(np.median(it)),
+        "max_iterations": int(it.max()),
+        "converged_within_limit": float(np.mean(result.batch.converged)),
+        spread_key: spread,
+    }
