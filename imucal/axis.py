@@ -61,11 +61,15 @@ class AxisResult:
         |g x j|, dimensionless (0 = perfect hinge).
     sign_evidence : how much better the chosen relative sign explains the data than the
         opposite one (ratio of weighted errors, > 1; below 1.5 the data barely decides).
-    convergence_fraction : fraction of restarts that ended within ``AGREEMENT_DEG`` of the
-        estimate.
+    convergence_fraction : fraction of restarts that reached the estimate: whose final
+        value, refined on all samples, lies within ``AGREEMENT_DEG`` of it.
     reached : (R,) which restarts did.
-    spread_deg : RMS angle between the agreeing restarts and the estimate, per axis, deg.
-    batch : the raw restarts (initial states ``batch.path[0]``, costs, iterations).
+    spread_deg : RMS angle between the agreeing restarts' subset results and the
+        estimate, per axis, deg: how much the answer depends on the data.
+    batch : the restarts on their subsets (initial states ``batch.path[0]``, costs,
+        iterations).
+    refined : each restart's result refined on all samples; the estimate is the one most
+        others agree with.
     warnings : plain-language reasons not to trust the estimate; empty when fine.
     settings : every setting used, including the seed.
     samples_used : samples after window and subsampling.
@@ -82,6 +86,7 @@ class AxisResult:
     reached: np.ndarray
     spread_deg: dict
     batch: BatchResult
+    refined: BatchResult
     settings: dict
     samples_used: int
     window: tuple[float, float]
@@ -166,15 +171,18 @@ def estimate_axis(
     idx = random_subsets(n, restarts, subset, rng)
     batch = _solve(_HingeProblem(d1, d2, idx), x0, max_iterations)
 
-    dist = _axis_distance(batch.x[:, None, :], batch.x[None, :, :])
-    finite = np.isfinite(batch.x).all(axis=1)
+    # Refine every restart on all samples: restarts in the same basin then coincide,
+    # so agreement measures independence from the start, while the subset finals
+    # (``batch.x``) show how much the answer depends on the data (Sec. IV).
+    full = _HingeProblem(d1, d2, np.broadcast_to(np.arange(n), (restarts, n)))
+    refined = _solve(full, batch.x, max_iterations)
+    dist = _axis_distance(refined.x[:, None, :], refined.x[None, :, :])
+    finite = np.isfinite(refined.x).all(axis=1)
     dist[~finite] = np.nan
     dist[:, ~finite] = np.nan
-    centre = consensus(dist, AGREEMENT_DEG, batch.cost[np.arange(restarts), batch.iterations])
-
-    full = _HingeProblem(d1, d2, np.arange(n)[None, :])
-    polished = _solve(full, batch.x[centre][None, :], max_iterations)
-    j1, j2 = _unit(polished.x[0, :3]), _unit(polished.x[0, 3:])
+    final_cost = refined.cost[np.arange(restarts), refined.iterations]
+    centre = consensus(dist, AGREEMENT_DEG, final_cost)
+    j1, j2 = _unit(refined.x[centre, :3]), _unit(refined.x[centre, 3:])
 
     # Sign from the full-rate window: the test follows the projection's angle
     # sample by sample, which needs small steps.
@@ -190,7 +198,7 @@ def estimate_axis(
     scale = float(np.sqrt(np.mean((n1**2 + n2**2) / 2)))
     relative = rms / scale if scale > 0 else float("inf")
 
-    to_estimate = _axis_distance(batch.x, np.concatenate([j1, j2]))
+    to_estimate = _axis_distance(refined.x, np.concatenate([j1, j2]))
     reached = to_estimate <= AGREEMENT_DEG
     fraction = float(reached.mean())
     spread = {}
@@ -238,6 +246,7 @@ def estimate_axis(
         reached=reached,
         spread_deg=spread,
         batch=batch,
+        refined=refined,
         settings=settings,
         samples_used=n,
         window=(win.start / rate, win.stop / rate),

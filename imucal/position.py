@@ -64,11 +64,14 @@ class PositionResult:
     relative_residual : ``rms_residual`` over the RMS of |a_i - Gamma_i(o_i)|.
     singular_ratio : smallest / largest singular value of the Jacobian at the estimate
         (near 0: the position is only known along a line).
-    convergence_fraction : fraction of restarts within ``AGREEMENT_M`` of the estimate
-        (for a hinge: after moving each to its closest point on the axis).
+    convergence_fraction : fraction of restarts whose final value, refined on all samples,
+        lies within ``AGREEMENT_M`` of the estimate (for a hinge: after moving each to
+        its closest point on the axis).
     reached : (R,) which restarts did.
-    spread_mm : RMS distance of the agreeing restarts from the estimate per vector, mm.
-    batch : the raw restarts.
+    spread_mm : RMS distance of the agreeing restarts' subset results from the estimate
+        per vector, mm: how much the answer depends on the data.
+    batch : the restarts on their subsets.
+    refined : each restart's result refined on all samples.
     axis : for ``joint="hinge"``, the axis used (j1, j2 aligned), else None.
     warnings, settings, samples_used, window : as in :class:`imucal.axis.AxisResult`.
     """
@@ -83,6 +86,7 @@ class PositionResult:
     reached: np.ndarray
     spread_mm: dict
     batch: BatchResult
+    refined: BatchResult
     settings: dict
     samples_used: int
     window: tuple[float, float]
@@ -186,14 +190,17 @@ def estimate_position(
     idx = random_subsets(n, restarts, subset, rng)
     batch = _solve(_SphericalProblem(*sensors[0], *sensors[1], idx), x0, max_iterations)
 
-    finals = batch.x if line is None else closest_point_on_axis(batch.x, line)
+    # As for the axis: refine every restart on all samples, agree on the refined values,
+    # measure the data dependence on the subset values.
+    every = np.broadcast_to(np.arange(n), (restarts, n))
+    full = _SphericalProblem(*sensors[0], *sensors[1], every)
+    refined = _solve(full, batch.x, max_iterations)
+    finals = refined.x if line is None else closest_point_on_axis(refined.x, line)
+    subset_finals = batch.x if line is None else closest_point_on_axis(batch.x, line)
     dist = _position_distance(finals[:, None, :], finals[None, :, :])
-    centre = consensus(dist, AGREEMENT_M, batch.cost[np.arange(restarts), batch.iterations])
-
-    full = _SphericalProblem(*sensors[0], *sensors[1], np.arange(n)[None, :])
-    polished = _solve(full, finals[centre][None, :], max_iterations).x
-    if line is not None:
-        polished = closest_point_on_axis(polished, line)
+    final_cost = refined.cost[np.arange(restarts), refined.iterations]
+    centre = consensus(dist, AGREEMENT_M, final_cost)
+    polished = finals[centre][None, :]
     x = polished[0]
 
     e, jac = full.linearise(polished, np.arange(1))
@@ -210,7 +217,7 @@ def estimate_position(
     fraction = float(reached.mean())
     spread = {}
     for name, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6))):
-        d = np.linalg.norm(finals[reached, sl] - x[sl], axis=1) * 1000
+        d = np.linalg.norm(subset_finals[reached, sl] - x[sl], axis=1) * 1000
         spread[name] = float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
 
     warnings = []
@@ -256,6 +263,7 @@ def estimate_position(
         reached=reached,
         spread_mm=spread,
         batch=batch,
+        refined=refined,
         settings=settings,
         samples_used=n,
         window=(win.start / rate, win.stop / rate),

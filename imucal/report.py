@@ -30,10 +30,12 @@ POSITION_CONVENTION = (
 def axis_report(result: AxisResult, *, input_info: dict) -> dict:
     """JSON document for an axis estimate; ``input_info`` describes the recording."""
     batch = result.batch
+    refined = result.refined.x
     restarts = [
         {
             "initial": {"j1": batch.path[0, r, :3], "j2": batch.path[0, r, 3:]},
             "final": {"j1": batch.x[r, :3], "j2": batch.x[r, 3:]},
+            "refined": {"j1": refined[r, :3], "j2": refined[r, 3:]},
             "iterations": int(batch.iterations[r]),
             "converged": bool(batch.converged[r]),
             "reached_estimate": bool(result.reached[r]),
@@ -69,10 +71,12 @@ def axis_report(result: AxisResult, *, input_info: dict) -> dict:
 def position_report(result: PositionResult, *, input_info: dict) -> dict:
     """JSON document for a joint-position estimate."""
     batch = result.batch
+    refined = result.refined.x
     restarts = [
         {
             "initial": {"o1": batch.path[0, r, :3], "o2": batch.path[0, r, 3:]},
             "final": {"o1": batch.x[r, :3], "o2": batch.x[r, 3:]},
+            "refined": {"o1": refined[r, :3], "o2": refined[r, 3:]},
             "iterations": int(batch.iterations[r]),
             "converged": bool(batch.converged[r]),
             "reached_estimate": bool(result.reached[r]),

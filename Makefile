@@ -1,0 +1,41 @@
+# Everything runs inside .venv, created on first use from the system python3.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+DEMO_DIR := demo_output
+
+.PHONY: demo test lint bench sample-data clean
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+## demo: estimate knee axis and ankle position on the shipped sample recording
+demo: $(STAMP)
+	mkdir -p $(DEMO_DIR)
+	$(BIN)/imucal info sample_data/circling.h5
+	$(BIN)/imucal axis sample_data/circling.h5 --sensors thigh,shank --seed 1 \
+		--out $(DEMO_DIR)/knee_axis.json --plot $(DEMO_DIR)/knee_axis.png
+	$(BIN)/imucal position sample_data/circling.h5 --sensors shank,foot --seed 1 \
+		--out $(DEMO_DIR)/ankle_position.json --plot $(DEMO_DIR)/ankle_position.png
+	@echo "demo: results written to $(DEMO_DIR)/ (knee_axis.json/.png, ankle_position.json/.png);"
+	@echo "      the true values are in sample_data/circling.truth.json"
+
+## test: lint and the whole test suite
+test: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/python -m pytest
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+
+## sample-data: regenerate sample_data/ with the simulator (deterministic seeds)
+sample-data: $(STAMP)
+	$(BIN)/imucal simulate sample_data/circling.h5 --seed 7 --rate 100 --duration 20 --snr 100 --motion circling
+	$(BIN)/imucal simulate sample_data/circling_40hz.csv --seed 7 --rate 40 --duration 20 --snr 100 --motion circling
+
+clean:
+	rm -rf $(VENV) $(DEMO_DIR) .pytest_cache .ruff_cache

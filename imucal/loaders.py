@@ -1,0 +1,414 @@
+"""Read recordings from HDF5 or CSV files into a validated :class:`~imucal.recording.Recording`.
+
+Two input formats are accepted (full description with examples: ``docs/formats.md``):
+
+HDF5 (``.h5``, ``.hdf5``)
+    Root attribute ``sample_rate`` (Hz) and/or root dataset ``time`` (s). One group per
+    sensor (any name) holding datasets ``gyr`` and ``acc`` of shape (N, 3). An optional
+    ``units`` attribute on each dataset: ``rad/s`` (default) or ``deg/s`` for ``gyr``,
+    ``m/s^2`` (default) or ``g`` for ``acc``. Groups holding neither dataset are skipped.
+
+CSV (``.csv``, ``.txt``, or ``-`` for standard input)
+    One header row; an optional ``time`` column (s); for every sensor the six columns
+    ``<sensor>_gyr_x/y/z`` and ``<sensor>_acc_x/y/z``. Sensor names may contain
+    underscores (the name is split at the last ``_gyr_``/``_acc_``). Units are given by
+    the caller (``gyr_units``/``acc_units``), the same for all sensors. Other columns
+    are ignored (and listed in ``Recording.warnings``).
+
+Any other suffix is recognised by content (the HDF5 signature, else CSV). This module only
+parses; checking and unit conversion happen in :func:`imucal.recording.make_recording`.
+Every problem is reported as one :class:`~imucal.errors.InputError` naming the file.
+"""
+
+from __future__ import annotations
+
+import difflib
+import io
+import re
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pandas as pd
+
+from .errors import InputError
+from .recording import Recording, make_recording
+
+__all__ = ["load_recording", "HDF5_SIGNATURE"]
+
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+HDF5_SUFFIXES = {".h5", ".hdf5"}
+CSV_SUFFIXES = {".csv", ".txt"}
+
+_KINDS = ("gyr", "acc")
+_AXES = ("x", "y", "z")
+#: ``<sensor>_gyr_x`` etc.; the greedy ``.+`` splits at the LAST ``_gyr_``/``_acc_``.
+_COLUMN_RE = re.compile(r"^(?P<sensor>.+)_(?P<kind>gyr|acc)_(?P<axis>[xyz])$", re.IGNORECASE)
+_EXPECTED_COLUMNS = (
+    "'<sensor>_gyr_x', '<sensor>_gyr_y', ..., '<sensor>_acc_z' (and optionally 'time')"
+)
+#: Cell text read as NaN (reported later by make_recording as non-finite, not as text).
+_NAN_TEXT = ("nan", "+nan", "-nan")
+
+
+def load_recording(
+    path: str | Path,
+    *,
+    rate: float | None = None,
+    gyr_units: str | None = None,
+    acc_units: str | None = None,
+) -> Recording:
+    """Load an HDF5 or CSV recording and return it validated, in SI units.
+
+    Parameters
+    ----------
+    path
+        File to read; ``"-"`` reads CSV (or HDF5, recognised by its signature) from
+        standard input.
+    rate
+        Sample rate in Hz. Required for CSV files without a ``time`` column; for HDF5 it
+        overrides the ``sample_rate`` attribute. When ``time`` exists too, both must agree.
+    gyr_units, acc_units
+        Units of the gyroscope (``rad/s`` or ``deg/s``) and accelerometer (``m/s^2`` or
+        ``g``) data. For CSV they apply to all sensors (default rad/s and m/s^2); for HDF5
+        they override the files' ``units`` attributes.
+
+    Raises
+    ------
+    InputError
+        One line naming the file and the problem, for every unusable input.
+    """
+    try:
+        return _load(path, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
+    except InputError as err:
+        message = str(err)
+        if "\n" in message or "\r" in message:  # a column name or library text with newlines
+            raise InputError(_one_line(message)) from None
+        raise
+
+
+def _load(path, *, rate, gyr_units, acc_units) -> Recording:
+    if str(path) == "-":
+        source = "<stdin>"
+        data = _read_stdin()
+        if data.startswith(HDF5_SIGNATURE):
+            parsed = _guarded(_parse_hdf5, io.BytesIO(data), source, what="HDF5")
+        else:
+            parsed = _guarded(_parse_csv, data, source, what="CSV")
+    else:
+        path = Path(path)
+        source = str(path)
+        try:
+            exists = path.exists()
+        except (OSError, ValueError) as err:  # e.g. a name too long, or with a NUL byte
+            raise InputError(f"{source}: invalid file name ({err})") from None
+        if not exists:
+            raise InputError(f"{source}: no such file")
+        if path.is_dir():
+            raise InputError(f"{source}: is a folder, not a file")
+        suffix = path.suffix.lower()
+        head = _read_bytes(path, source, limit=len(HDF5_SIGNATURE))
+        if not head:
+            raise InputError(f"{source}: file is empty")
+        if suffix in HDF5_SUFFIXES or (
+            suffix not in CSV_SUFFIXES and head.startswith(HDF5_SIGNATURE)
+        ):
+            parsed = _guarded(_parse_hdf5, path, source, what="HDF5")
+        else:
+            data = _read_bytes(path, source)
+            parsed = _guarded(_parse_csv, data, source, what="CSV")
+
+    sensors, file_rate, time, units, warnings = parsed
+    for name in units:
+        if gyr_units is not None:
+            units[name]["gyr"] = gyr_units
+        if acc_units is not None:
+            units[name]["acc"] = acc_units
+    recording = make_recording(
+        sensors,
+        rate=rate if rate is not None else file_rate,
+        time=time,
+        units=units,
+        source=source,
+    )
+    recording.warnings.extend(warnings)
+    return recording
+
+
+# ---------------------------------------------------------------------------------- reading
+
+
+def _read_stdin() -> bytes:
+    stream = getattr(sys.stdin, "buffer", None)
+    if stream is None:
+        raise InputError("<stdin>: standard input is not available")
+    try:
+        data = stream.read()
+    except (OSError, ValueError) as err:  # ValueError: read from a closed stream
+        raise InputError(f"<stdin>: cannot read standard input ({err})") from None
+    if not data:
+        raise InputError("<stdin>: standard input is empty (nothing was piped in)")
+    return data
+
+
+def _read_bytes(path: Path, source: str, limit: int = -1) -> bytes:
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(limit)
+    except OSError as err:
+        raise InputError(f"{source}: cannot read file ({err.strerror or err})") from None
+
+
+def _guarded(parser, arg, source: str, *, what: str):
+    """Run ``parser(arg, source)``; turn any non-InputError failure into an InputError."""
+    try:
+        return parser(arg, source)
+    except InputError:
+        raise
+    except MemoryError:
+        raise InputError(f"{source}: file is too large to load into memory") from None
+    except Exception as err:  # final guard: parsers must only ever raise InputError
+        detail = _one_line(str(err)) or type(err).__name__
+        raise InputError(f"{source}: could not read {what} file: {detail}") from None
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+def _short_list(names, limit: int = 12) -> str:
+    names = [repr(n if len(n) <= 40 else n[:37] + "...") for n in map(str, names)]
+    if len(names) > limit:
+        names = names[:limit] + [f"... ({len(names) - limit} more)"]
+    return ", ".join(names) or "none"
+
+
+# ------------------------------------------------------------------------------------- HDF5
+
+
+def _parse_hdf5(file, source: str):
+    """Return (sensors, sample_rate, time, units, warnings) from an HDF5 path or file object."""
+    try:
+        h5 = h5py.File(file, "r")
+    except OSError:
+        if _starts_with_signature(file):
+            raise InputError(
+                f"{source}: corrupted or truncated HDF5 file (HDF5 cannot open it)"
+            ) from None
+        raise InputError(
+            f"{source}: not an HDF5 file (it lacks the HDF5 signature); "
+            "for CSV data use a .csv name"
+        ) from None
+
+    sensors: dict[str, dict[str, np.ndarray]] = {}
+    units: dict[str, dict[str, str]] = {}
+    try:
+        with h5:
+            rate = h5.attrs["sample_rate"] if "sample_rate" in h5.attrs else None
+            rate = _scalar(rate)
+            time = None
+            if "time" in h5:
+                time = _numeric_dataset(h5["time"], f"{source}: 'time'")
+            for name, obj in h5.items():
+                if not isinstance(obj, h5py.Group):
+                    continue
+                present = [k for k in _KINDS if k in obj]
+                if not present:
+                    continue  # not a sensor (e.g. metadata): skipped silently
+                sensors[name] = {}
+                units[name] = {}
+                for kind in present:
+                    what = f"{source}: sensor '{name}' {kind}"
+                    sensors[name][kind] = _numeric_dataset(obj[kind], what)
+                    unit = _attr_text(obj[kind].attrs.get("units"))
+                    if unit is not None:
+                        units[name][kind] = unit
+            if not sensors:
+                raise InputError(
+                    f"{source}: no sensor groups found; expected one group per sensor with "
+                    f"datasets 'gyr' and 'acc' (root holds: {_short_list(h5.keys())})"
+                )
+    except OSError as err:
+        raise InputError(
+            f"{source}: corrupted or truncated HDF5 file ({_one_line(str(err))})"
+        ) from None
+    return sensors, rate, time, units, []
+
+
+def _starts_with_signature(file) -> bool:
+    try:
+        if isinstance(file, io.BytesIO):
+            return file.getvalue().startswith(HDF5_SIGNATURE)
+        with open(file, "rb") as fh:
+            return fh.read(len(HDF5_SIGNATURE)) == HDF5_SIGNATURE
+    except OSError:
+        return False
+
+
+def _numeric_dataset(obj, what: str) -> np.ndarray:
+    if not isinstance(obj, h5py.Dataset):
+        raise InputError(f"{what} is a {type(obj).__name__}, expected a dataset")
+    try:
+        return np.asarray(obj[()], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} is not numeric (dtype {obj.dtype})") from None
+
+
+def _scalar(value):
+    """A size-1 array attribute as a plain value (make_recording checks it further)."""
+    if isinstance(value, np.ndarray) and value.size == 1:
+        value = value.reshape(-1)[0]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, bytes):
+        value = value.decode("utf-8", errors="replace")
+    return value
+
+
+def _attr_text(value) -> str | None:
+    value = _scalar(value)
+    return None if value is None else str(value).strip()
+
+
+# -------------------------------------------------------------------------------------- CSV
+
+
+def _parse_csv(data: bytes, source: str):
+    """Return (sensors, None, time, units, warnings) from the bytes of a CSV file."""
+    if data.startswith(HDF5_SIGNATURE):
+        raise InputError(f"{source}: not a CSV file; it looks like an HDF5 file, use a .h5 name")
+    if b"\x00" in data:
+        raise InputError(f"{source}: not a CSV file (it contains binary data)")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")
+    # Trailing blank lines and spaces carry no data; leading ones would shift the header.
+    text = text.rstrip()
+    if not text:
+        raise InputError(f"{source}: file is empty (only blank lines)")
+
+    options = dict(header=None, skip_blank_lines=False, keep_default_na=False)
+    try:
+        header_row = pd.read_csv(io.StringIO(text), nrows=1, dtype=str, **options)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as err:
+        raise InputError(f"{source}: not a valid CSV file: {_parser_detail(err)}") from None
+    header = [str(h).strip() for h in header_row.iloc[0].tolist()]
+    columns = _map_columns(header, source)
+
+    try:
+        table = pd.read_csv(io.StringIO(text), skiprows=1, na_values=list(_NAN_TEXT), **options)
+    except pd.errors.EmptyDataError:
+        table = pd.DataFrame()
+    except (pd.errors.ParserError, ValueError) as err:
+        raise InputError(f"{source}: not a valid CSV file: {_parser_detail(err)}") from None
+    if table.shape[0] == 0:
+        raise InputError(f"{source}: has a header but no data rows")
+    _check_field_count(table, len(header), source)
+
+    def numbers(index: int) -> np.ndarray:
+        return _numeric_column(table, index, header[index], source)
+
+    sensors = {
+        name: {kind: np.column_stack([numbers(cols[kind, a]) for a in _AXES]) for kind in _KINDS}
+        for name, cols in columns["sensors"].items()
+    }
+    time = numbers(columns["time"]) if columns["time"] is not None else None
+    units = {name: {} for name in sensors}
+    warnings = []
+    if columns["ignored"]:
+        warnings.append(f"ignored columns: {_short_list(columns['ignored'])}")
+    return sensors, None, time, units, warnings
+
+
+def _parser_detail(err: Exception) -> str:
+    return _one_line(str(err)).replace("Error tokenizing data. C error: ", "")
+
+
+def _map_columns(header: list[str], source: str) -> dict:
+    """Find the time column and each sensor's six columns (by index) in the header."""
+    seen = set()
+    for name in header:
+        if name in seen and name:
+            raise InputError(f"{source}: column '{name}' appears more than once in the header")
+        seen.add(name)
+
+    time_col = None
+    found: dict[str, dict[tuple[str, str], int]] = {}
+    ignored = []
+    for index, name in enumerate(header):
+        match = _COLUMN_RE.match(name)
+        if name.lower() == "time" and time_col is None:
+            time_col = index
+        elif match:
+            key = (match["kind"].lower(), match["axis"].lower())
+            found.setdefault(match["sensor"], {})[key] = index
+        elif name:
+            ignored.append(name)
+
+    if not found:
+        hint = ""
+        for sep in (";", "\t", "|"):
+            if len(header) == 1 and sep in header[0]:
+                hint = f" (the header uses {sep!r} as separator; imucal expects commas)"
+        raise InputError(
+            f"{source}: no sensor columns found; columns in the file: {_short_list(header)}; "
+            f"expected {_EXPECTED_COLUMNS}{hint}"
+        )
+
+    incomplete = {s: cols for s, cols in found.items() if len(cols) < 6}
+    if incomplete:
+        # The sensor with the most columns present is the real one; others are typos of it.
+        sensor = max(incomplete, key=lambda s: len(incomplete[s]))
+        present = incomplete[sensor]
+        missing = [f"{sensor}_{k}_{a}" for k in _KINDS for a in _AXES if (k, a) not in present]
+        others = [h for i, h in enumerate(header) if i not in present.values() and i != time_col]
+        hints = []
+        for name in missing:
+            close = difflib.get_close_matches(name, others, n=1, cutoff=0.75)
+            if close:
+                hints.append(f"'{close[0]}' for '{name}'?")
+        hint = f"; did you mean {', '.join(hints)}" if hints else ""
+        raise InputError(
+            f"{source}: sensor '{sensor}' is missing columns {_short_list(missing)}{hint}"
+        )
+    return {"time": time_col, "sensors": found, "ignored": ignored}
+
+
+def _check_field_count(table: pd.DataFrame, n_header: int, source: str) -> None:
+    """Rows with more fields than the header are an error unless the extra ones are empty."""
+    for index in range(n_header, table.shape[1]):
+        column = table[index]
+        filled = ~(column.isna() | (column.astype(str).str.strip() == ""))
+        if filled.any():
+            row = int(np.flatnonzero(filled.to_numpy())[0]) + 2
+            raise InputError(
+                f"{source}: row {row} has more fields than the header ({n_header} columns)"
+            )
+    for index in range(table.shape[1], n_header):
+        table[index] = ""  # rows shorter than the header: report as empty cells
+
+
+def _numeric_column(table: pd.DataFrame, index: int, name: str, source: str) -> np.ndarray:
+    """Column ``index`` as float64; text or empty cells raise with the row number in the file.
+
+    Rows are numbered as in the file: the header is row 1, the first data row is row 2.
+    """
+    column = table[index]
+    if pd.api.types.is_numeric_dtype(column.dtype):
+        return column.to_numpy(dtype=np.float64)
+    text = column.astype(str).fillna("nan").str.strip()
+    values = pd.to_numeric(text, errors="coerce")
+    bad = (values.isna() & ~text.str.lower().isin(_NAN_TEXT)).to_numpy()
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        row = i + 2
+        if text.iloc[i] == "":
+            if (table.iloc[i].astype(str).str.strip() == "").all():
+                raise InputError(f"{source}: row {row} is blank")
+            raise InputError(f"{source}: row {row}, column '{name}' is empty")
+        cell = text.iloc[i]
+        cell = cell if len(cell) <= 30 else cell[:27] + "..."
+        raise InputError(f"{source}: row {row}, column '{name}': {cell!r} is not a number")
+    return values.to_numpy(dtype=np.float64)

@@ -1,0 +1,120 @@
+"""Write a :class:`~imucal.recording.Recording` to HDF5 or CSV in the layout the loaders read.
+
+See ``docs/formats.md`` for the layout. Files are written atomically: to a temporary file in
+the target folder first, then moved onto the target, so a failed write never leaves a
+half-written file behind.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+import pandas as pd
+
+from .errors import InputError
+from .recording import Recording
+
+__all__ = ["save_recording"]
+
+_HDF5_SUFFIXES = {".h5", ".hdf5"}
+_CSV_SUFFIXES = {".csv"}
+
+
+def save_recording(
+    recording: Recording,
+    path: str | Path,
+    *,
+    extra_attrs: Mapping[str, Any] | None = None,
+) -> None:
+    """Save ``recording`` (SI units) to ``path``; the format follows the suffix.
+
+    ``.h5``/``.hdf5``: root attribute ``sample_rate``, root dataset ``time``, one group per
+    sensor with float64 datasets ``gyr`` (``units="rad/s"``) and ``acc``
+    (``units="m/s^2"``); ``extra_attrs`` become further root attributes (they cannot
+    replace ``sample_rate``).
+
+    ``.csv``: columns ``time`` then ``<sensor>_gyr_x..z``, ``<sensor>_acc_x..z`` per sensor.
+    Sensor values are written with 9 significant digits, times exactly. ``extra_attrs``
+    has no place in CSV and is ignored.
+
+    Raises
+    ------
+    InputError
+        For an unknown suffix, a sensor name HDF5 cannot hold, or a folder that cannot be
+        written to.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in _HDF5_SUFFIXES:
+        write = _write_hdf5
+        for name in recording.sensors:
+            if "/" in name or name in {".", "time"}:
+                raise InputError(f"{path}: sensor name '{name}' cannot be stored in HDF5")
+    elif suffix in _CSV_SUFFIXES:
+        write = _write_csv
+    else:
+        raise InputError(
+            f"{path}: unknown output format '{suffix or path.name}'; use .h5, .hdf5 or .csv"
+        )
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder; give a file name ending in {suffix}")
+
+    folder = path.parent
+    try:
+        with tempfile.NamedTemporaryFile(
+            dir=folder, prefix=f".{path.name}.", suffix=suffix, delete=False
+        ) as fh:
+            tmp = Path(fh.name)
+    except OSError as err:
+        raise InputError(
+            f"{path}: cannot write to folder '{folder}' ({err.strerror or err})"
+        ) from None
+
+    try:
+        write(recording, tmp, dict(extra_attrs or {}))
+        _set_default_permissions(tmp)
+        os.replace(tmp, path)
+    except BaseException as err:
+        tmp.unlink(missing_ok=True)
+        if isinstance(err, OSError):
+            raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
+        raise
+
+
+def _write_hdf5(recording: Recording, tmp: Path, extra_attrs: dict) -> None:
+    with h5py.File(tmp, "w") as h5:
+        for key, value in extra_attrs.items():
+            if key != "sample_rate":
+                h5.attrs[key] = value
+        h5.attrs["sample_rate"] = float(recording.rate)
+        h5.create_dataset("time", data=np.asarray(recording.time, dtype=np.float64))
+        for name, sensor in recording.sensors.items():
+            group = h5.create_group(name)
+            for kind, unit in (("gyr", "rad/s"), ("acc", "m/s^2")):
+                data = np.asarray(getattr(sensor, kind), dtype=np.float64)
+                group.create_dataset(kind, data=data).attrs["units"] = unit
+
+
+def _write_csv(recording: Recording, tmp: Path, extra_attrs: dict) -> None:
+    # Times are written exactly (shortest round-trip text): with only 9 significant digits
+    # long recordings would gain visible timestamp jitter.
+    columns: dict[str, Any] = {"time": [repr(t) for t in np.asarray(recording.time).tolist()]}
+    for name, sensor in recording.sensors.items():
+        for kind in ("gyr", "acc"):
+            data = np.asarray(getattr(sensor, kind), dtype=np.float64)
+            for axis, values in zip("xyz", data.T, strict=True):
+                columns[f"{name}_{kind}_{axis}"] = values
+    pd.DataFrame(columns).to_csv(tmp, index=False, float_format="%.9g")
+
+
+def _set_default_permissions(tmp: Path) -> None:
+    """NamedTemporaryFile creates mode 0600; give the file the usual umask-based mode."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
