@@ -25,7 +25,13 @@ import numpy as np
 
 from .errors import InputError
 from .gauss_newton import BatchResult, gauss_newton
-from .preprocess import default_cutoff, default_subsample, lowpass, window_slice
+from .preprocess import (
+    FILTER_ORDER,
+    default_cutoff,
+    default_subsample,
+    lowpass,
+    window_slice,
+)
 from .restarts import consensus, random_subsets, resolve_seed
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
@@ -133,10 +139,14 @@ def estimate_axis(
     seed
         Seed of the random starts and subsets; None draws one (``settings["seed"]``).
     cutoff
-        Zero-phase low-pass cut-off, Hz; None: :func:`imucal.preprocess.default_cutoff`
-        (10 Hz, at most 0.4 x rate); 0: no filter.
+        Zero-phase low-pass cut-off applied before the fit, Hz; None or 0: no filter.
+        Eq. (1) holds sample by sample for raw rates, while a linear filter does not
+        commute with the norms in it: on real recordings with impacts a low-pass moves
+        the estimate by many degrees, so the default fits the raw rates. (The sign test
+        always uses a low-passed copy, see :func:`align_signs`.)
     subsample
-        Use every k-th sample after filtering; None: about 2.5 samples per cut-off period.
+        Use every k-th sample after filtering; None: all samples without a filter, else
+        about 2.5 samples per cut-off period.
     subset
         Fraction of the samples each restart sees, in (0, 1]. The reported estimate is
         refined on all samples.
@@ -150,15 +160,14 @@ def estimate_axis(
     rate = _check_rate(rate)
     restarts = _check_restarts(restarts)
     seed = resolve_seed(seed)
-    cutoff = default_cutoff(rate) if cutoff is None else float(cutoff)
+    cutoff = 0.0 if cutoff is None else float(cutoff)
     step = default_subsample(rate, cutoff) if subsample is None else int(subsample)
     if step < 1:
         raise InputError(f"subsample must be a positive integer, got {subsample}")
 
     win = window_slice(g1.shape[0], rate, start, end)
-    f1 = lowpass(g1, rate, cutoff)[win]
-    f2 = lowpass(g2, rate, cutoff)[win]
-    d1, d2 = f1[::step], f2[::step]
+    d1 = lowpass(g1, rate, cutoff)[win][::step]
+    d2 = lowpass(g2, rate, cutoff)[win][::step]
     n = d1.shape[0]
     if n < MIN_SAMPLES:
         raise InputError(
@@ -184,9 +193,12 @@ def estimate_axis(
     centre = consensus(dist, AGREEMENT_DEG, final_cost)
     j1, j2 = _unit(refined.x[centre, :3]), _unit(refined.x[centre, 3:])
 
-    # Sign from the full-rate window: the test follows the projection's angle
-    # sample by sample, which needs small steps.
-    sign, evidence = align_signs(f1, f2, j1, j2, rate)
+    # The sign test follows the projections' angles sample by sample: it needs the
+    # full rate and a smooth signal, so it always sees low-passed rates.
+    sign_cutoff = cutoff or default_cutoff(rate)
+    sign, evidence = align_signs(
+        lowpass(g1, rate, sign_cutoff)[win], lowpass(g2, rate, sign_cutoff)[win], j1, j2, rate
+    )
     j2 = sign * j2
     flip = 1.0 if j1[np.argmax(np.abs(j1))] > 0 else -1.0
     j1, j2 = flip * j1, flip * j2
@@ -227,7 +239,8 @@ def estimate_axis(
         "restarts": restarts,
         "seed": seed,
         "cutoff_hz": cutoff,
-        "filter": f"Butterworth order {2} low-pass, zero phase (sosfiltfilt)" if cutoff else None,
+        "filter": f"Butterworth order {FILTER_ORDER} low-pass, zero phase" if cutoff else None,
+        "sign_test_cutoff_hz": sign_cutoff,
         "subsample": step,
         "subset_fraction": subset,
         "max_iterations": max_iterations,

@@ -42,12 +42,15 @@ Start = Annotated[float | None, typer.Option(help="Window start, s on the record
                                              show_default=False)]
 End = Annotated[float | None, typer.Option(help="Window end, s on the recording's time axis.",
                                            show_default=False)]
-Cutoff = Annotated[float | None, typer.Option(help="Low-pass cut-off, Hz; default 10 Hz (at most "
-                                              "0.4 x rate); 0 disables the filter.",
-                                              show_default=False)]
-Subsample = Annotated[int | None, typer.Option(min=1, help="Use every k-th sample; default about "
-                                               "2.5 samples per cut-off period.",
-                                               show_default=False)]
+AxisCutoff = Annotated[float | None, typer.Option(
+    "--cutoff", help="Low-pass cut-off, Hz, before the fit; default: none (raw rates fit "
+    "eq. 1 best).", show_default=False)]
+PositionCutoff = Annotated[float | None, typer.Option(
+    "--cutoff", help="Low-pass cut-off, Hz; default 10 Hz (at most 0.4 x rate); 0 disables "
+    "the filter.", show_default=False)]
+Subsample = Annotated[int | None, typer.Option(min=1, help="Use every k-th sample; default: all "
+                                               "without a filter, else about 2.5 per cut-off "
+                                               "period.", show_default=False)]
 Out = Annotated[Path | None, typer.Option("--out", "-o", help="Write the JSON here instead of "
                                           "stdout.", show_default=False)]
 Plot = Annotated[Path | None, typer.Option(help="Write a convergence figure (PNG).",
@@ -78,7 +81,7 @@ def axis(
     seed: Seed = None,
     start: Start = None,
     end: End = None,
-    cutoff: Cutoff = None,
+    cutoff: AxisCutoff = None,
     subsample: Subsample = None,
     out: Out = None,
     plot: Plot = None,
@@ -129,7 +132,7 @@ def position(
     seed: Seed = None,
     start: Start = None,
     end: End = None,
-    cutoff: Cutoff = None,
+    cutoff: PositionCutoff = None,
     subsample: Subsample = None,
     out: Out = None,
     plot: Plot = None,

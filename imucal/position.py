@@ -27,7 +27,14 @@ import numpy as np
 from .axis import AxisResult, _check_pair, _check_rate, _check_restarts, estimate_axis
 from .errors import InputError
 from .gauss_newton import BatchResult, gauss_newton
-from .preprocess import default_cutoff, default_subsample, derivative, lowpass, window_slice
+from .preprocess import (
+    FILTER_ORDER,
+    default_cutoff,
+    default_subsample,
+    derivative,
+    lowpass,
+    window_slice,
+)
 from .restarts import consensus, random_subsets, resolve_seed
 
 JOINTS = ("spheroidal", "hinge")
@@ -129,16 +136,23 @@ def estimate_position(
         and second sensor, each in its own frame, sampled together.
     rate
         Sample rate, Hz.
-    restarts, seed, cutoff, subsample, subset, start, end, max_iterations
+    cutoff
+        Zero-phase low-pass cut-off for gyroscope and accelerometer, Hz; None:
+        :func:`imucal.preprocess.default_cutoff` (10 Hz, at most 0.4 x rate); 0: no
+        filter. ``gdot`` is the central difference of the filtered gyroscope signal, so
+        some low-pass is needed against the noise the difference amplifies.
+    subsample
+        Use every k-th sample after filtering; None: about 2.5 samples per cut-off period.
+    restarts, seed, subset, start, end, max_iterations
         As in :func:`imucal.estimate_axis`. Initial offsets are uniform in the box
-        [-0.5, 0.5]^3 m per sensor. ``gdot`` is the central difference of the filtered
-        gyroscope signal.
+        [-0.5, 0.5]^3 m per sensor.
     joint
         "spheroidal" (3 rotational DOF, e.g. the ankle) or "hinge" (e.g. the knee): for a
         hinge the point of the axis closest to both sensors is reported.
     axis
         For ``joint="hinge"``: the axis, as an :class:`AxisResult` or ``(j1, j2)``
-        pointing the same physical way; None estimates it from ``gyr1``, ``gyr2``.
+        pointing the same physical way; None estimates it from ``gyr1``, ``gyr2`` with
+        :func:`imucal.estimate_axis`'s defaults (the same axis ``imucal axis`` reports).
     """
     if joint not in JOINTS:
         raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{joint}'")
@@ -173,8 +187,8 @@ def estimate_position(
     if joint == "hinge":
         if axis is None:
             axis_result = estimate_axis(
-                g1, g2, rate=rate, restarts=restarts, seed=seed, cutoff=cutoff,
-                subsample=step, subset=subset, start=start, end=end,
+                g1, g2, rate=rate, restarts=restarts, seed=seed, subset=subset,
+                start=start, end=end,
                 max_iterations=max_iterations,
             )
             line = np.concatenate([axis_result.j1, axis_result.j2])
@@ -242,7 +256,7 @@ def estimate_position(
         "seed": seed,
         "joint": joint,
         "cutoff_hz": cutoff,
-        "filter": f"Butterworth order {2} low-pass, zero phase (sosfiltfilt)" if cutoff else None,
+        "filter": f"Butterworth order {FILTER_ORDER} low-pass, zero phase" if cutoff else None,
         "gdot": "central difference of the filtered gyroscope signal",
         "subsample": step,
         "subset_fraction": subset,

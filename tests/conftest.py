@@ -1,0 +1,43 @@
+"""Shared fixtures: simulated recordings with known truth (small, fixed seeds)."""
+
+from __future__ import annotations
+
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from imucal.simulate import simulate
+
+REAL_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / (
+    "walk_and_leg_motions_100hz.h5"
+)
+
+
+@cache
+def simulated(seed: int, rate: float = 100.0, snr: float | None = 100.0,
+              motion: str = "circling", duration: float = 20.0):
+    """Cached (recording, truth) so several tests can share one simulation."""
+    return simulate(seed=seed, rate=rate, duration=duration, snr=snr, motion=motion)
+
+
+def axis_error_deg(j1, j2, truth_j1, truth_j2) -> tuple[float, float]:
+    """Angles between estimate and truth, allowing one common sign flip only.
+
+    The overall sign of a hinge axis is a convention, but j1 and j2 must point the same
+    physical way, so flipping one of them alone counts as a ~180 deg error.
+    """
+    s = 1.0 if np.dot(j1, truth_j1) >= 0 else -1.0
+    e1 = np.degrees(np.arccos(np.clip(s * np.dot(j1, truth_j1), -1, 1)))
+    e2 = np.degrees(np.arccos(np.clip(s * np.dot(j2, truth_j2), -1, 1)))
+    return float(e1), float(e2)
+
+
+@pytest.fixture(scope="session")
+def real_recording():
+    if not REAL_DATA.exists():
+        pytest.skip(f"shared real recording not found at {REAL_DATA} (needs ../shared/data)")
+    from imucal import load_recording
+
+    return load_recording(REAL_DATA)

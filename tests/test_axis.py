@@ -1,0 +1,103 @@
+"""Hinge axis estimation against simulated recordings with known truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import axis_error_deg, simulated
+
+from imucal import InputError, estimate_axis
+from imucal.axis import align_signs
+
+
+@pytest.mark.parametrize("rate", [100.0, 40.0])
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_knee_axis_meets_paper_targets(seed, rate):
+    rec, truth = simulated(seed, rate)
+    r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate, seed=seed)
+    e1, e2 = axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])
+    assert e1 < 0.5 and e2 < 0.5, (e1, e2)
+    assert r.convergence_fraction >= 0.95
+    assert np.median(r.iterations) <= 10
+    assert np.isfinite(r.batch.x).all() and np.isfinite(r.refined.x).all()
+    assert r.warnings == []
+    assert np.allclose(np.linalg.norm(r.j1), 1) and np.allclose(np.linalg.norm(r.j2), 1)
+
+
+def test_relative_sign_matches_truth_over_many_cases():
+    wrong = []
+    for seed in range(20, 40):
+        rec, truth = simulated(seed, 100.0, 100.0, "circling", 10.0)
+        r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate,
+                          seed=0, restarts=10)
+        e1, e2 = axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])
+        if max(e1, e2) > 2:
+            wrong.append((seed, e1, e2))
+    assert wrong == []
+
+
+def test_sign_test_rejects_flipped_axis():
+    rec, truth = simulated(4)
+    g1, g2 = rec.sensor("thigh").gyr, rec.sensor("shank").gyr
+    j1, j2 = np.array(truth["j1"]), np.array(truth["j2"])
+    sign, evidence = align_signs(g1, g2, j1, j2, rec.rate)
+    assert sign == 1.0 and evidence > 5
+    sign, evidence = align_signs(g1, g2, j1, -j2, rec.rate)
+    assert sign == -1.0 and evidence > 5
+
+
+def test_spheroidal_ankle_gives_no_confident_axis():
+    rec, _ = simulated(1)
+    r = estimate_axis(rec.sensor("shank").gyr, rec.sensor("foot").gyr, rate=rec.rate, seed=1)
+    assert not r.confident
+    assert r.convergence_fraction < 0.8 or r.relative_residual > 0.25
+    assert np.isfinite(r.batch.x).all()
+
+
+def test_rigid_knee_gives_no_confident_axis():
+    rec, _ = simulated(1, motion="rigid-knee")
+    r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate, seed=1)
+    assert not r.confident
+
+
+def test_same_seed_same_answer_and_seed_recorded():
+    rec, _ = simulated(5)
+    g1, g2 = rec.sensor("thigh").gyr, rec.sensor("shank").gyr
+    a = estimate_axis(g1, g2, rate=rec.rate, seed=9, restarts=20)
+    b = estimate_axis(g1, g2, rate=rec.rate, seed=9, restarts=20)
+    assert np.array_equal(a.j1, b.j1) and np.array_equal(a.batch.path, b.batch.path)
+    c = estimate_axis(g1, g2, rate=rec.rate, restarts=5)
+    d = estimate_axis(g1, g2, rate=rec.rate, restarts=5, seed=c.settings["seed"])
+    assert np.array_equal(c.batch.path, d.batch.path)
+
+
+def test_window_selects_samples():
+    rec, truth = simulated(6)
+    r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate,
+                      seed=1, start=5.0, end=15.0, subsample=1)
+    assert r.window == (5.0, 15.0)
+    assert r.samples_used == 1000
+    assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "phrase"),
+    [
+        ({"rate": 0.0}, "sample rate"),
+        ({"rate": 100.0, "start": 30.0}, "outside the recording"),
+        ({"rate": 100.0, "start": 5.0, "end": 4.0}, "after its start"),
+        ({"rate": 100.0, "end": 0.05}, "samples left"),
+        ({"rate": 100.0, "restarts": 0}, "restarts"),
+    ],
+)
+def test_bad_arguments_raise_input_error(kwargs, phrase):
+    rec, _ = simulated(1)
+    with pytest.raises(InputError, match=phrase):
+        estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, **kwargs)
+
+
+def test_mismatched_arrays_raise_input_error():
+    with pytest.raises(InputError, match="different lengths"):
+        estimate_axis(np.ones((100, 3)), np.ones((99, 3)), rate=100)
+    with pytest.raises(InputError, match=r"expected \(N, 3\)"):
+        estimate_axis(np.ones((100, 2)), np.ones((100, 2)), rate=100)

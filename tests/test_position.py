@@ -1,0 +1,69 @@
+"""Joint position estimation against simulated recordings with known truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import simulated
+
+from imucal import estimate_position
+from imucal.position import closest_point_on_axis
+
+
+def _tolerance(o):
+    return max(0.02 * np.linalg.norm(o), 0.005)
+
+
+@pytest.mark.parametrize("rate", [100.0, 40.0])
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_ankle_position_meets_paper_targets(seed, rate):
+    rec, truth = simulated(seed, rate)
+    sh, ft = rec.sensor("shank"), rec.sensor("foot")
+    r = estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=rec.rate, seed=seed)
+    for est, true in ((r.o1, truth["o1"]), (r.o2, truth["o2"])):
+        assert np.linalg.norm(est - true) < _tolerance(true), (est, true)
+    assert r.convergence_fraction >= 0.95
+    assert np.median(r.iterations) <= 10
+    assert np.isfinite(r.batch.x).all()
+    assert r.warnings == []
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_position_on_the_knee_lands_on_the_axis(seed):
+    rec, truth = simulated(seed)
+    knee = truth["knee"]
+    j1, j2 = np.array(knee["j1"]), np.array(knee["j2"])
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_position(th.gyr, th.acc, sh.gyr, sh.acc, rate=rec.rate, seed=seed)
+    # distance of the estimated point from the true axis line, in both frames
+    d1 = r.o1 - knee["o1"]
+    d2 = r.o2 - knee["o2"]
+    off1 = np.linalg.norm(d1 - (d1 @ j1) * j1)
+    off2 = np.linalg.norm(d2 - (d2 @ j2) * j2)
+    assert off1 < 0.005 and off2 < 0.005
+    # both frames describe the same point of the line
+    assert abs(d1 @ j1 - d2 @ j2) < 0.005
+    assert any("along a line" in w for w in r.warnings)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_hinge_position_is_the_point_closest_to_both_sensors(seed):
+    rec, truth = simulated(seed)
+    knee = truth["knee"]
+    line = np.concatenate([knee["j1"], knee["j2"]])
+    expected = closest_point_on_axis(np.concatenate([knee["o1"], knee["o2"]]), line)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_position(th.gyr, th.acc, sh.gyr, sh.acc, rate=rec.rate, seed=seed,
+                          joint="hinge")
+    assert np.linalg.norm(r.o1 - expected[:3]) < _tolerance(expected[:3])
+    assert np.linalg.norm(r.o2 - expected[3:]) < _tolerance(expected[3:])
+    assert r.convergence_fraction >= 0.95
+    assert r.axis is not None and r.warnings == []
+
+
+def test_closest_point_formula():
+    j = np.array([1.0, 0, 0])
+    x = np.array([0.3, 0.1, 0.0, -0.1, 0.2, 0.0])
+    out = closest_point_on_axis(x, np.concatenate([j, j]))
+    # moving along the axis until the x components balance: 0.3 + l and -0.1 + l, l = -0.1
+    assert np.allclose(out, [0.2, 0.1, 0.0, -0.2, 0.2, 0.0])

@@ -1,0 +1,41 @@
+"""The shared real recording (../shared/data): robustness on messy human data.
+
+There is no ground truth; these tests check that both knees and both ankles run
+without error, every restart stays finite, and the knee axes land near the rough
+reference of the data's README (within 25 deg: that reference is tuned by eye).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from imucal import estimate_axis, estimate_position
+
+ROUGH_LATERAL = {
+    "left_thigh": [0.961, -0.067, -0.270],
+    "left_shank": [0.996, -0.061, -0.062],
+    "right_thigh": [0.947, -0.007, -0.322],
+    "right_shank": [0.996, -0.062, -0.061],
+}
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_knee_axis_on_real_data(real_recording, side):
+    rec = real_recording
+    thigh, shank = rec.sensor(f"{side}_thigh"), rec.sensor(f"{side}_shank")
+    r = estimate_axis(thigh.gyr, shank.gyr, rate=rec.rate, seed=1, end=55.0)
+    assert np.isfinite(r.batch.x).all() and np.isfinite(r.refined.x).all()
+    for est, name in ((r.j1, f"{side}_thigh"), (r.j2, f"{side}_shank")):
+        angle = np.degrees(np.arccos(abs(est @ ROUGH_LATERAL[name])))
+        assert angle < 25, (name, angle)
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_ankle_position_on_real_data(real_recording, side):
+    rec = real_recording
+    shank, foot = rec.sensor(f"{side}_shank"), rec.sensor(f"{side}_foot")
+    r = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, rate=rec.rate, seed=1)
+    assert np.isfinite(r.batch.x).all() and np.isfinite(r.refined.x).all()
+    # a sensor strapped to a shank or foot sits within half a metre of the ankle
+    assert 0.02 < np.linalg.norm(r.o1) < 0.5 and 0.02 < np.linalg.norm(r.o2) < 0.5
