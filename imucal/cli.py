@@ -99,10 +99,11 @@ def axis(
         _check_outputs(out, plot)
         recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
         s1, s2 = (recording.sensor(n) for n in names)
+        window = _window(recording, start, end)
         _progress(quiet, recording, names, "axis")
-        result = estimate_axis(
-            s1.gyr, s2.gyr, rate=recording.rate, restarts=restarts, seed=seed,
-            cutoff=cutoff, subsample=subsample, **_window(recording, start, end),
+        result = _about(
+            recording, estimate_axis, s1.gyr, s2.gyr, rate=recording.rate, restarts=restarts, seed=seed,
+            cutoff=cutoff, subsample=subsample, **window,
         )
         doc = axis_report(result, input_info=_input_info(recording, names))
         if plot is not None:
@@ -152,11 +153,11 @@ def position(
         _check_outputs(out, plot)
         recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
         s1, s2 = (recording.sensor(n) for n in names)
+        window = _window(recording, start, end)
         _progress(quiet, recording, names, f"position ({joint})")
-        result = estimate_position(
-            s1.gyr, s1.acc, s2.gyr, s2.acc, rate=recording.rate, restarts=restarts,
-            seed=seed, joint=joint, cutoff=cutoff, subsample=subsample,
-            **_window(recording, start, end),
+        result = _about(
+            recording, estimate_position, s1.gyr, s1.acc, s2.gyr, s2.acc, rate=recording.rate, restarts=restarts,
+            seed=seed, joint=joint, cutoff=cutoff, subsample=subsample, **window,
         )
         doc = position_report(result, input_info=_input_info(recording, names))
         if plot is not None:
@@ -322,10 +323,24 @@ def _load(rec, sensors, rate, gyr_units, acc_units):
 def _window(recording, start, end) -> dict:
     """--start/--end are on the recording's time axis; estimators count from sample 0."""
     t0 = float(recording.time[0])
+    t_end = t0 + recording.duration
+    if start is not None and not t0 <= start < t_end:
+        raise InputError(f"{recording.source}: --start {start:g} s lies outside the recording "
+                         f"({t0:g} to {t_end:g} s)")
+    if end is not None and end <= (t0 if start is None else start):
+        raise InputError(f"{recording.source}: --end {end:g} s must be after the window start")
     return {
-        "start": None if start is None else max(0.0, start - t0) if start >= t0 else start - t0,
+        "start": None if start is None else start - t0,
         "end": None if end is None else end - t0,
     }
+
+
+def _about(recording, estimate, *args, **kwargs):
+    """Run an estimator; its input errors get the recording's name in front."""
+    try:
+        return estimate(*args, **kwargs)
+    except InputError as err:
+        raise InputError(f"{recording.source}: {err}") from None
 
 
 def _input_info(recording, names) -> dict:

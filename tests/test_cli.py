@@ -1,0 +1,153 @@
+"""The command line end to end, as a user runs it (subprocess, real files)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import axis_error_deg
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def imucal(*args, stdin: bytes | None = None, cwd=None):
+    return subprocess.run(
+        [sys.executable, "-m", "imucal", *map(str, args)],
+        input=stdin, capture_output=True, cwd=cwd, timeout=120,
+    )
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("rec")
+    h5 = folder / "sim.h5"
+    csv = folder / "sim40.csv"
+    assert imucal("simulate", h5, "--seed", 11).returncode == 0
+    assert imucal("simulate", csv, "--seed", 12, "--rate", 40).returncode == 0
+    return h5, csv
+
+
+def test_simulate_writes_recording_and_truth(recordings):
+    h5, csv = recordings
+    truth = json.loads(h5.with_name("sim.truth.json").read_text())
+    assert set(truth) >= {"j1", "j2", "o1", "o2", "knee", "ankle", "settings"}
+    assert truth["settings"]["seed"] == 11
+    assert csv.with_name("sim40.truth.json").exists()
+
+
+def test_axis_json_on_stdout_matches_truth(recordings):
+    h5, _ = recordings
+    run = imucal("axis", h5, "--seed", 3)
+    assert run.returncode == 0, run.stderr
+    doc = json.loads(run.stdout)  # stdout holds exactly one JSON document
+    truth = json.loads(h5.with_name("sim.truth.json").read_text())
+    assert max(axis_error_deg(np.array(doc["j1"]), np.array(doc["j2"]),
+                              truth["j1"], truth["j2"])) < 0.5
+    assert doc["command"] == "axis" and doc["imucal_version"]
+    assert doc["input"]["sensors"] == ["thigh", "shank"]
+    assert doc["input"]["sample_rate_hz"] == 100.0
+    assert doc["settings"]["seed"] == 3 and doc["settings"]["restarts"] == 100
+    conv = doc["convergence"]
+    assert conv["fraction"] >= 0.95 and conv["median_iterations"] <= 10
+    assert len(doc["restarts"]) == 100
+    first = doc["restarts"][0]
+    assert set(first) == {"initial", "final", "refined", "iterations", "converged",
+                          "reached_estimate", "cost"}
+    assert len(first["cost"]) == first["iterations"] + 1
+    assert doc["warnings"] == [] and doc["confident"] is True
+    assert b"restarts reached the estimate" in run.stderr
+
+
+def test_position_from_csv_with_out_and_plot(recordings, tmp_path):
+    _, csv = recordings
+    out, png = tmp_path / "ankle.json", tmp_path / "ankle.png"
+    run = imucal("position", csv, "--seed", 1, "--out", out, "--plot", png)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == b""
+    doc = json.loads(out.read_text())
+    truth = json.loads(csv.with_name("sim40.truth.json").read_text())
+    for k in ("o1", "o2"):
+        tol = max(0.02 * np.linalg.norm(truth[k]), 0.005)
+        assert np.linalg.norm(np.subtract(doc[k], truth[k])) < tol
+    assert "joint centre to the first" in doc["convention"]
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_axis_plot_and_hinge_position(recordings, tmp_path):
+    h5, _ = recordings
+    png = tmp_path / "knee.png"
+    assert imucal("axis", h5, "--seed", 1, "--restarts", 10, "--plot", png).returncode == 0
+    assert png.stat().st_size > 10_000
+    run = imucal("position", h5, "--sensors", "thigh,shank", "--joint", "hinge", "--seed", 1,
+                 "--restarts", 20)
+    assert run.returncode == 0, run.stderr
+    doc = json.loads(run.stdout)
+    assert doc["joint"] == "hinge" and "axis_line" in doc
+
+
+def test_same_seed_gives_identical_bytes(recordings):
+    h5, _ = recordings
+    a = imucal("position", h5, "--seed", 5, "--restarts", 20)
+    b = imucal("position", h5, "--seed", 5, "--restarts", 20)
+    assert a.returncode == 0 and a.stdout == b.stdout
+
+
+def test_csv_from_stdin(recordings):
+    _, csv = recordings
+    run = imucal("axis", "-", "--restarts", 10, "--seed", 1, stdin=csv.read_bytes())
+    assert run.returncode == 0, run.stderr
+    doc = json.loads(run.stdout)
+    assert doc["input"]["path"] == "<stdin>"
+    assert doc["input"]["sample_rate_hz"] == pytest.approx(40.0)
+
+
+def test_window_is_on_the_recording_time_axis(recordings):
+    h5, _ = recordings
+    run = imucal("axis", h5, "--start", 2, "--end", 12, "--restarts", 5, "--seed", 1)
+    doc = json.loads(run.stdout)
+    assert doc["input"]["window_s"] == [2.0, 12.0]
+    assert doc["input"]["samples_used"] == 1000
+
+
+@pytest.mark.parametrize(
+    ("args", "phrase"),
+    [
+        (["axis", "missing.h5"], b"missing.h5"),
+        (["axis", "{h5}", "--sensors", "thigh,knee"], b"no sensor 'knee'"),
+        (["axis", "{h5}", "--sensors", "thigh"], b"two different sensor names"),
+        (["position", "{h5}", "--joint", "saddle"], b"--joint must be one of"),
+        (["axis", "{h5}", "--out", "/nonexistent-folder/x.json"], b"does not exist"),
+        (["axis", "{h5}", "--start", "100"], b"outside the recording"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(recordings, args, phrase):
+    h5, _ = recordings
+    run = imucal(*[a.format(h5=h5) for a in args])
+    assert run.returncode == 2
+    assert run.stdout == b""
+    assert phrase in run.stderr
+    assert b"Traceback" not in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1
+
+
+def test_info_lists_sensors(recordings):
+    h5, _ = recordings
+    run = imucal("info", h5, "--json")
+    assert run.returncode == 0
+    doc = json.loads(run.stdout)
+    assert set(doc["sensors"]) == {"thigh", "shank", "foot"}
+    assert doc["sample_rate_hz"] == 100.0 and doc["duration_s"] == pytest.approx(20.0)
+    assert all(s["motion"] == "moves" for s in doc["sensors"].values())
+    text = imucal("info", h5).stdout.decode()
+    assert "thigh" in text and "100 Hz" in text
+
+
+def test_help_shows_examples():
+    run = imucal("axis", "--help")
+    assert run.returncode == 0
+    assert b"Examples" in run.stdout and b"--restarts" in run.stdout
