@@ -102,8 +102,8 @@ def axis(
         window = _window(recording, start, end)
         _progress(quiet, recording, names, "axis")
         result = _about(
-            recording, estimate_axis, s1.gyr, s2.gyr, rate=recording.rate, restarts=restarts, seed=seed,
-            cutoff=cutoff, subsample=subsample, **window,
+            recording, estimate_axis, s1.gyr, s2.gyr, rate=recording.rate,
+            restarts=restarts, seed=seed, cutoff=cutoff, subsample=subsample, **window,
         )
         doc = axis_report(result, input_info=_input_info(recording, names))
         if plot is not None:
@@ -156,8 +156,9 @@ def position(
         window = _window(recording, start, end)
         _progress(quiet, recording, names, f"position ({joint})")
         result = _about(
-            recording, estimate_position, s1.gyr, s1.acc, s2.gyr, s2.acc, rate=recording.rate, restarts=restarts,
-            seed=seed, joint=joint, cutoff=cutoff, subsample=subsample, **window,
+            recording, estimate_position, s1.gyr, s1.acc, s2.gyr, s2.acc,
+            rate=recording.rate, restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
+            subsample=subsample, **window,
         )
         doc = position_report(result, input_info=_input_info(recording, names))
         if plot is not None:
