@@ -18,6 +18,12 @@ from . import __version__
 from .atomic import check_writable, write_atomic, write_text_atomic
 from .errors import ImucalError, InputError
 
+
+def _examples(*lines: str) -> str:
+    # "\b" stops click from re-wrapping the paragraph.
+    return "\b\nExamples:\n" + "\n".join(f"  {line}" for line in lines)
+
+
 app = typer.Typer(
     name="imucal",
     help=(
@@ -32,8 +38,8 @@ app = typer.Typer(
 )
 
 # Options shared by `axis` and `position`.
-Rec = Annotated[str, typer.Argument(help="Recording (.h5, .hdf5 or .csv); - reads CSV from stdin.",
-                                    show_default=False)]
+Rec = Annotated[str, typer.Argument(metavar="REC", show_default=False,
+                                    help="Recording (.h5, .hdf5 or .csv); - reads CSV from stdin.")]
 Restarts = Annotated[int, typer.Option(min=1, help="Random restarts (initial values and data "
                                        "subsets).")]
 Seed = Annotated[int | None, typer.Option(min=0, help="Random seed; default: a fresh one, "
@@ -62,15 +68,15 @@ GyrUnits = Annotated[str | None, typer.Option(help="Gyroscope units of a CSV: ra
 AccUnits = Annotated[str | None, typer.Option(help="Accelerometer units of a CSV: m/s^2 or g.",
                                               show_default=False)]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")]
-Debug = Annotated[bool, typer.Option(help="Show a traceback on errors.")]
+Debug = Annotated[bool, typer.Option("--debug", help="Show a traceback on errors.")]
 
 
 @app.command(
-    epilog=(
-        "Examples:  imucal axis walk.h5 | jq .j1   ·   "
-        "imucal axis walk.h5 --sensors left_thigh,left_shank --start 0 --end 55 "
-        "--out knee.json --plot knee.png   ·   "
-        "cat rec.csv | imucal axis - --rate 100 --gyr-units deg/s"
+    epilog=_examples(
+        "imucal axis walk.h5 | jq .j1",
+        "imucal axis walk.h5 --sensors left_thigh,left_shank --start 0 --end 55 \\",
+        "    --out knee.json --plot knee.png",
+        "cat rec.csv | imucal axis - --rate 100 --gyr-units deg/s",
     )
 )
 def axis(
@@ -116,10 +122,10 @@ def axis(
 
 
 @app.command(
-    epilog=(
-        "Examples:  imucal position walk.h5 | jq .o1   ·   "
-        "imucal position walk.h5 --sensors thigh,shank --joint hinge   ·   "
-        "imucal position walk.h5 --out ankle.json --plot ankle.png"
+    epilog=_examples(
+        "imucal position walk.h5 | jq .o1",
+        "imucal position walk.h5 --sensors thigh,shank --joint hinge",
+        "imucal position walk.h5 --out ankle.json --plot ankle.png",
     )
 )
 def position(
@@ -172,14 +178,16 @@ def position(
 
 
 @app.command(
-    epilog=(
-        "Examples:  imucal simulate rec.h5 --seed 1   ·   "
-        "imucal simulate rec.csv --rate 40 --snr 30 --motion walking"
+    epilog=_examples(
+        "imucal simulate rec.h5 --seed 1",
+        "imucal simulate rec.csv --rate 40 --snr 30 --motion walking",
     )
 )
 def simulate(
-    out: Annotated[Path, typer.Argument(help="Output recording, .h5, .hdf5 or .csv; the truth "
-                                        "goes to OUT.truth.json beside it.", show_default=False)],
+    out: Annotated[Path, typer.Argument(
+        metavar="OUT", show_default=False,
+        help="Output recording, .h5, .hdf5 or .csv; the truth goes to OUT.truth.json beside it.",
+    )],
     seed: Seed = None,
     rate: Annotated[float, typer.Option(min=1.0, help="Sample rate, Hz.")] = 100.0,
     duration: Annotated[float, typer.Option(min=0.1, help="Duration, s.")] = 20.0,
@@ -213,7 +221,7 @@ def simulate(
                  f"and {truth_path}")
 
 
-@app.command(epilog="Examples:  imucal info walk.h5   ·   imucal info rec.csv --rate 100 --json")
+@app.command(epilog=_examples("imucal info walk.h5", "imucal info rec.csv --rate 100 --json"))
 def info(
     rec: Rec,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")]
