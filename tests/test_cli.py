@@ -151,3 +151,19 @@ def test_help_shows_examples():
     run = imucal("axis", "--help")
     assert run.returncode == 0
     assert b"Examples" in run.stdout and b"--restarts" in run.stdout
+
+
+def test_csv_at_40_hz_meets_paper_targets(recordings):
+    _, csv = recordings
+    truth = json.loads(csv.with_name("sim40.truth.json").read_text())
+    axis = json.loads(imucal("axis", csv, "--seed", 2).stdout)
+    assert max(axis_error_deg(np.array(axis["j1"]), np.array(axis["j2"]),
+                              truth["j1"], truth["j2"])) < 0.5
+    pos = json.loads(imucal("position", csv, "--seed", 2).stdout)
+    for k in ("o1", "o2"):
+        assert np.linalg.norm(np.subtract(pos[k], truth[k])) < max(
+            0.02 * np.linalg.norm(truth[k]), 0.005)
+    for doc in (axis, pos):
+        assert doc["input"]["sample_rate_hz"] == pytest.approx(40.0)
+        assert doc["convergence"]["fraction"] >= 0.95
+        assert doc["convergence"]["median_iterations"] <= 10
