@@ -289,7 +289,7 @@ def _parse_csv(data: bytes, source: str):
     if not text:
         raise InputError(f"{source}: file is empty (only blank lines)")
 
-    options = dict(header=None, skip_blank_lines=False, keep_default_na=False)
+    options = dict(header=None, skip_blank_lines=False, keep_default_na=False, low_memory=False)
     try:
         header_row = pd.read_csv(io.StringIO(text), nrows=1, dtype=str, **options)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as err:
@@ -334,6 +334,13 @@ def _map_columns(header: list[str], source: str) -> dict:
             raise InputError(f"{source}: column '{name}' appears more than once in the header")
         seen.add(name)
 
+    for sep in (";", "\t", "|"):
+        if len(header) == 1 and sep in header[0]:
+            raise InputError(
+                f"{source}: the header is one column containing {sep!r}; "
+                "imucal expects comma-separated values"
+            )
+
     time_col = None
     found: dict[str, dict[tuple[str, str], int]] = {}
     ignored = []
@@ -348,13 +355,9 @@ def _map_columns(header: list[str], source: str) -> dict:
             ignored.append(name)
 
     if not found:
-        hint = ""
-        for sep in (";", "\t", "|"):
-            if len(header) == 1 and sep in header[0]:
-                hint = f" (the header uses {sep!r} as separator; imucal expects commas)"
         raise InputError(
             f"{source}: no sensor columns found; columns in the file: {_short_list(header)}; "
-            f"expected {_EXPECTED_COLUMNS}{hint}"
+            f"expected {_EXPECTED_COLUMNS}"
         )
 
     incomplete = {s: cols for s, cols in found.items() if len(cols) < 6}

@@ -1,14 +1,12 @@
 """Write a :class:`~imucal.recording.Recording` to HDF5 or CSV in the layout the loaders read.
 
-See ``docs/formats.md`` for the layout. Files are written atomically: to a temporary file in
-the target folder first, then moved onto the target, so a failed write never leaves a
-half-written file behind.
+See ``docs/formats.md`` for the layout. Files are written atomically
+(:func:`imucal.atomic.write_atomic`): to a temporary file in the target folder first, then
+moved onto the target, so a failed write never leaves a half-written file behind.
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -17,6 +15,7 @@ import h5py
 import numpy as np
 import pandas as pd
 
+from .atomic import write_atomic
 from .errors import InputError
 from .recording import Recording
 
@@ -65,30 +64,13 @@ def save_recording(
     if path.is_dir():
         raise InputError(f"{path}: is a folder; give a file name ending in {suffix}")
 
-    folder = path.parent
-    try:
-        with tempfile.NamedTemporaryFile(
-            dir=folder, prefix=f".{path.name}.", suffix=suffix, delete=False
-        ) as fh:
-            tmp = Path(fh.name)
-    except OSError as err:
-        raise InputError(
-            f"{path}: cannot write to folder '{folder}' ({err.strerror or err})"
-        ) from None
-
-    try:
-        write(recording, tmp, dict(extra_attrs or {}))
-        _set_default_permissions(tmp)
-        os.replace(tmp, path)
-    except BaseException as err:
-        tmp.unlink(missing_ok=True)
-        if isinstance(err, OSError):
-            raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
-        raise
+    extra = dict(extra_attrs or {})
+    write_atomic(path, lambda tmp: write(recording, tmp, extra))
 
 
 def _write_hdf5(recording: Recording, tmp: Path, extra_attrs: dict) -> None:
-    with h5py.File(tmp, "w") as h5:
+    # track_order: readers list the sensor groups in the recording's order, not alphabetically
+    with h5py.File(tmp, "w", track_order=True) as h5:
         for key, value in extra_attrs.items():
             if key != "sample_rate":
                 h5.attrs[key] = value
@@ -111,10 +93,3 @@ def _write_csv(recording: Recording, tmp: Path, extra_attrs: dict) -> None:
             for axis, values in zip("xyz", data.T, strict=True):
                 columns[f"{name}_{kind}_{axis}"] = values
     pd.DataFrame(columns).to_csv(tmp, index=False, float_format="%.9g")
-
-
-def _set_default_permissions(tmp: Path) -> None:
-    """NamedTemporaryFile creates mode 0600; give the file the usual umask-based mode."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
