@@ -37,10 +37,10 @@ from .restarts import consensus, random_subsets, resolve_seed
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
 MAX_ITERATIONS = 50
-#: Stop when the tangent-plane step is below this, rad (about 6e-5 deg).
-STEP_TOLERANCE = 1e-6
+#: Stop when the tangent-plane step is below this, rad (about 6e-4 deg).
+STEP_TOLERANCE = 1e-5
 #: Stop when a step lowers the mean squared residual by less than this fraction.
-COST_TOLERANCE = 1e-10
+COST_TOLERANCE = 1e-9
 #: Largest tangent step per iteration, rad (norm over both axes).
 MAX_STEP = 1.0
 #: Fraction of the samples each restart sees (the paper's "different subsets").

@@ -44,9 +44,9 @@ AGREEMENT_M = 0.01
 #: strapped to a thigh, shank or foot sits well within half a metre of the joint.
 INIT_BOX_M = 0.5
 MAX_ITERATIONS = 50
-#: Stop when the step is below this, m (1 micrometre).
-STEP_TOLERANCE = 1e-6
-COST_TOLERANCE = 1e-10
+#: Stop when the step is below this, m (0.01 mm).
+STEP_TOLERANCE = 1e-5
+COST_TOLERANCE = 1e-9
 #: Largest step per iteration, m.
 MAX_STEP = 0.5
 SUBSET_FRACTION = 0.5
