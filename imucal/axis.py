@@ -30,9 +30,10 @@ from .preprocess import (
     default_cutoff,
     default_subsample,
     lowpass,
+    stillness_warning,
     window_slice,
 )
-from .restarts import consensus, random_subsets, resolve_seed
+from .restarts import best_restart, random_subsets, resolve_seed
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -52,6 +53,8 @@ MIN_AGREEING_FRACTION = 0.8
 MAX_RELATIVE_RESIDUAL = 0.25
 #: The sign test must favour one hypothesis by at least this ratio of errors.
 MIN_SIGN_EVIDENCE = 1.5
+#: Evidence ratios are capped here (a perfect fit would divide by zero).
+MAX_SIGN_EVIDENCE = 1e6
 
 
 @dataclass
@@ -67,15 +70,19 @@ class AxisResult:
         |g x j|, dimensionless (0 = perfect hinge).
     sign_evidence : how much better the chosen relative sign explains the data than the
         opposite one (ratio of weighted errors, > 1; below 1.5 the data barely decides).
+    singular_ratio : smallest / largest singular value of the Jacobian of eq. (1) at the
+        estimate (near 0: some direction of (j1, j2) is not determined by the data, e.g.
+        a joint that did not move).
     convergence_fraction : fraction of restarts that reached the estimate: whose final
-        value, refined on all samples, lies within ``AGREEMENT_DEG`` of it.
+        value, refined on all samples, lies within ``AGREEMENT_DEG`` of it. The estimate
+        is the refined result with the lowest cost.
     reached : (R,) which restarts did.
     spread_deg : RMS angle between the agreeing restarts' subset results and the
         estimate, per axis, deg: how much the answer depends on the data.
     batch : the restarts on their subsets (initial states ``batch.path[0]``, costs,
         iterations).
-    refined : each restart's result refined on all samples; the estimate is the one most
-        others agree with.
+    refined : each restart's result refined on all samples; the estimate is the one with
+        the lowest cost.
     warnings : plain-language reasons not to trust the estimate; empty when fine.
     settings : every setting used, including the seed.
     samples_used : samples after window and subsampling.
@@ -88,6 +95,7 @@ class AxisResult:
     rms_residual: float
     relative_residual: float
     sign_evidence: float
+    singular_ratio: float
     convergence_fraction: float
     reached: np.ndarray
     spread_deg: dict
@@ -180,18 +188,17 @@ def estimate_axis(
     idx = random_subsets(n, restarts, subset, rng)
     batch = _solve(_HingeProblem(d1, d2, idx), x0, max_iterations)
 
-    # Refine every restart on all samples: restarts in the same basin then coincide,
-    # so agreement measures independence from the start, while the subset finals
-    # (``batch.x``) show how much the answer depends on the data (Sec. IV).
-    full = _HingeProblem(d1, d2, np.broadcast_to(np.arange(n), (restarts, n)))
+    # Refine every restart on all samples: the refined costs are comparable, so the
+    # lowest is the least-squares answer and the share of restarts reaching it measures
+    # independence from the start; the subset finals (``batch.x``) show how much the
+    # answer depends on the data (Sec. IV).
+    full = _HingeProblem(d1, d2, None)
     refined = _solve(full, batch.x, max_iterations)
-    dist = _axis_distance(refined.x[:, None, :], refined.x[None, :, :])
-    finite = np.isfinite(refined.x).all(axis=1)
-    dist[~finite] = np.nan
-    dist[:, ~finite] = np.nan
-    final_cost = refined.cost[np.arange(restarts), refined.iterations]
-    centre = consensus(dist, AGREEMENT_DEG, final_cost)
-    j1, j2 = _unit(refined.x[centre, :3]), _unit(refined.x[centre, 3:])
+    best, reached = best_restart(refined.x, refined.final_cost, _axis_distance, AGREEMENT_DEG)
+    j1, j2 = _unit(refined.x[best, :3]), _unit(refined.x[best, 3:])
+    _, jac = full.linearise(np.concatenate([j1, j2])[None, :], np.arange(1))
+    sv = np.linalg.svd(jac[0], compute_uv=False)
+    singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
 
     # The sign test follows the projections' angles sample by sample: it needs the
     # full rate and a smooth signal, so it always sees low-passed rates.
@@ -210,19 +217,18 @@ def estimate_axis(
     scale = float(np.sqrt(np.mean((n1**2 + n2**2) / 2)))
     relative = rms / scale if scale > 0 else float("inf")
 
-    to_estimate = _axis_distance(refined.x, np.concatenate([j1, j2]))
-    reached = to_estimate <= AGREEMENT_DEG
     fraction = float(reached.mean())
     spread = {}
     for name, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6))):
         ang = _angle_deg(batch.x[reached, sl], (j1 if name == "j1" else j2))
         spread[name] = float(np.sqrt(np.mean(ang**2))) if ang.size else float("nan")
 
-    warnings = []
+    warnings = stillness_warning(d1, d2)
     if fraction < MIN_AGREEING_FRACTION:
         warnings.append(
-            f"restarts disagree: only {fraction:.0%} of them reached the estimate; the axis "
-            "is not identifiable from this recording (joint barely moved, or not a hinge)"
+            f"restarts disagree: only {fraction:.0%} of them reached the estimate (the lowest "
+            "cost found): the answer depends on the starting point; the joint may have moved "
+            "too little or not as a hinge"
         )
     if relative > MAX_RELATIVE_RESIDUAL:
         warnings.append(
@@ -255,6 +261,7 @@ def estimate_axis(
         rms_residual=rms,
         relative_residual=relative,
         sign_evidence=evidence,
+        singular_ratio=singular_ratio,
         convergence_fraction=fraction,
         reached=reached,
         spread_deg=spread,
@@ -299,7 +306,10 @@ def align_signs(
         errors.append(float(np.sum(w * mismatch)))
     right = int(np.argmin(errors))
     wrong = 1 - right
-    evidence = errors[wrong] / errors[right] if errors[right] > 0 else float("inf")
+    if errors[wrong] <= 0:  # no motion in the joint planes: nothing decides the sign
+        evidence = 1.0
+    else:
+        evidence = min(errors[wrong] / max(errors[right], 1e-300), MAX_SIGN_EVIDENCE)
     return (1.0, -1.0)[right], float(evidence)
 
 
@@ -319,17 +329,21 @@ def joint_plane_projection(g: np.ndarray, j: np.ndarray) -> np.ndarray:
 class _HingeProblem:
     """Residual (1) and its tangent-plane Jacobian for restarts on sample subsets."""
 
-    def __init__(self, g1: np.ndarray, g2: np.ndarray, idx: np.ndarray):
+    def __init__(self, g1: np.ndarray, g2: np.ndarray, idx: np.ndarray | None):
+        """``idx`` (R, M): each restart's sample indices; None: all samples for all."""
         self.idx = idx
         self.g1, self.g2 = g1, g2
-        self.gg1 = np.einsum("ij,ij->i", g1, g1)
-        self.gg2 = np.einsum("ij,ij->i", g2, g2)
+        self.gg1 = np.sum(g1 * g1, axis=1)
+        self.gg2 = np.sum(g2 * g2, axis=1)
 
     def _parts(self, g, gg, rows, j, basis):
-        sel = self.idx[rows]
-        gs = g[sel]  # (r, M, 3)
-        dots = np.einsum("rmk,rkc->rmc", gs, basis)  # g.j, g.u, g.v
-        norm = np.sqrt(np.maximum(gg[sel] - dots[..., 0] ** 2, 0.0))
+        if self.idx is None:
+            gs, gg = g, gg  # broadcast over restarts, no copy
+        else:
+            sel = self.idx[rows]
+            gs, gg = g[sel], gg[sel]  # (r, M, 3), (r, M)
+        dots = gs @ basis  # (r, M, c): g.j, g.u, g.v
+        norm = np.sqrt(np.maximum(gg - dots[..., 0] ** 2, 0.0))
         return dots, norm
 
     def residual(self, x, rows):
@@ -366,7 +380,7 @@ def _retract(x: np.ndarray, step: np.ndarray) -> np.ndarray:
     out = np.empty_like(x)
     for sl, st in ((slice(0, 3), slice(0, 2)), (slice(3, 6), slice(2, 4))):
         basis = _tangent_basis(x[:, sl])
-        moved = x[:, sl] + np.einsum("rkc,rc->rk", basis[:, :, 1:], step[:, st])
+        moved = x[:, sl] + (basis[:, :, 1:] @ step[:, st, None])[..., 0]
         out[:, sl] = moved / np.linalg.norm(moved, axis=1, keepdims=True)
     return out
 

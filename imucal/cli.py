@@ -49,11 +49,11 @@ Start = Annotated[float | None, typer.Option(help="Window start, s on the record
 End = Annotated[float | None, typer.Option(help="Window end, s on the recording's time axis.",
                                            show_default=False)]
 AxisCutoff = Annotated[float | None, typer.Option(
-    "--cutoff", help="Low-pass cut-off, Hz, before the fit; default: none (raw rates fit "
+    "--cutoff", min=0.0, help="Low-pass cut-off, Hz, before the fit; default: none (raw rates fit "
     "eq. 1 best).", show_default=False)]
 PositionCutoff = Annotated[float | None, typer.Option(
-    "--cutoff", help="Low-pass cut-off, Hz; default 10 Hz (at most 0.4 x rate); 0 disables "
-    "the filter.", show_default=False)]
+    "--cutoff", min=0.0, help="Low-pass cut-off, Hz; default 10 Hz (at most 0.4 x rate); 0 "
+    "disables the filter.", show_default=False)]
 Subsample = Annotated[int | None, typer.Option(min=1, help="Use every k-th sample; default: all "
                                                "without a filter, else about 2.5 per cut-off "
                                                "period.", show_default=False)]
@@ -106,11 +106,11 @@ def axis(
         recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
         s1, s2 = (recording.sensor(n) for n in names)
         window = _window(recording, start, end)
-        _progress(quiet, recording, names, "axis")
         result = _about(
             recording, estimate_axis, s1.gyr, s2.gyr, rate=recording.rate,
             restarts=restarts, seed=seed, cutoff=cutoff, subsample=subsample, **window,
         )
+        _progress(quiet, recording, names, "axis")
         doc = axis_report(result, input_info=_input_info(recording, names))
         if plot is not None:
             from .plots import axis_figure
@@ -160,12 +160,12 @@ def position(
         recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
         s1, s2 = (recording.sensor(n) for n in names)
         window = _window(recording, start, end)
-        _progress(quiet, recording, names, f"position ({joint})")
         result = _about(
             recording, estimate_position, s1.gyr, s1.acc, s2.gyr, s2.acc,
             rate=recording.rate, restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
             subsample=subsample, **window,
         )
+        _progress(quiet, recording, names, f"position ({joint})")
         doc = position_report(result, input_info=_input_info(recording, names))
         if plot is not None:
             from .plots import position_figure
@@ -258,16 +258,14 @@ def info(
         sys.stdout.write("\n".join(lines) + "\n")
 
 
-#: A sensor whose RMS angular rate stays below this (deg/s) is called still by `info`.
-STILL_RATE_DEG_S = 5.0
-
-
 def _describe(recording) -> dict:
+    from .preprocess import STILL_RATE_DEG_S, rms_rate_deg_s
+
     sensors = {}
     for name, s in recording.sensors.items():
         rate_norm = np.degrees(np.linalg.norm(s.gyr, axis=1))
         acc_dyn = np.linalg.norm(s.acc, axis=1) - 9.81
-        rms = float(np.sqrt(np.mean(rate_norm**2)))
+        rms = rms_rate_deg_s(s.gyr)
         sensors[name] = {
             "units": recording.units.get(name, {}),
             "gyr_rms_deg_s": rms,
@@ -331,17 +329,16 @@ def _load(rec, sensors, rate, gyr_units, acc_units):
 
 def _window(recording, start, end) -> dict:
     """--start/--end are on the recording's time axis; estimators count from sample 0."""
+    from .preprocess import window_slice
+
     t0 = float(recording.time[0])
-    t_end = t0 + recording.duration
-    if start is not None and not t0 <= start < t_end:
-        raise InputError(f"{recording.source}: --start {start:g} s lies outside the recording "
-                         f"({t0:g} to {t_end:g} s)")
-    if end is not None and end <= (t0 if start is None else start):
-        raise InputError(f"{recording.source}: --end {end:g} s must be after the window start")
-    return {
-        "start": None if start is None else start - t0,
-        "end": None if end is None else end - t0,
-    }
+    rel = {"start": None if start is None else start - t0,
+           "end": None if end is None else end - t0}
+    try:
+        window_slice(recording.n_samples, recording.rate, **rel, origin=t0)
+    except InputError as err:
+        raise InputError(f"{recording.source}: {err}") from None
+    return rel
 
 
 def _about(recording, estimate, *args, **kwargs):

@@ -50,6 +50,11 @@ class BatchResult:
     cost: np.ndarray
     path: np.ndarray
 
+    @property
+    def final_cost(self) -> np.ndarray:
+        """(R,) cost at each restart's final state."""
+        return self.cost[np.arange(self.x.shape[0]), self.iterations]
+
 
 def gauss_newton(
     linearise: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
@@ -106,12 +111,11 @@ def gauss_newton(
 
         x_old = x[active]
         c_old = current[active]
-        x_new, c_new, ok = _descend(residual, retract, x_old, step, c_old, active)
+        x_new, c_new, taken, ok = _descend(residual, retract, x_old, step, c_old, active)
 
         x[active] = x_new
         current[active] = c_new
         iterations[active[ok]] += 1
-        taken = np.linalg.norm(step, axis=1)  # step after halvings
         small = (taken < step_tolerance) | (c_old - c_new <= cost_tolerance * c_old)
         # A restart whose step cannot lower the cost even when halved many times sits
         # at a minimum to machine precision: that is convergence, too.
@@ -138,8 +142,9 @@ def gauss_newton(
 
 
 def _gauss_newton_step(e: np.ndarray, jac: np.ndarray) -> np.ndarray:
-    jtj = np.einsum("rmk,rml->rkl", jac, jac)
-    jte = np.einsum("rmk,rm->rk", jac, e)
+    jt = np.swapaxes(jac, 1, 2)
+    jtj = jt @ jac
+    jte = (jt @ e[..., None])[..., 0]
     k = jtj.shape[-1]
     scale = np.trace(jtj, axis1=1, axis2=2) / k
     damping = RELATIVE_DAMPING * scale + 1e-300
@@ -149,7 +154,12 @@ def _gauss_newton_step(e: np.ndarray, jac: np.ndarray) -> np.ndarray:
 
 
 def _descend(residual, retract, x_old, step, c_old, rows):
-    """Take ``step`` where it lowers the cost; halve it where it does not."""
+    """Take ``step`` where it lowers the cost; halve it where it does not.
+
+    Returns the new states and costs, the norm of the step actually taken (0 where none
+    was) and where a step was taken.
+    """
+    step = step.copy()
     x_new = x_old.copy()
     c_new = c_old.copy()
     ok = np.zeros(x_old.shape[0], dtype=bool)
@@ -166,4 +176,4 @@ def _descend(residual, retract, x_old, step, c_old, rows):
             break
         step[trial] *= 0.5
     step[~ok] = 0.0
-    return x_new, c_new, ok
+    return x_new, c_new, np.linalg.norm(step, axis=1), ok

@@ -33,9 +33,10 @@ from .preprocess import (
     default_subsample,
     derivative,
     lowpass,
+    stillness_warning,
     window_slice,
 )
-from .restarts import consensus, random_subsets, resolve_seed
+from .restarts import best_restart, random_subsets, resolve_seed
 
 JOINTS = ("spheroidal", "hinge")
 #: Two estimates agree when both o1 and o2 are within this distance, m.
@@ -56,6 +57,8 @@ MAX_RELATIVE_RESIDUAL = 0.25
 #: Smallest over largest singular value of the Jacobian at the estimate below which one
 #: direction of (o1, o2) is not determined by the data (the point slides along a line).
 MIN_SINGULAR_RATIO = 0.04
+#: A sensor strapped to a thigh, shank or foot is never this far from the joint, m.
+MAX_PLAUSIBLE_OFFSET_M = 1.0
 
 
 @dataclass
@@ -72,8 +75,8 @@ class PositionResult:
     singular_ratio : smallest / largest singular value of the Jacobian at the estimate
         (near 0: the position is only known along a line).
     convergence_fraction : fraction of restarts whose final value, refined on all samples,
-        lies within ``AGREEMENT_M`` of the estimate (for a hinge: after moving each to
-        its closest point on the axis).
+        lies within ``AGREEMENT_M`` of the estimate, the refined result with the lowest
+        cost (for a hinge: after moving each to its closest point on the axis).
     reached : (R,) which restarts did.
     spread_mm : RMS distance of the agreeing restarts' subset results from the estimate
         per vector, mm: how much the answer depends on the data.
@@ -197,44 +200,46 @@ def estimate_position(
             line = np.concatenate([axis.j1, axis.j2])
         else:
             line = np.concatenate([np.asarray(axis[0], float), np.asarray(axis[1], float)])
-        line = line / np.linalg.norm(line[:3])
+        line = np.concatenate([_unit(line[:3]), _unit(line[3:])])
 
     rng = np.random.default_rng(seed)
     x0 = rng.uniform(-INIT_BOX_M, INIT_BOX_M, size=(restarts, 6))
     idx = random_subsets(n, restarts, subset, rng)
-    batch = _solve(_SphericalProblem(*sensors[0], *sensors[1], idx), x0, max_iterations)
+    batch = _solve(_SpheroidalProblem(*sensors[0], *sensors[1], idx), x0, max_iterations)
 
     # As for the axis: refine every restart on all samples, agree on the refined values,
     # measure the data dependence on the subset values.
-    every = np.broadcast_to(np.arange(n), (restarts, n))
-    full = _SphericalProblem(*sensors[0], *sensors[1], every)
+    full = _SpheroidalProblem(*sensors[0], *sensors[1], None)
     refined = _solve(full, batch.x, max_iterations)
     finals = refined.x if line is None else closest_point_on_axis(refined.x, line)
     subset_finals = batch.x if line is None else closest_point_on_axis(batch.x, line)
-    dist = _position_distance(finals[:, None, :], finals[None, :, :])
-    final_cost = refined.cost[np.arange(restarts), refined.iterations]
-    centre = consensus(dist, AGREEMENT_M, final_cost)
-    polished = finals[centre][None, :]
-    x = polished[0]
+    # On a hinge every point of the line has the same cost, so comparing the projected
+    # points with the lowest-cost one is fair.
+    best, reached = best_restart(finals, refined.final_cost, _position_distance, AGREEMENT_M)
+    x = finals[best]
 
-    e, jac = full.linearise(polished, np.arange(1))
+    e, jac = full.linearise(x[None, :], np.arange(1))
     sv = np.linalg.svd(jac[0], compute_uv=False)
     singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
-    r1 = full.joint_acceleration(0, x[:3])
-    r2 = full.joint_acceleration(1, x[3:])
+    r1 = full.joint_acceleration_norm(0, x[:3])
+    r2 = full.joint_acceleration_norm(1, x[3:])
     rms = float(np.sqrt(np.mean(e**2)))
     scale = float(np.sqrt(np.mean((r1**2 + r2**2) / 2)))
     relative = rms / scale if scale > 0 else float("inf")
 
-    to_estimate = _position_distance(finals, x)
-    reached = to_estimate <= AGREEMENT_M
     fraction = float(reached.mean())
     spread = {}
     for name, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6))):
         d = np.linalg.norm(subset_finals[reached, sl] - x[sl], axis=1) * 1000
         spread[name] = float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
 
-    warnings = []
+    warnings = stillness_warning(sensors[0][0], sensors[1][0])
+    far = max(np.linalg.norm(x[:3]), np.linalg.norm(x[3:]))
+    if far > MAX_PLAUSIBLE_OFFSET_M:
+        warnings.append(
+            f"the estimate puts the joint {far:.2f} m from a sensor, implausible on a limb: "
+            "the data do not determine the joint position"
+        )
     if line is None and singular_ratio < MIN_SINGULAR_RATIO:
         warnings.append(
             "the relative motion stays close to one plane (or the joint is a hinge): the "
@@ -242,7 +247,8 @@ def estimate_position(
         )
     if fraction < MIN_AGREEING_FRACTION:
         warnings.append(
-            f"restarts disagree: only {fraction:.0%} of them reached the estimate"
+            f"restarts disagree: only {fraction:.0%} of them reached the estimate (the lowest "
+            "cost found): the answer depends on the starting point"
         )
     if relative > MAX_RELATIVE_RESIDUAL:
         warnings.append(
@@ -298,40 +304,43 @@ def closest_point_on_axis(x: np.ndarray, line: np.ndarray) -> np.ndarray:
     return x + lam[..., None] * line
 
 
-class _SphericalProblem:
+class _SpheroidalProblem:
     """Residual (3) and Jacobian (4) for restarts on sample subsets."""
 
     def __init__(self, g1, gdot1, a1, g2, gdot2, a2, idx):
+        """``idx`` (R, M): each restart's sample indices; None: all samples for all."""
         self.idx = idx
-        self.data = [(g1, gdot1, a1, np.einsum("ij,ij->i", g1, g1)),
-                     (g2, gdot2, a2, np.einsum("ij,ij->i", g2, g2))]
+        self.data = [(g1, gdot1, a1, np.sum(g1 * g1, axis=1)),
+                     (g2, gdot2, a2, np.sum(g2 * g2, axis=1))]
 
-    def _r(self, k, sel, o):
-        """a - Gamma_g(o) for sensor k, restarts' samples ``sel`` (r, M), offsets o (r, 3)."""
-        g, gdot, a, gg = (arr[sel] for arr in self.data[k])
+    def _r(self, k, rows, o):
+        """a - Gamma_g(o) for sensor k, restarts ``rows``, offsets o (r, 3): (r, M, 3)."""
+        if self.idx is None:
+            g, gdot, a, gg = (arr[None] for arr in self.data[k])  # broadcast, no copy
+        else:
+            sel = self.idx[rows]
+            g, gdot, a, gg = (arr[sel] for arr in self.data[k])
         o = o[:, None, :]
         # g x (g x o) = g (g.o) - o |g|^2
         gamma = g * np.sum(g * o, axis=-1, keepdims=True) - o * gg[..., None]
         gamma += np.cross(gdot, o)
         return a - gamma, g, gdot, gg
 
-    def joint_acceleration(self, k: int, o: np.ndarray) -> np.ndarray:
-        """|a_k - Gamma(o)| over all samples of the (single) subset, m/s^2."""
-        r, *_ = self._r(k, self.idx[:1], o[None, :])
+    def joint_acceleration_norm(self, k: int, o: np.ndarray) -> np.ndarray:
+        """|a_k - Gamma(o)| per sample of restart 0's samples, m/s^2."""
+        r, *_ = self._r(k, np.arange(1), o[None, :])
         return np.linalg.norm(r[0], axis=-1)
 
     def residual(self, x, rows):
-        sel = self.idx[rows]
-        r1, *_ = self._r(0, sel, x[:, :3])
-        r2, *_ = self._r(1, sel, x[:, 3:])
+        r1, *_ = self._r(0, rows, x[:, :3])
+        r2, *_ = self._r(1, rows, x[:, 3:])
         return np.linalg.norm(r1, axis=-1) - np.linalg.norm(r2, axis=-1)
 
     def linearise(self, x, rows):
-        sel = self.idx[rows]
         parts = []
         norms = []
         for k, sl in ((0, slice(0, 3)), (1, slice(3, 6))):
-            r, g, gdot, gg = self._r(k, sel, x[:, sl])
+            r, g, gdot, gg = self._r(k, rows, x[:, sl])
             nr = np.linalg.norm(r, axis=-1)
             # Gamma^T r = g (g.r) - r |g|^2 + r x gdot   (eq. 4)
             gtr = g * np.sum(g * r, axis=-1, keepdims=True) - r * gg[..., None]
@@ -341,7 +350,7 @@ class _SphericalProblem:
         return norms[0] - norms[1], np.concatenate([parts[0], -parts[1]], axis=-1)
 
 
-def _solve(problem: _SphericalProblem, x0: np.ndarray, max_iterations: int) -> BatchResult:
+def _solve(problem: _SpheroidalProblem, x0: np.ndarray, max_iterations: int) -> BatchResult:
     return gauss_newton(
         problem.linearise,
         problem.residual,
@@ -352,6 +361,10 @@ def _solve(problem: _SphericalProblem, x0: np.ndarray, max_iterations: int) -> B
         cost_tolerance=COST_TOLERANCE,
         max_step=MAX_STEP,
     )
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return np.asarray(v, dtype=np.float64) / np.linalg.norm(v)
 
 
 def _position_distance(x: np.ndarray, y: np.ndarray) -> np.ndarray:

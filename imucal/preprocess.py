@@ -23,6 +23,25 @@ FILTER_ORDER = 2
 #: Automatic subsampling keeps about this many samples per cut-off period: filtered
 #: samples closer than 1 / (2.5 * cutoff) are strongly correlated and add little.
 SAMPLES_PER_CUTOFF_PERIOD = 2.5
+#: A sensor whose RMS angular rate stays below this is called still: voluntary limb
+#: motion is far faster, gyroscope noise and drift far slower.
+STILL_RATE_DEG_S = 5.0
+
+
+def rms_rate_deg_s(gyr: np.ndarray) -> float:
+    """RMS of the angular-rate norm of ``gyr`` (N, 3) rad/s, in deg/s."""
+    return float(np.degrees(np.sqrt(np.mean(np.sum(gyr * gyr, axis=1)))))
+
+
+def stillness_warning(gyr1: np.ndarray, gyr2: np.ndarray) -> list[str]:
+    """A warning when either sensor barely rotates (nothing to estimate from), else []."""
+    rates = (rms_rate_deg_s(gyr1), rms_rate_deg_s(gyr2))
+    if min(rates) >= STILL_RATE_DEG_S:
+        return []
+    return [
+        f"the sensors barely rotate (RMS rate {rates[0]:.1f} and {rates[1]:.1f} deg/s, below "
+        f"{STILL_RATE_DEG_S:g}): the recording holds no motion to estimate from"
+    ]
 
 
 def default_cutoff(rate: float) -> float:
@@ -38,14 +57,18 @@ def default_subsample(rate: float, cutoff: float | None) -> int:
 
 
 def lowpass(x: np.ndarray, rate: float, cutoff: float | None) -> np.ndarray:
-    """Zero-phase Butterworth low-pass of ``x`` (N, ...) along time; ``cutoff`` None: no filter.
+    """Zero-phase Butterworth low-pass of ``x`` (N, ...) along time; ``cutoff`` None or 0: none.
 
     Short signals are padded less, so any N >= 2 works.
     """
-    if cutoff is None or cutoff <= 0:
+    if cutoff is None or cutoff == 0:
         return np.asarray(x, dtype=np.float64)
+    if not cutoff > 0:
+        raise InputError(f"cut-off must be a positive number of Hz (or 0: no filter), got {cutoff}")
     if cutoff >= rate / 2:
-        raise InputError(f"cut-off {cutoff:g} Hz must be below half the sample rate ({rate:g} Hz)")
+        raise InputError(
+            f"cut-off {cutoff:g} Hz must be below half the sample rate ({rate / 2:g} Hz)"
+        )
     sos = signal.butter(FILTER_ORDER, cutoff, fs=rate, output="sos")
     padlen = min(x.shape[0] - 1, 3 * (2 * len(sos) + 1) * 4)
     return signal.sosfiltfilt(sos, x, axis=0, padlen=padlen)
@@ -56,17 +79,24 @@ def derivative(x: np.ndarray, rate: float) -> np.ndarray:
     return np.gradient(x, 1.0 / rate, axis=0)
 
 
-def window_slice(n: int, rate: float, start: float | None, end: float | None) -> slice:
-    """Sample slice for the window [start, end) in seconds from the first sample."""
+def window_slice(
+    n: int, rate: float, start: float | None, end: float | None, *, origin: float = 0.0
+) -> slice:
+    """Sample slice for the window [start, end) in seconds from the first sample.
+
+    ``origin`` is the first sample's time on the recording's own time axis; messages
+    give times on that axis, as the user typed them.
+    """
     duration = n / rate
     s = 0.0 if start is None else float(start)
     e = duration if end is None else float(end)
+    span = f"the recording runs from {origin:g} to {origin + duration:g} s"
     if not (np.isfinite(s) and np.isfinite(e)):
         raise InputError(f"window start/end must be finite numbers of seconds, got {s}, {e}")
-    if s < 0 or s >= duration:
-        raise InputError(f"window start {s:g} s lies outside the recording (0 to {duration:g} s)")
+    if not 0 <= s < duration:
+        raise InputError(f"window start {origin + s:g} s lies outside the recording ({span})")
     if e <= s:
-        raise InputError(f"window end {e:g} s must be after its start {s:g} s")
-    i0 = int(round(s * rate))
-    i1 = min(n, int(round(e * rate)))
-    return slice(i0, i1)
+        raise InputError(f"window end {origin + e:g} s must be after its start {origin + s:g} s")
+    if e > duration + 0.5 / rate:
+        raise InputError(f"window end {origin + e:g} s lies beyond the recording ({span})")
+    return slice(int(round(s * rate)), min(n, int(round(e * rate))))

@@ -1,14 +1,18 @@
-"""What both estimators do around the solver: seeds, data subsets, and the consensus.
+"""What both estimators do around the solver: seeds, data subsets, and the best restart.
 
 Sec. IV of the paper runs 100 restarts, each from random initial values and on a
 different subset of the data, and shows that they all land on the same estimate. imucal
-does the same and then reports the consensus: the restart that most other restarts
-agree with (within a tolerance), refined on all samples.
+does the same, refines every restart on all samples, reports the refined result with the
+lowest cost, and counts how many restarts reached it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+
+from .errors import InputError
 
 
 def resolve_seed(seed: int | None) -> int:
@@ -17,28 +21,41 @@ def resolve_seed(seed: int | None) -> int:
         return int(np.random.SeedSequence().generate_state(1, dtype=np.uint32)[0])
     seed = int(seed)
     if seed < 0:
-        raise ValueError(f"seed must be non-negative, got {seed}")
+        raise InputError(f"seed must be non-negative, got {seed}")
     return seed
 
 
-def random_subsets(n: int, restarts: int, fraction: float, rng: np.random.Generator) -> np.ndarray:
-    """(restarts, m) sorted sample indices, each row a random subset of ``fraction`` of ``n``."""
+def random_subsets(
+    n: int, restarts: int, fraction: float, rng: np.random.Generator
+) -> np.ndarray | None:
+    """(restarts, m) sorted sample indices, each row a random subset of ``fraction`` of ``n``.
+
+    None when every restart sees all samples (``fraction`` 1).
+    """
     if not 0 < fraction <= 1:
-        raise ValueError(f"subset fraction must be in (0, 1], got {fraction}")
+        raise InputError(f"subset fraction must be in (0, 1], got {fraction}")
     m = max(1, int(round(fraction * n)))
     if m >= n:
-        return np.broadcast_to(np.arange(n), (restarts, n))
+        return None
     keys = rng.random((restarts, n))
     return np.sort(np.argpartition(keys, m - 1, axis=1)[:, :m], axis=1)
 
 
-def consensus(distances: np.ndarray, tolerance: float, costs: np.ndarray) -> int:
-    """Index of the restart with the most others within ``tolerance``; ties: lowest cost.
+def best_restart(
+    finals: np.ndarray,
+    costs: np.ndarray,
+    distance: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    tolerance: float,
+) -> tuple[int, np.ndarray]:
+    """The lowest-cost restart and which restarts ended within ``tolerance`` of it.
 
-    ``distances`` is the (R, R) symmetric matrix of distances between final values
-    (NaN for restarts that ended non-finite, which then agree with nobody).
+    ``finals`` (R, s) and ``costs`` (R,) must come from the same data (all samples), so
+    the costs are comparable: the lowest one is the least-squares answer, however few
+    restarts found it. Non-finite restarts never win and never agree.
     """
-    close = np.nan_to_num(distances, nan=np.inf) <= tolerance
-    support = close.sum(axis=1)
-    best = np.flatnonzero(support == support.max())
-    return int(best[np.argmin(np.nan_to_num(costs[best], nan=np.inf))])
+    finite = np.isfinite(costs) & np.isfinite(finals).all(axis=1)
+    if not finite.any():
+        raise InputError("no restart produced a finite result")
+    best = int(np.flatnonzero(finite)[np.argmin(costs[finite])])
+    reached = finite & (distance(finals, finals[best]) <= tolerance)
+    return best, reached

@@ -122,7 +122,7 @@ def test_window_is_on_the_recording_time_axis(recordings):
         (["axis", "{h5}", "--sensors", "thigh"], b"two different sensor names"),
         (["position", "{h5}", "--joint", "saddle"], b"--joint must be one of"),
         (["axis", "{h5}", "--out", "/nonexistent-folder/x.json"], b"does not exist"),
-        (["axis", "{h5}", "--start", "100"], b"outside the recording"),
+        (["axis", "{h5}", "--start", "100"], b"lies outside the recording"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(recordings, args, phrase):
