@@ -191,8 +191,8 @@ def simulate(
     seed: Seed = None,
     rate: Annotated[float, typer.Option(min=1.0, help="Sample rate, Hz.")] = 100.0,
     duration: Annotated[float, typer.Option(min=0.1, help="Duration, s.")] = 20.0,
-    snr: Annotated[float, typer.Option(min=0.0, help="Signal-to-noise ratio (RMS amplitude "
-                                       "ratio per signal); 0 or inf: no noise.")] = 100.0,
+    snr: Annotated[float, typer.Option(help="Signal-to-noise ratio (RMS amplitude ratio per "
+                                       "signal, > 0); inf: no noise.")] = 100.0,
     motion: Annotated[str, typer.Option(help="circling, walking, rigid-knee or static.")]
     = "circling",
     quiet: Quiet = False,
@@ -207,11 +207,13 @@ def simulate(
 
         if motion not in MOTIONS:
             raise InputError(f"--motion must be one of {', '.join(MOTIONS)}, got '{motion}'")
+        if not snr > 0:
+            raise InputError(f"--snr must be positive (inf: no noise), got {snr:g}")
         truth_path = out.with_name(out.stem + ".truth.json")
         check_writable(out)
         recording, truth = run_simulation(
             seed=seed, rate=rate, duration=duration,
-            snr=None if snr == 0 or not np.isfinite(snr) else snr, motion=motion,
+            snr=None if np.isinf(snr) else snr, motion=motion,
         )
         save_recording(recording, out)
         write_text_atomic(truth_path, json.dumps(clean(truth), indent=2) + "\n")

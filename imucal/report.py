@@ -59,6 +59,7 @@ def axis_report(result: AxisResult, *, input_info: dict) -> dict:
             "method": "joint-plane projection angles vs. j2.g2 - j1.g1 (no integration)",
             "evidence": result.sign_evidence,
         },
+        "identifiability": {"singular_ratio": result.singular_ratio},
         "convergence": _convergence_block(result, "agreement_deg", "spread_deg",
                                           result.spread_deg),
         "confident": result.confident,
@@ -159,8 +160,8 @@ def _convergence_block(result, tol_key: str, spread_key: str, spread: dict) -> d
     return {
         "fraction": result.convergence_fraction,
         tol_key: result.settings[tol_key],
-        "median_iterations": float(np.median(it)),
-        "max_iterations": int(it.max()),
+        "iterations_median": float(np.median(it)),
+        "iterations_max": int(it.max()),
         "converged_within_limit": float(np.mean(result.batch.converged)),
         spread_key: spread,
     }

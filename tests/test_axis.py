@@ -101,3 +101,31 @@ def test_mismatched_arrays_raise_input_error():
         estimate_axis(np.ones((100, 3)), np.ones((99, 3)), rate=100)
     with pytest.raises(InputError, match=r"expected \(N, 3\)"):
         estimate_axis(np.ones((100, 2)), np.ones((100, 2)), rate=100)
+
+
+def test_lowest_cost_wins_even_when_most_restarts_end_elsewhere():
+    # Simulated walking: most restarts end in a local minimum ~10 deg off the truth.
+    rec, truth = simulated(2, 100.0, 100.0, "walking")
+    r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate, seed=1)
+    assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
+    assert r.refined.final_cost[r.reached].max() <= r.refined.final_cost.min() * 1.001
+    if r.convergence_fraction < 0.8:
+        assert any("restarts disagree" in w for w in r.warnings)
+
+
+def test_static_recording_is_flagged():
+    rec, _ = simulated(1, motion="static")
+    r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate, seed=1)
+    assert any("barely rotate" in w for w in r.warnings)
+    assert np.isfinite(r.batch.x).all() and 1.0 <= r.sign_evidence < 1.5
+
+
+def test_rigid_knee_has_a_small_singular_ratio():
+    rigid, _ = simulated(1, motion="rigid-knee")
+    moving, _ = simulated(1)
+    ratios = [
+        estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate,
+                      seed=1, restarts=10).singular_ratio
+        for rec in (rigid, moving)
+    ]
+    assert ratios[0] < 0.05 < 0.2 < ratios[1]

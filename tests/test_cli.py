@@ -52,7 +52,7 @@ def test_axis_json_on_stdout_matches_truth(recordings):
     assert doc["input"]["sample_rate_hz"] == 100.0
     assert doc["settings"]["seed"] == 3 and doc["settings"]["restarts"] == 100
     conv = doc["convergence"]
-    assert conv["fraction"] >= 0.95 and conv["median_iterations"] <= 10
+    assert conv["fraction"] >= 0.95 and conv["iterations_median"] <= 10
     assert len(doc["restarts"]) == 100
     first = doc["restarts"][0]
     assert set(first) == {"initial", "final", "refined", "iterations", "converged",
@@ -166,4 +166,4 @@ def test_csv_at_40_hz_meets_paper_targets(recordings):
     for doc in (axis, pos):
         assert doc["input"]["sample_rate_hz"] == pytest.approx(40.0)
         assert doc["convergence"]["fraction"] >= 0.95
-        assert doc["convergence"]["median_iterations"] <= 10
+        assert doc["convergence"]["iterations_median"] <= 10

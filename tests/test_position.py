@@ -67,3 +67,12 @@ def test_closest_point_formula():
     out = closest_point_on_axis(x, np.concatenate([j, j]))
     # moving along the axis until the x components balance: 0.3 + l and -0.1 + l, l = -0.1
     assert np.allclose(out, [0.2, 0.1, 0.0, -0.2, 0.2, 0.0])
+
+
+def test_static_recording_gives_warnings_not_a_confident_position():
+    rec, _ = simulated(1, motion="static")
+    sh, ft = rec.sensor("shank"), rec.sensor("foot")
+    r = estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=rec.rate, seed=1)
+    assert any("barely rotate" in w for w in r.warnings)
+    assert not r.confident
+    assert np.isfinite(r.batch.x).all()

@@ -1,0 +1,42 @@
+"""The restart bookkeeping shared by both estimators."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from imucal import InputError
+from imucal.restarts import best_restart, random_subsets, resolve_seed
+
+
+def _dist(x, y):
+    return np.linalg.norm(x - y, axis=-1)
+
+
+def test_best_restart_is_the_lowest_cost_not_the_most_popular():
+    finals = np.array([[0.0], [0.0], [0.0], [5.0], [5.001], [np.nan]])
+    costs = np.array([2.0, 2.0, 2.0, 1.0, 1.0000001, np.nan])
+    best, reached = best_restart(finals, costs, _dist, tolerance=0.01)
+    assert best == 3
+    assert reached.tolist() == [False, False, False, True, True, False]
+
+
+def test_best_restart_needs_one_finite_result():
+    with pytest.raises(InputError, match="finite"):
+        best_restart(np.full((2, 1), np.nan), np.full(2, np.nan), _dist, 1.0)
+
+
+def test_random_subsets_are_sorted_distinct_and_sized():
+    idx = random_subsets(100, 7, 0.3, np.random.default_rng(0))
+    assert idx.shape == (7, 30)
+    assert all(len(set(row)) == 30 and np.all(np.diff(row) > 0) for row in idx)
+    assert random_subsets(100, 7, 1.0, np.random.default_rng(0)) is None
+    with pytest.raises(InputError):
+        random_subsets(100, 7, 0.0, np.random.default_rng(0))
+
+
+def test_seed_is_drawn_when_missing_and_kept_when_given():
+    assert resolve_seed(42) == 42
+    assert 0 <= resolve_seed(None) < 2**32
+    with pytest.raises(InputError):
+        resolve_seed(-1)
