@@ -19,6 +19,13 @@ from .errors import InputError
 GYR_UNITS = {"rad/s": 1.0, "deg/s": np.pi / 180.0}
 ACC_UNITS = {"m/s^2": 1.0, "g": 9.80665}
 
+#: A human limb segment does not turn faster than this (rad/s, about 2000 deg/s); a
+#: gyroscope peaking above it is most likely in deg/s.
+MAX_LIMB_RATE = 35.0
+#: A median accelerometer norm in this range (m/s^2 after conversion) is ~1 g expressed
+#: in g: the data are most likely in g, not m/s^2.
+ACC_LOOKS_LIKE_G = (0.5, 2.0)
+
 #: Largest relative deviation of one sampling interval from the median interval that is
 #: still treated as regular sampling (timestamps of wireless sensors jitter a little).
 TIME_JITTER_TOLERANCE = 0.1
@@ -159,8 +166,29 @@ def make_recording(
 
     rate_out, time_out = _check_timing(rate, time, n, source)
     return Recording(
-        rate=rate_out, sensors=converted, time=time_out, source=source, units=units
+        rate=rate_out, sensors=converted, time=time_out, source=source, units=units,
+        warnings=_unit_warnings(converted, units),
     )
+
+
+def _unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
+    """Plain-language doubts about the declared units, with the evidence."""
+    notes = []
+    for name, sd in sensors.items():
+        peak = float(np.linalg.norm(sd.gyr, axis=1).max())
+        if peak > MAX_LIMB_RATE:
+            notes.append(
+                f"sensor '{name}' gyr peaks at {peak:.0f} rad/s ({units[name]['gyr']}), faster "
+                f"than a limb turns (< {MAX_LIMB_RATE:g} rad/s): is it in deg/s? "
+                "(--gyr-units deg/s or a 'units' attribute)"
+            )
+        median = float(np.median(np.linalg.norm(sd.acc, axis=1)))
+        if ACC_LOOKS_LIKE_G[0] <= median <= ACC_LOOKS_LIKE_G[1]:
+            notes.append(
+                f"sensor '{name}' acc has a median norm of {median:.2f} m/s^2, about 1 g in g "
+                "units: is it in g? (--acc-units g or a 'units' attribute)"
+            )
+    return notes
 
 
 def _as_n_by_3(value, what: str) -> np.ndarray:

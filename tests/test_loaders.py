@@ -494,3 +494,18 @@ def test_path_object_and_string_are_equivalent(tmp_path):
     save_recording(random_recording(), str(path))
     assert isinstance(path, Path)
     assert load_recording(str(path)).source == load_recording(path).source
+
+
+def test_units_that_look_wrong_give_warnings_with_evidence(tmp_path):
+    rng = np.random.default_rng(3)
+    n = 200
+    gyr_deg = np.degrees(rng.normal(0, 2.0, (n, 3)))  # deg/s values, declared rad/s
+    acc_g = np.tile([0.0, 0.0, 1.0], (n, 1)) + rng.normal(0, 0.01, (n, 3))  # g, declared m/s^2
+    rec = make_recording({"thigh": {"gyr": gyr_deg, "acc": acc_g}}, rate=100.0)
+    text = " ".join(rec.warnings)
+    assert "is it in deg/s" in text and "is it in g" in text
+    fine = make_recording(
+        {"thigh": {"gyr": gyr_deg, "acc": acc_g}}, rate=100.0,
+        units={"thigh": {"gyr": "deg/s", "acc": "g"}},
+    )
+    assert fine.warnings == []
