@@ -100,25 +100,13 @@ def axis(
     """Hinge joint axis: j1 in the first sensor's frame, j2 in the second's (unit vectors)."""
     with _errors(debug):
         from .axis import estimate_axis
-        from .report import axis_report
 
-        _check_outputs(out, plot)
-        recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
-        s1, s2 = (recording.sensor(n) for n in names)
-        window = _window(recording, start, end)
-        result = _about(
-            recording, estimate_axis, s1.gyr, s2.gyr, rate=recording.rate,
-            restarts=restarts, seed=seed, cutoff=cutoff, subsample=subsample, **window,
-        )
-        _progress(quiet, recording, names, "axis")
-        doc = axis_report(result, input_info=_input_info(recording, names))
-        if plot is not None:
-            from .plots import axis_figure
+        def estimate(s1, s2, sample_rate, **window):
+            return estimate_axis(s1.gyr, s2.gyr, rate=sample_rate, restarts=restarts, seed=seed,
+                                 cutoff=cutoff, subsample=subsample, **window)
 
-            _save_figure(axis_figure(result, f"Hinge axis: {names[0]} - {names[1]}"), plot)
-        _emit(doc, out)
-        if not quiet:
-            _summary_axis(result, names)
+        _run("axis", estimate, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
+             quiet)
 
 
 @app.command(
@@ -152,29 +140,17 @@ def position(
     """Joint centre: o1, o2 = vectors from the joint centre to each sensor, own frame, m."""
     with _errors(debug):
         from .position import JOINTS, estimate_position
-        from .report import position_report
 
         if joint not in JOINTS:
             raise InputError(f"--joint must be one of {', '.join(JOINTS)}, got '{joint}'")
-        _check_outputs(out, plot)
-        recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
-        s1, s2 = (recording.sensor(n) for n in names)
-        window = _window(recording, start, end)
-        result = _about(
-            recording, estimate_position, s1.gyr, s1.acc, s2.gyr, s2.acc,
-            rate=recording.rate, restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
-            subsample=subsample, **window,
-        )
-        _progress(quiet, recording, names, f"position ({joint})")
-        doc = position_report(result, input_info=_input_info(recording, names))
-        if plot is not None:
-            from .plots import position_figure
 
-            title = f"Joint position ({joint}): {names[0]} - {names[1]}"
-            _save_figure(position_figure(result, title), plot)
-        _emit(doc, out)
-        if not quiet:
-            _summary_position(result, names)
+        def estimate(s1, s2, sample_rate, **window):
+            return estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, rate=sample_rate,
+                                     restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
+                                     subsample=subsample, **window)
+
+        _run("position", estimate, rec, sensors, start, end, out, plot, rate, gyr_units,
+             acc_units, quiet)
 
 
 @app.command(
@@ -260,6 +236,37 @@ def info(
         sys.stdout.write("\n".join(lines) + "\n")
 
 
+def _run(command, estimate, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
+         quiet) -> None:
+    """What `axis` and `position` share: load, check, estimate, report, plot, summarise."""
+    from . import report
+
+    _check_outputs(out, plot)
+    recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
+    s1, s2 = (recording.sensor(n) for n in names)
+    window = _window(recording, start, end)
+    try:
+        result = estimate(s1, s2, recording.rate, **window)
+    except InputError as err:
+        raise InputError(f"{recording.source}: {err}") from None
+    what = command if command == "axis" else f"position ({result.joint})"
+    _progress(quiet, recording, names, what)
+    build = report.axis_report if command == "axis" else report.position_report
+    doc = build(result, input_info=_input_info(recording, names))
+    if plot is not None:
+        from . import plots
+
+        if command == "axis":
+            fig = plots.axis_figure(result, f"Hinge axis: {names[0]} - {names[1]}")
+        else:
+            fig = plots.position_figure(
+                result, f"Joint position ({result.joint}): {names[0]} - {names[1]}")
+        _save_figure(fig, plot)
+    _emit(doc, out)
+    if not quiet:
+        _summary(result, names)
+
+
 def _describe(recording) -> dict:
     from .preprocess import STILL_RATE_DEG_S, rms_rate_deg_s
 
@@ -343,14 +350,6 @@ def _window(recording, start, end) -> dict:
     return rel
 
 
-def _about(recording, estimate, *args, **kwargs):
-    """Run an estimator; its input errors get the recording's name in front."""
-    try:
-        return estimate(*args, **kwargs)
-    except InputError as err:
-        raise InputError(f"{recording.source}: {err}") from None
-
-
 def _input_info(recording, names) -> dict:
     return {
         "path": recording.source,
@@ -392,23 +391,21 @@ def _progress(quiet, recording, names, what) -> None:
              f"{recording.n_samples} samples at {recording.rate:g} Hz ({recording.duration:.1f} s)")
 
 
-def _summary_axis(result, names) -> None:
+def _summary(result, names) -> None:
+    if hasattr(result, "j1"):
+        v1, v2, unit, res_unit = result.j1, result.j2, "", "rad/s"
+        spread = "/".join(f"{v:.2f}" for v in result.spread_deg.values()) + " deg"
+        keys = ("j1", "j2")
+    else:
+        v1, v2, unit, res_unit = result.o1, result.o2, " m", "m/s^2"
+        spread = "/".join(f"{v:.1f}" for v in result.spread_mm.values()) + " mm"
+        keys = ("o1", "o2")
     it = result.iterations
-    _err(f"  j1 ({names[0]}) = {_vec(result.j1)}   j2 ({names[1]}) = {_vec(result.j2)}")
+    _err(f"  {keys[0]} ({names[0]}) = {_vec(v1)}{unit}   {keys[1]} ({names[1]}) = {_vec(v2)}{unit}")
     _err(f"  {int(result.reached.sum())}/{len(result.reached)} restarts reached the estimate "
          f"(median {np.median(it):g}, max {it.max()} iterations); residual "
-         f"{result.rms_residual:.4f} rad/s ({result.relative_residual:.1%} of signal); "
-         f"spread {result.spread_deg['j1']:.2f}/{result.spread_deg['j2']:.2f} deg")
-    _verdict(result.warnings)
-
-
-def _summary_position(result, names) -> None:
-    it = result.iterations
-    _err(f"  o1 ({names[0]}) = {_vec(result.o1)} m   o2 ({names[1]}) = {_vec(result.o2)} m")
-    _err(f"  {int(result.reached.sum())}/{len(result.reached)} restarts reached the estimate "
-         f"(median {np.median(it):g}, max {it.max()} iterations); residual "
-         f"{result.rms_residual:.4f} m/s^2 ({result.relative_residual:.1%} of signal); "
-         f"spread {result.spread_mm['o1']:.1f}/{result.spread_mm['o2']:.1f} mm")
+         f"{result.rms_residual:.4f} {res_unit} ({result.relative_residual:.1%} of signal); "
+         f"spread {spread}")
     _verdict(result.warnings)
 
 

@@ -29,20 +29,7 @@ POSITION_CONVENTION = (
 
 def axis_report(result: AxisResult, *, input_info: dict) -> dict:
     """JSON document for an axis estimate; ``input_info`` describes the recording."""
-    batch = result.batch
-    refined = result.refined.x
-    restarts = [
-        {
-            "initial": {"j1": batch.path[0, r, :3], "j2": batch.path[0, r, 3:]},
-            "final": {"j1": batch.x[r, :3], "j2": batch.x[r, 3:]},
-            "refined": {"j1": refined[r, :3], "j2": refined[r, 3:]},
-            "iterations": int(batch.iterations[r]),
-            "converged": bool(batch.converged[r]),
-            "reached_estimate": bool(result.reached[r]),
-            "cost": _cost_trace(batch.cost[r]),
-        }
-        for r in range(batch.x.shape[0])
-    ]
+    restarts = _restart_entries(result, "j1", "j2")
     doc = {
         "imucal_version": __version__,
         "command": "axis",
@@ -71,20 +58,7 @@ def axis_report(result: AxisResult, *, input_info: dict) -> dict:
 
 def position_report(result: PositionResult, *, input_info: dict) -> dict:
     """JSON document for a joint-position estimate."""
-    batch = result.batch
-    refined = result.refined.x
-    restarts = [
-        {
-            "initial": {"o1": batch.path[0, r, :3], "o2": batch.path[0, r, 3:]},
-            "final": {"o1": batch.x[r, :3], "o2": batch.x[r, 3:]},
-            "refined": {"o1": refined[r, :3], "o2": refined[r, 3:]},
-            "iterations": int(batch.iterations[r]),
-            "converged": bool(batch.converged[r]),
-            "reached_estimate": bool(result.reached[r]),
-            "cost": _cost_trace(batch.cost[r]),
-        }
-        for r in range(batch.x.shape[0])
-    ]
+    restarts = _restart_entries(result, "o1", "o2")
     doc = {
         "imucal_version": __version__,
         "command": "position",
@@ -140,6 +114,27 @@ def clean(value):
         v = float(value)
         return v if math.isfinite(v) else None
     return value
+
+
+def _restart_entries(result, first: str, second: str) -> list[dict]:
+    """One JSON entry per restart; ``first``/``second`` name the two state vectors."""
+    batch, refined = result.batch, result.refined.x
+
+    def pair(x):
+        return {first: x[:3], second: x[3:]}
+
+    return [
+        {
+            "initial": pair(batch.path[0, r]),
+            "final": pair(batch.x[r]),
+            "refined": pair(refined[r]),
+            "iterations": int(batch.iterations[r]),
+            "converged": bool(batch.converged[r]),
+            "reached_estimate": bool(result.reached[r]),
+            "cost": _cost_trace(batch.cost[r]),
+        }
+        for r in range(batch.x.shape[0])
+    ]
 
 
 def _cost_trace(cost_row: np.ndarray) -> list:
