@@ -210,9 +210,9 @@ def estimate_axis(
     flip = 1.0 if j1[np.argmax(np.abs(j1))] > 0 else -1.0
     j1, j2 = flip * j1, flip * j2
 
-    e = _hinge_residual(d1, d2, j1, j2)
     n1 = np.linalg.norm(np.cross(d1, j1), axis=1)
     n2 = np.linalg.norm(np.cross(d2, j2), axis=1)
+    e = n1 - n2  # eq. (1)
     rms = float(np.sqrt(np.mean(e**2)))
     scale = float(np.sqrt(np.mean((n1**2 + n2**2) / 2)))
     relative = rms / scale if scale > 0 else float("inf")
@@ -399,10 +399,6 @@ def _perpendicular(j: np.ndarray) -> np.ndarray:
     np.put_along_axis(helper, np.argmin(np.abs(j), axis=-1)[..., None], 1.0, axis=-1)
     u = helper - np.sum(helper * j, axis=-1, keepdims=True) * j
     return u / np.linalg.norm(u, axis=-1, keepdims=True)
-
-
-def _hinge_residual(g1, g2, j1, j2):
-    return np.linalg.norm(np.cross(g1, j1), axis=1) - np.linalg.norm(np.cross(g2, j2), axis=1)
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
