@@ -24,16 +24,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton
+from .gauss_newton import BatchResult, gauss_newton, smallest_singular_ratio
 from .preprocess import (
     FILTER_ORDER,
+    check_pair,
+    check_rate,
     default_cutoff,
-    default_subsample,
     lowpass,
+    resolve_subsample,
     stillness_warning,
     window_slice,
 )
-from .restarts import best_restart, random_subsets, resolve_seed
+from .restarts import best_restart, check_restarts, random_subsets, resolve_seed
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -164,14 +166,12 @@ def estimate_axis(
     max_iterations
         Gauss-Newton iteration limit per restart.
     """
-    g1, g2 = _check_pair(gyr1, gyr2)
-    rate = _check_rate(rate)
-    restarts = _check_restarts(restarts)
+    g1, g2 = check_pair(gyr1, gyr2)
+    rate = check_rate(rate)
+    restarts = check_restarts(restarts)
     seed = resolve_seed(seed)
     cutoff = 0.0 if cutoff is None else float(cutoff)
-    step = default_subsample(rate, cutoff) if subsample is None else int(subsample)
-    if step < 1:
-        raise InputError(f"subsample must be a positive integer, got {subsample}")
+    step = resolve_subsample(rate, cutoff, subsample)
 
     win = window_slice(g1.shape[0], rate, start, end)
     d1 = lowpass(g1, rate, cutoff)[win][::step]
@@ -197,8 +197,7 @@ def estimate_axis(
     best, reached = best_restart(refined.x, refined.final_cost, _axis_distance, AGREEMENT_DEG)
     j1, j2 = _unit(refined.x[best, :3]), _unit(refined.x[best, 3:])
     _, jac = full.linearise(np.concatenate([j1, j2])[None, :], np.arange(1))
-    sv = np.linalg.svd(jac[0], compute_uv=False)
-    singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
+    singular_ratio = smallest_singular_ratio(jac[0])
 
     # The sign test follows the projections' angles sample by sample: it needs the
     # full rate and a smooth signal, so it always sees low-passed rates.
@@ -419,30 +418,3 @@ def _random_unit(rng: np.random.Generator, n: int) -> np.ndarray:
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
-
-
-def _check_pair(a, b) -> tuple[np.ndarray, np.ndarray]:
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
-    for name, arr in (("first", a), ("second", b)):
-        if arr.ndim != 2 or arr.shape[1] != 3:
-            raise InputError(f"{name} sensor's data has shape {arr.shape}, expected (N, 3)")
-        if not np.isfinite(arr).all():
-            raise InputError(f"{name} sensor's data contains NaN or Inf")
-    if a.shape != b.shape:
-        raise InputError(f"sensors have different lengths ({a.shape[0]} and {b.shape[0]})")
-    return a, b
-
-
-def _check_rate(rate) -> float:
-    rate = float(rate)
-    if not np.isfinite(rate) or rate <= 0:
-        raise InputError(f"sample rate must be a positive number of Hz, got {rate}")
-    return rate
-
-
-def _check_restarts(restarts) -> int:
-    restarts = int(restarts)
-    if restarts < 1:
-        raise InputError(f"restarts must be at least 1, got {restarts}")
-    return restarts

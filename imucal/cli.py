@@ -105,7 +105,7 @@ def axis(
             return estimate_axis(s1.gyr, s2.gyr, rate=sample_rate, restarts=restarts, seed=seed,
                                  cutoff=cutoff, subsample=subsample, **window)
 
-        _run("axis", estimate, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
+        _run(estimate, "axis", rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
              quiet)
 
 
@@ -149,7 +149,7 @@ def position(
                                      restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
                                      subsample=subsample, **window)
 
-        _run("position", estimate, rec, sensors, start, end, out, plot, rate, gyr_units,
+        _run(estimate, "position", rec, sensors, start, end, out, plot, rate, gyr_units,
              acc_units, quiet)
 
 
@@ -236,9 +236,12 @@ def info(
         sys.stdout.write("\n".join(lines) + "\n")
 
 
-def _run(command, estimate, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
+def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
          quiet) -> None:
-    """What `axis` and `position` share: load, check, estimate, report, plot, summarise."""
+    """What `axis` and `position` share: load, check, estimate, report, plot, summarise.
+
+    ``command`` ("axis" or "position") names the report and figure builders to use.
+    """
     from . import report
 
     _check_outputs(out, plot)
@@ -249,22 +252,17 @@ def _run(command, estimate, rec, sensors, start, end, out, plot, rate, gyr_units
         result = estimate(s1, s2, recording.rate, **window)
     except InputError as err:
         raise InputError(f"{recording.source}: {err}") from None
-    what = command if command == "axis" else f"position ({result.joint})"
+    doc = getattr(report, f"{command}_report")(result, input_info=_input_info(recording, names))
+    what = f"{command} ({doc['joint']})" if "joint" in doc else command
     _progress(quiet, recording, names, what)
-    build = report.axis_report if command == "axis" else report.position_report
-    doc = build(result, input_info=_input_info(recording, names))
     if plot is not None:
         from . import plots
 
-        if command == "axis":
-            fig = plots.axis_figure(result, f"Hinge axis: {names[0]} - {names[1]}")
-        else:
-            fig = plots.position_figure(
-                result, f"Joint position ({result.joint}): {names[0]} - {names[1]}")
-        _save_figure(fig, plot)
+        pair = f"{names[0]} - {names[1]}"
+        _save_figure(getattr(plots, f"{command}_figure")(result, pair), plot)
     _emit(doc, out)
     if not quiet:
-        _summary(result, names)
+        _summary(doc, names)
 
 
 def _describe(recording) -> dict:
@@ -391,22 +389,21 @@ def _progress(quiet, recording, names, what) -> None:
              f"{recording.n_samples} samples at {recording.rate:g} Hz ({recording.duration:.1f} s)")
 
 
-def _summary(result, names) -> None:
-    if hasattr(result, "j1"):
-        v1, v2, unit, res_unit = result.j1, result.j2, "", "rad/s"
-        spread = "/".join(f"{v:.2f}" for v in result.spread_deg.values()) + " deg"
-        keys = ("j1", "j2")
-    else:
-        v1, v2, unit, res_unit = result.o1, result.o2, " m", "m/s^2"
-        spread = "/".join(f"{v:.1f}" for v in result.spread_mm.values()) + " mm"
-        keys = ("o1", "o2")
-    it = result.iterations
-    _err(f"  {keys[0]} ({names[0]}) = {_vec(v1)}{unit}   {keys[1]} ({names[1]}) = {_vec(v2)}{unit}")
-    _err(f"  {int(result.reached.sum())}/{len(result.reached)} restarts reached the estimate "
-         f"(median {np.median(it):g}, max {it.max()} iterations); residual "
-         f"{result.rms_residual:.4f} {res_unit} ({result.relative_residual:.1%} of signal); "
-         f"spread {spread}")
-    _verdict(result.warnings)
+def _summary(doc: dict, names) -> None:
+    """Human summary on stderr, read back from the JSON document so both always agree."""
+    v1, v2 = ("j1", "j2") if "j1" in doc else ("o1", "o2")
+    units = doc["units"]
+    unit = "" if units[v1] == "unit vector" else f" {units[v1]}"
+    conv = doc["convergence"]
+    spread_key = next(k for k in conv if k.startswith("spread_"))
+    spread = "/".join(f"{v:.2f}" if v is not None else "-" for v in conv[spread_key].values())
+    reached = sum(r["reached_estimate"] for r in doc["restarts"])
+    _err(f"  {v1} ({names[0]}) = {_vec(doc[v1])}{unit}   {v2} ({names[1]}) = {_vec(doc[v2])}{unit}")
+    _err(f"  {reached}/{len(doc['restarts'])} restarts reached the estimate (median "
+         f"{conv['iterations_median']:g}, max {conv['iterations_max']} iterations); residual "
+         f"{doc['rms_residual']:.4f} {units['rms_residual']} ({doc['relative_residual']:.1%} of "
+         f"signal); spread {spread} {units['spread']}")
+    _verdict(doc["warnings"])
 
 
 def _verdict(warnings) -> None:

@@ -177,3 +177,12 @@ def _descend(residual, retract, x_old, step, c_old, rows):
         step[trial] *= 0.5
     step[~ok] = 0.0
     return x_new, c_new, np.linalg.norm(step, axis=1), ok
+
+
+def smallest_singular_ratio(jac: np.ndarray) -> float:
+    """Smallest over largest singular value of one (M, k) Jacobian; 0 for a zero matrix.
+
+    Near 0, some direction of the state is not determined by the data.
+    """
+    sv = np.linalg.svd(jac, compute_uv=False)
+    return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0

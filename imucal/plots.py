@@ -24,7 +24,7 @@ _LEGEND_NOTE = "\n(curves of restarts that did not reach the estimate are grey)"
 _MAX_POINTS = 1500
 
 
-def axis_figure(result: AxisResult, title: str = "") -> Figure:
+def axis_figure(result: AxisResult, sensors: str = "") -> Figure:
     """Cost and j1, j2 per iteration; eq. (1) check; joint-plane traces (Fig. 4)."""
     fig = Figure(figsize=(11, 12), layout="constrained")
     axes = fig.subplots(3, 2)
@@ -36,11 +36,11 @@ def axis_figure(result: AxisResult, title: str = "") -> Figure:
     for ax, g, j, name in ((axes[2, 0], result.gyr1, result.j1, "first"),
                            (axes[2, 1], result.gyr2, result.j2, "second")):
         _plane_panel(ax, g, j, name)
-    fig.suptitle((title or "Hinge axis estimation") + _LEGEND_NOTE)
+    fig.suptitle(_title("Hinge axis estimation", sensors))
     return fig
 
 
-def position_figure(result: PositionResult, title: str = "") -> Figure:
+def position_figure(result: PositionResult, sensors: str = "") -> Figure:
     """Cost and o1, o2 per iteration (Fig. 5 of the paper) and every restart's final o1."""
     fig = Figure(figsize=(11, 8), layout="constrained")
     axes = fig.subplots(2, 2)
@@ -65,8 +65,12 @@ def position_figure(result: PositionResult, title: str = "") -> Figure:
            title="Final o1 of every restart, refined on all samples (x-y)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.legend(fontsize=8, loc="best")
-    fig.suptitle((title or f"Joint position estimation ({result.joint})") + _LEGEND_NOTE)
+    fig.suptitle(_title(f"Joint position estimation ({result.joint})", sensors))
     return fig
+
+
+def _title(what: str, sensors: str) -> str:
+    return f"{what}: {sensors}{_LEGEND_NOTE}" if sensors else what + _LEGEND_NOTE
 
 
 def _joined(subset: np.ndarray, refined: np.ndarray) -> np.ndarray:

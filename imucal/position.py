@@ -24,19 +24,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .axis import AxisResult, _check_pair, _check_rate, _check_restarts, estimate_axis
+from .axis import AxisResult, estimate_axis
 from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton
+from .gauss_newton import BatchResult, gauss_newton, smallest_singular_ratio
 from .preprocess import (
     FILTER_ORDER,
+    check_pair,
+    check_rate,
     default_cutoff,
-    default_subsample,
     derivative,
     lowpass,
+    resolve_subsample,
     stillness_warning,
     window_slice,
 )
-from .restarts import best_restart, random_subsets, resolve_seed
+from .restarts import best_restart, check_restarts, random_subsets, resolve_seed
 
 JOINTS = ("spheroidal", "hinge")
 #: Two estimates agree when both o1 and o2 are within this distance, m.
@@ -159,17 +161,15 @@ def estimate_position(
     """
     if joint not in JOINTS:
         raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{joint}'")
-    g1, g2 = _check_pair(gyr1, gyr2)
-    a1, a2 = _check_pair(acc1, acc2)
+    g1, g2 = check_pair(gyr1, gyr2)
+    a1, a2 = check_pair(acc1, acc2)
     if g1.shape != a1.shape:
         raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, {a1.shape[0]})")
-    rate = _check_rate(rate)
-    restarts = _check_restarts(restarts)
+    rate = check_rate(rate)
+    restarts = check_restarts(restarts)
     seed = resolve_seed(seed)
     cutoff = default_cutoff(rate) if cutoff is None else float(cutoff)
-    step = default_subsample(rate, cutoff) if subsample is None else int(subsample)
-    if step < 1:
-        raise InputError(f"subsample must be a positive integer, got {subsample}")
+    step = resolve_subsample(rate, cutoff, subsample)
 
     win = window_slice(g1.shape[0], rate, start, end)
     sensors = []
@@ -219,8 +219,7 @@ def estimate_position(
     x = finals[best]
 
     e, jac = full.linearise(x[None, :], np.arange(1))
-    sv = np.linalg.svd(jac[0], compute_uv=False)
-    singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
+    singular_ratio = smallest_singular_ratio(jac[0])
     r1 = full.joint_acceleration_norm(0, x[:3])
     r2 = full.joint_acceleration_norm(1, x[3:])
     rms = float(np.sqrt(np.mean(e**2)))

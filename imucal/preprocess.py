@@ -56,6 +56,36 @@ def default_subsample(rate: float, cutoff: float | None) -> int:
     return max(1, int(rate // (SAMPLES_PER_CUTOFF_PERIOD * cutoff)))
 
 
+def resolve_subsample(rate: float, cutoff: float | None, subsample: int | None) -> int:
+    """``subsample`` checked, or :func:`default_subsample` when it is None."""
+    step = default_subsample(rate, cutoff) if subsample is None else int(subsample)
+    if step < 1:
+        raise InputError(f"subsample must be a positive integer, got {subsample}")
+    return step
+
+
+def check_pair(a, b) -> tuple[np.ndarray, np.ndarray]:
+    """Two sensors' (N, 3) arrays as finite float64 of equal length, else InputError."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    for name, arr in (("first", a), ("second", b)):
+        if arr.ndim != 2 or arr.shape[1] != 3:
+            raise InputError(f"{name} sensor's data has shape {arr.shape}, expected (N, 3)")
+        if not np.isfinite(arr).all():
+            raise InputError(f"{name} sensor's data contains NaN or Inf")
+    if a.shape != b.shape:
+        raise InputError(f"sensors have different lengths ({a.shape[0]} and {b.shape[0]})")
+    return a, b
+
+
+def check_rate(rate) -> float:
+    """A positive, finite sample rate in Hz, else InputError."""
+    rate = float(rate)
+    if not np.isfinite(rate) or rate <= 0:
+        raise InputError(f"sample rate must be a positive number of Hz, got {rate}")
+    return rate
+
+
 def lowpass(x: np.ndarray, rate: float, cutoff: float | None) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` (N, ...) along time; ``cutoff`` None or 0: none.
 

@@ -25,6 +25,14 @@ def resolve_seed(seed: int | None) -> int:
     return seed
 
 
+def check_restarts(restarts) -> int:
+    """A restart count of at least 1, else InputError."""
+    restarts = int(restarts)
+    if restarts < 1:
+        raise InputError(f"restarts must be at least 1, got {restarts}")
+    return restarts
+
+
 def random_subsets(
     n: int, restarts: int, fraction: float, rng: np.random.Generator
 ) -> np.ndarray | None:
