@@ -24,9 +24,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton, smallest_singular_ratio
+from .gauss_newton import BatchResult, gauss_newton
 from .preprocess import (
     FILTER_ORDER,
+    MAX_CUTOFF_FRACTION,
     check_pair,
     check_rate,
     default_cutoff,
@@ -35,7 +36,10 @@ from .preprocess import (
     stillness_warning,
     window_slice,
 )
+from .quality import CAREFUL, GOOD, NOT_IDENTIFIABLE, robust_covariance, singular_values
 from .restarts import best_restart, check_restarts, random_subsets, resolve_seed
+from .selection import MAX_SAMPLES
+from .selection import select as select_samples
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -53,6 +57,14 @@ MIN_SAMPLES = 20
 #: A restart fraction below this, or a relative residual above the next, is not confident.
 MIN_AGREEING_FRACTION = 0.8
 MAX_RELATIVE_RESIDUAL = 0.25
+#: Below this RMS flexion rate (j2.g2 - j1.g1 at the estimate) the joint did not bend,
+#: deg/s: a rigid joint fits every pair j1 = R j2. Voluntary knee motion is 50-400 deg/s.
+MIN_FLEXION_RATE_DEG_S = 5.0
+#: Below this smallest/largest singular value of the Jacobian one direction of (j1, j2)
+#: is not determined (a rigid knee gives about 0.02, knee motion 0.1-0.9).
+MIN_SINGULAR_RATIO = 0.04
+#: Refits with the cut-off halved and doubled may move the axis by this much, deg.
+MAX_CUTOFF_SHIFT_DEG = 2.0
 #: The sign test must favour one hypothesis by at least this ratio of errors.
 MIN_SIGN_EVIDENCE = 1.5
 #: Evidence ratios are capped here (a perfect fit would divide by zero).
@@ -98,6 +110,10 @@ class AxisResult:
     relative_residual: float
     sign_evidence: float
     singular_ratio: float
+    singular_values: np.ndarray
+    uncertainty_deg: dict
+    excitation: dict
+    sensitivity: dict
     convergence_fraction: float
     reached: np.ndarray
     spread_deg: dict
@@ -106,14 +122,27 @@ class AxisResult:
     settings: dict
     samples_used: int
     window: tuple[float, float]
+    time_ranges: np.ndarray
     gyr1: np.ndarray
     gyr2: np.ndarray
     warnings: list[str] = field(default_factory=list)
+    blocking: list[str] = field(default_factory=list)
+
+    @property
+    def verdict(self) -> str:
+        """"good", "use with care" (warnings) or "not identifiable" (``blocking``)."""
+        if self.blocking:
+            return NOT_IDENTIFIABLE
+        return CAREFUL if self.warnings else GOOD
+
+    @property
+    def identifiable(self) -> bool:
+        return not self.blocking
 
     @property
     def confident(self) -> bool:
-        """True when no warning was raised."""
-        return not self.warnings
+        """True when no warning of either kind was raised."""
+        return not (self.warnings or self.blocking)
 
     @property
     def iterations(self) -> np.ndarray:
@@ -133,6 +162,9 @@ def estimate_axis(
     start: float | None = None,
     end: float | None = None,
     max_iterations: int = MAX_ITERATIONS,
+    sign: str = "auto",
+    select: bool = True,
+    max_samples: int | None = MAX_SAMPLES,
 ) -> AxisResult:
     """Estimate the hinge axis seen by two gyroscopes.
 
@@ -170,12 +202,16 @@ def estimate_axis(
     rate = check_rate(rate)
     restarts = check_restarts(restarts)
     seed = resolve_seed(seed)
+    flip_axis = _check_sign(sign)
     cutoff = 0.0 if cutoff is None else float(cutoff)
     step = resolve_subsample(rate, cutoff, subsample)
 
     win = window_slice(g1.shape[0], rate, start, end)
-    d1 = lowpass(g1, rate, cutoff)[win][::step]
-    d2 = lowpass(g2, rate, cutoff)[win][::step]
+    f1 = lowpass(g1, rate, cutoff)[win][::step]
+    f2 = lowpass(g2, rate, cutoff)[win][::step]
+    sel = select_samples(f1, f2, rate / step, max_samples=max_samples,
+                         min_samples=MIN_SAMPLES, enabled=select)
+    d1, d2 = f1[sel.index], f2[sel.index]
     n = d1.shape[0]
     if n < MIN_SAMPLES:
         raise InputError(
@@ -196,25 +232,48 @@ def estimate_axis(
     refined = _solve(full, batch.x, max_iterations)
     best, reached = best_restart(refined.x, refined.final_cost, _axis_distance, AGREEMENT_DEG)
     j1, j2 = _unit(refined.x[best, :3]), _unit(refined.x[best, 3:])
-    _, jac = full.linearise(np.concatenate([j1, j2])[None, :], np.arange(1))
-    singular_ratio = smallest_singular_ratio(jac[0])
 
     # The sign test follows the projections' angles sample by sample: it needs the
     # full rate and a smooth signal, so it always sees low-passed rates.
     sign_cutoff = cutoff or default_cutoff(rate)
-    sign, evidence = align_signs(
+    relative_sign, evidence = align_signs(
         lowpass(g1, rate, sign_cutoff)[win], lowpass(g2, rate, sign_cutoff)[win], j1, j2, rate
     )
-    j2 = sign * j2
-    flip = 1.0 if j1[np.argmax(np.abs(j1))] > 0 else -1.0
-    j1, j2 = flip * j1, flip * j2
+    j2 = relative_sign * j2
+    k = int(np.argmax(np.abs(j1))) if flip_axis is None else flip_axis
+    flip = 1.0 if j1[k] >= 0 else -1.0
+    if flip_axis is None or sign[0] == "+":
+        j1, j2 = flip * j1, flip * j2
+    else:
+        j1, j2 = -flip * j1, -flip * j2
 
+    x = np.concatenate([j1, j2])
+    e, jac = full.linearise(x[None, :], np.arange(1))
+    e, jac = e[0], jac[0]
     n1 = np.linalg.norm(np.cross(d1, j1), axis=1)
     n2 = np.linalg.norm(np.cross(d2, j2), axis=1)
-    e = n1 - n2  # eq. (1)
     rms = float(np.sqrt(np.mean(e**2)))
+    # Relative to the angular rates the residual compares, so recordings of different
+    # intensity are comparable.
     scale = float(np.sqrt(np.mean((n1**2 + n2**2) / 2)))
     relative = rms / scale if scale > 0 else float("inf")
+
+    cov = robust_covariance(e, jac)
+    uncertainty = {
+        "j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),
+        "j2": float(np.degrees(np.sqrt(cov[2, 2] + cov[3, 3]))),
+    }
+    sv = singular_values(jac)
+    singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
+    thetadot = d2 @ j2 - d1 @ j1
+    excitation = {
+        "flexion_rate_rms_deg_s": float(np.degrees(np.sqrt(np.mean(thetadot**2)))),
+        "joint_plane_rate_rms_deg_s": [float(np.degrees(np.sqrt(np.mean(n1**2)))),
+                                       float(np.degrees(np.sqrt(np.mean(n2**2))))],
+    }
+
+    sensitivity = _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, sel.index, x,
+                                      max_iterations)
 
     fraction = float(reached.mean())
     spread = {}
@@ -222,17 +281,46 @@ def estimate_axis(
         ang = _angle_deg(batch.x[reached, sl], (j1 if name == "j1" else j2))
         spread[name] = float(np.sqrt(np.mean(ang**2))) if ang.size else float("nan")
 
-    warnings = stillness_warning(d1, d2)
-    if fraction < MIN_AGREEING_FRACTION:
+    blocking = stillness_warning(d1, d2)
+    warnings = []
+    flex = excitation["flexion_rate_rms_deg_s"]
+    if not blocking and flex < MIN_FLEXION_RATE_DEG_S:
+        blocking.append(
+            f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
+            f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this recording; "
+            "record the joint flexing and extending"
+        )
+    elif not blocking and singular_ratio < MIN_SINGULAR_RATIO:
+        blocking.append(
+            f"the data leave one direction of the axes undetermined (singular ratio "
+            f"{singular_ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not "
+            "identifiable from this recording; record more varied motion"
+        )
+    disagree = fraction < MIN_AGREEING_FRACTION
+    poor = relative > MAX_RELATIVE_RESIDUAL
+    if not blocking and disagree and poor:
+        blocking.append(
+            f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge model "
+            f"fits poorly (residual {relative:.0%} of the signal): the joint does not move "
+            "like a hinge (a spheroidal joint such as the ankle?), so no axis is identifiable"
+        )
+    elif disagree:
         warnings.append(
             f"restarts disagree: only {fraction:.0%} of them reached the estimate (the lowest "
             "cost found): the answer depends on the starting point; the joint may have moved "
             "too little or not as a hinge"
         )
-    if relative > MAX_RELATIVE_RESIDUAL:
+    elif poor:
         warnings.append(
             f"the hinge model fits poorly (residual {relative:.0%} of the signal): the joint "
             "may not be a hinge, or the sensors moved on the skin"
+        )
+    shift = sensitivity["max_shift_deg"]
+    if shift > MAX_CUTOFF_SHIFT_DEG:
+        warnings.append(
+            f"the estimate depends strongly on the filter cut-off: it moves by {shift:.1f} deg "
+            f"when fitted with a {sensitivity['cutoffs_hz'][0]:g} or "
+            f"{sensitivity['cutoffs_hz'][1]:g} Hz low-pass"
         )
     if evidence < MIN_SIGN_EVIDENCE:
         warnings.append(
@@ -246,7 +334,10 @@ def estimate_axis(
         "cutoff_hz": cutoff,
         "filter": f"Butterworth order {FILTER_ORDER} low-pass, zero phase" if cutoff else None,
         "sign_test_cutoff_hz": sign_cutoff,
+        "sign_convention": sign,
         "subsample": step,
+        "select": select,
+        "max_samples": max_samples,
         "subset_fraction": subset,
         "max_iterations": max_iterations,
         "step_tolerance_rad": STEP_TOLERANCE,
@@ -254,6 +345,7 @@ def estimate_axis(
         "agreement_deg": AGREEMENT_DEG,
         "initial_values": "j1, j2 uniform on the unit sphere",
     }
+    t0 = win.start / rate
     return AxisResult(
         j1=j1,
         j2=j2,
@@ -261,6 +353,10 @@ def estimate_axis(
         relative_residual=relative,
         sign_evidence=evidence,
         singular_ratio=singular_ratio,
+        singular_values=sv,
+        uncertainty_deg=uncertainty,
+        excitation=excitation,
+        sensitivity=sensitivity,
         convergence_fraction=fraction,
         reached=reached,
         spread_deg=spread,
@@ -268,11 +364,41 @@ def estimate_axis(
         refined=refined,
         settings=settings,
         samples_used=n,
-        window=(win.start / rate, win.stop / rate),
+        window=(t0, win.stop / rate),
+        time_ranges=t0 + sel.ranges * 1.0,
         gyr1=d1,
         gyr2=d2,
         warnings=warnings,
+        blocking=blocking,
     )
+
+
+def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x, max_iterations) -> dict:
+    """Refit from the estimate ``x`` with the cut-off halved and doubled (no filter: the
+    default cut-off and twice it); the shifts show how much the answer rests on the filter.
+    """
+    top = MAX_CUTOFF_FRACTION * rate
+    base = cutoff if cutoff else default_cutoff(rate)
+    pair = (base / 2, min(2 * base, top)) if cutoff else (base, min(2 * base, top))
+    shifts = {"j1": [], "j2": []}
+    for c in pair:
+        h1 = lowpass(g1, rate, c)[win][::step][index]
+        h2 = lowpass(g2, rate, c)[win][::step][index]
+        y = _solve(_HingeProblem(h1, h2, None), x[None, :], MAX_ITERATIONS).x[0]
+        shifts["j1"].append(float(_angle_deg(y[:3], x[:3])))
+        shifts["j2"].append(float(_angle_deg(y[3:], x[3:])))
+    return {"cutoffs_hz": list(pair), "j1_shift_deg": shifts["j1"],
+            "j2_shift_deg": shifts["j2"],
+            "max_shift_deg": max(shifts["j1"] + shifts["j2"])}
+
+
+def _check_sign(sign: str) -> int | None:
+    """Index of the component a --sign convention makes positive; None for "auto"."""
+    if sign == "auto":
+        return None
+    if len(sign) == 2 and sign[0] in "+-" and sign[1] in "xyz":
+        return "xyz".index(sign[1])
+    raise InputError(f"sign must be auto, +x, -x, +y, -y, +z or -z, got '{sign}'")
 
 
 def align_signs(

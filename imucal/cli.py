@@ -16,7 +16,7 @@ import typer
 
 from . import __version__
 from .atomic import check_writable, write_atomic, write_text_atomic
-from .errors import ImucalError, InputError
+from .errors import ImucalError, InputError, NotIdentifiableError
 
 
 def _examples(*lines: str) -> str:
@@ -69,6 +69,15 @@ AccUnits = Annotated[str | None, typer.Option(help="Accelerometer units of a CSV
                                               show_default=False)]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")]
 Debug = Annotated[bool, typer.Option("--debug", help="Show a traceback on errors.")]
+Select = Annotated[bool, typer.Option(
+    "--select/--no-select", help="Use only informative samples: drop still stretches and thin "
+    "long recordings to --max-samples (the time ranges used are in the JSON).")]
+MaxSamples = Annotated[int | None, typer.Option(
+    min=100, help="With --select, at most this many samples enter the fit; default 3000.",
+    show_default=False)]
+Force = Annotated[bool, typer.Option(
+    "--force", help="Write the result even when the data cannot identify it (exit 0; the "
+    "JSON carries the warnings). Without it such a run writes nothing and exits 1.")]
 
 
 @app.command(
@@ -89,11 +98,18 @@ def axis(
     end: End = None,
     cutoff: AxisCutoff = None,
     subsample: Subsample = None,
+    select: Select = True,
+    max_samples: MaxSamples = None,
     out: Out = None,
     plot: Plot = None,
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
+    sign: Annotated[str, typer.Option(
+        help="Overall sign of the axis: auto (j1's largest component positive) or +x, -x, "
+        "+y, -y, +z, -z (that component of j1 is positive). j2 always points the same "
+        "physical way as j1.")] = "auto",
+    force: Force = False,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
@@ -103,10 +119,11 @@ def axis(
 
         def estimate(s1, s2, sample_rate, **window):
             return estimate_axis(s1.gyr, s2.gyr, rate=sample_rate, restarts=restarts, seed=seed,
-                                 cutoff=cutoff, subsample=subsample, **window)
+                                 cutoff=cutoff, subsample=subsample, sign=sign,
+                                 select=select, max_samples=max_samples, **window)
 
         _run(estimate, "axis", rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
-             quiet)
+             quiet, force)
 
 
 @app.command(
@@ -129,11 +146,14 @@ def position(
     end: End = None,
     cutoff: PositionCutoff = None,
     subsample: Subsample = None,
+    select: Select = True,
+    max_samples: MaxSamples = None,
     out: Out = None,
     plot: Plot = None,
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
+    force: Force = False,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
@@ -147,10 +167,11 @@ def position(
         def estimate(s1, s2, sample_rate, **window):
             return estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, rate=sample_rate,
                                      restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
-                                     subsample=subsample, **window)
+                                     subsample=subsample, select=select,
+                                     max_samples=max_samples, **window)
 
         _run(estimate, "position", rec, sensors, start, end, out, plot, rate, gyr_units,
-             acc_units, quiet)
+             acc_units, quiet, force)
 
 
 @app.command(
@@ -237,10 +258,12 @@ def info(
 
 
 def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
-         quiet) -> None:
+         quiet, force) -> None:
     """What `axis` and `position` share: load, check, estimate, report, plot, summarise.
 
-    ``command`` ("axis" or "position") names the report and figure builders to use.
+    ``command`` ("axis" or "position") names the report and figure builders to use. When
+    the data cannot identify the answer, nothing is written and the run exits 1, unless
+    ``force``.
     """
     from . import report
 
@@ -255,6 +278,13 @@ def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units
     doc = getattr(report, f"{command}_report")(result, input_info=_input_info(recording, names))
     what = f"{command} ({doc['joint']})" if "joint" in doc else command
     _progress(quiet, recording, names, what)
+    if doc["quality"]["verdict"] == "not identifiable" and not force:
+        for w in doc["quality"]["warnings"]:
+            _err(f"imucal: warning: {recording.source}: {w}")
+        raise NotIdentifiableError(
+            f"{recording.source}: the data cannot identify the {what}; nothing written "
+            "(--force writes the result with its warnings)"
+        )
     if plot is not None:
         from . import plots
 
@@ -392,24 +422,19 @@ def _progress(quiet, recording, names, what) -> None:
 def _summary(doc: dict, names) -> None:
     """Human summary on stderr, read back from the JSON document so both always agree."""
     v1, v2 = ("j1", "j2") if "j1" in doc else ("o1", "o2")
-    units = doc["units"]
+    units, q, conv = doc["units"], doc["quality"], doc["convergence"]
     unit = "" if units[v1] == "unit vector" else f" {units[v1]}"
-    conv = doc["convergence"]
-    spread_key = next(k for k in conv if k.startswith("spread_"))
-    spread = "/".join(f"{v:.2f}" if v is not None else "-" for v in conv[spread_key].values())
+    u = units["uncertainty"]
+    sigma = "/".join(f"{q[f'{v}_uncertainty_{u}']:.2f}" if q[f"{v}_uncertainty_{u}"] is not None
+                     else "-" for v in (v1, v2))
     reached = sum(r["reached_estimate"] for r in doc["restarts"])
     _err(f"  {v1} ({names[0]}) = {_vec(doc[v1])}{unit}   {v2} ({names[1]}) = {_vec(doc[v2])}{unit}")
-    _err(f"  {reached}/{len(doc['restarts'])} restarts reached the estimate (median "
-         f"{conv['iterations_median']:g}, max {conv['iterations_max']} iterations); residual "
-         f"{doc['rms_residual']:.4f} {units['rms_residual']} ({doc['relative_residual']:.1%} of "
-         f"signal); spread {spread} {units['spread']}")
-    _verdict(doc["warnings"])
-
-
-def _verdict(warnings) -> None:
-    if not warnings:
-        _err("  verdict: ok")
-    for w in warnings:
+    _err(f"  1-sigma {sigma} {u}; {reached}/{len(doc['restarts'])} restarts reached the estimate "
+         f"(median {conv['iterations_median']:g}, max {conv['iterations_max']} iterations); "
+         f"residual {q['rms_residual']:.4f} {units['rms_residual']} "
+         f"({q['relative_residual']:.1%} of signal)")
+    _err(f"  verdict: {q['verdict']}")
+    for w in q["warnings"]:
         _err(f"  warning: {w}")
 
 

@@ -26,19 +26,24 @@ import numpy as np
 
 from .axis import AxisResult, estimate_axis
 from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton, smallest_singular_ratio
+from .gauss_newton import BatchResult, gauss_newton
 from .preprocess import (
     FILTER_ORDER,
+    MAX_CUTOFF_FRACTION,
     check_pair,
     check_rate,
     default_cutoff,
     derivative,
     lowpass,
     resolve_subsample,
+    rms_rate_deg_s,
     stillness_warning,
     window_slice,
 )
+from .quality import CAREFUL, GOOD, NOT_IDENTIFIABLE, robust_covariance, singular_values
 from .restarts import best_restart, check_restarts, random_subsets, resolve_seed
+from .selection import MAX_SAMPLES
+from .selection import select as select_samples
 
 JOINTS = ("spheroidal", "hinge")
 #: Two estimates agree when both o1 and o2 are within this distance, m.
@@ -56,9 +61,16 @@ SUBSET_FRACTION = 0.5
 MIN_SAMPLES = 30
 MIN_AGREEING_FRACTION = 0.8
 MAX_RELATIVE_RESIDUAL = 0.25
-#: Smallest over largest singular value of the Jacobian at the estimate below which one
-#: direction of (o1, o2) is not determined by the data (the point slides along a line).
+#: A singular value of the Jacobian at the estimate below this fraction of the largest is
+#: a direction of (o1, o2) the data barely determine (simulated: a point that slides along
+#: a hinge line gives 0.015-0.02, a rigid joint three values of 0.004-0.02, full 3-D
+#: ankle motion none below 0.06).
 MIN_SINGULAR_RATIO = 0.04
+#: A 1-sigma position uncertainty above this is not good enough for kinematics, mm.
+MAX_UNCERTAINTY_MM = 10.0
+#: Refits with the cut-off halved and doubled may move the point by this much, mm (5-10 %
+#: of a typical sensor-to-joint distance).
+MAX_CUTOFF_SHIFT_MM = 15.0
 #: A sensor strapped to a thigh, shank or foot is never this far from the joint, m.
 MAX_PLAUSIBLE_OFFSET_M = 1.0
 
@@ -94,6 +106,9 @@ class PositionResult:
     rms_residual: float
     relative_residual: float
     singular_ratio: float
+    uncertainty_mm: dict
+    excitation: dict
+    sensitivity: dict
     convergence_fraction: float
     reached: np.ndarray
     spread_mm: dict
@@ -102,12 +117,26 @@ class PositionResult:
     settings: dict
     samples_used: int
     window: tuple[float, float]
+    time_ranges: np.ndarray
     axis: AxisResult | None = None
+    line: np.ndarray | None = None
     warnings: list[str] = field(default_factory=list)
+    blocking: list[str] = field(default_factory=list)
+
+    @property
+    def verdict(self) -> str:
+        """"good", "use with care" (warnings) or "not identifiable" (``blocking``)."""
+        if self.blocking:
+            return NOT_IDENTIFIABLE
+        return CAREFUL if self.warnings else GOOD
+
+    @property
+    def identifiable(self) -> bool:
+        return not self.blocking
 
     @property
     def confident(self) -> bool:
-        return not self.warnings
+        return not (self.warnings or self.blocking)
 
     @property
     def iterations(self) -> np.ndarray:
@@ -131,6 +160,8 @@ def estimate_position(
     start: float | None = None,
     end: float | None = None,
     max_iterations: int = MAX_ITERATIONS,
+    select: bool = True,
+    max_samples: int | None = MAX_SAMPLES,
 ) -> PositionResult:
     """Estimate the joint centre seen by two IMUs.
 
@@ -178,6 +209,9 @@ def estimate_position(
         gdot = derivative(gf, rate)
         af = lowpass(a, rate, cutoff)
         sensors.append(tuple(arr[win][::step] for arr in (gf, gdot, af)))
+    sel = select_samples(sensors[0][0], sensors[1][0], rate / step, max_samples=max_samples,
+                         min_samples=MIN_SAMPLES, enabled=select)
+    sensors = [tuple(arr[sel.index] for arr in parts) for parts in sensors]
     n = sensors[0][0].shape[0]
     if n < MIN_SAMPLES:
         raise InputError(
@@ -191,8 +225,8 @@ def estimate_position(
         if axis is None:
             axis_result = estimate_axis(
                 g1, g2, rate=rate, restarts=restarts, seed=seed, subset=subset,
-                start=start, end=end,
-                max_iterations=max_iterations,
+                start=start, end=end, max_iterations=max_iterations, select=select,
+                max_samples=max_samples,
             )
             line = np.concatenate([axis_result.j1, axis_result.j2])
         elif isinstance(axis, AxisResult):
@@ -219,12 +253,29 @@ def estimate_position(
     x = finals[best]
 
     e, jac = full.linearise(x[None, :], np.arange(1))
-    singular_ratio = smallest_singular_ratio(jac[0])
+    e, jac = e[0], jac[0]
     r1 = full.joint_acceleration_norm(0, x[:3])
     r2 = full.joint_acceleration_norm(1, x[3:])
     rms = float(np.sqrt(np.mean(e**2)))
+    # Relative to the joint-centre accelerations the residual compares.
     scale = float(np.sqrt(np.mean((r1**2 + r2**2) / 2)))
     relative = rms / scale if scale > 0 else float("inf")
+
+    # On a hinge the direction along the axis is invisible by construction; what is
+    # identifiable is the point across it.
+    free = np.eye(6) if line is None else _across(line)
+    sv = singular_values(jac @ free)
+    singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
+    cov = free @ robust_covariance(e, jac @ free) @ free.T
+    uncertainty = {"o1": float(1000 * np.sqrt(np.trace(cov[:3, :3]))),
+                   "o2": float(1000 * np.sqrt(np.trace(cov[3:, 3:])))}
+    excitation = {
+        "rate_rms_deg_s": [rms_rate_deg_s(sensors[0][0]), rms_rate_deg_s(sensors[1][0])],
+        "singular_values_1_s2": sv,
+    }
+    sensitivity = _cutoff_sensitivity(
+        (g1, a1, g2, a2), rate, cutoff, win, step, sel.index, x, line, max_iterations
+    )
 
     fraction = float(reached.mean())
     spread = {}
@@ -232,18 +283,35 @@ def estimate_position(
         d = np.linalg.norm(subset_finals[reached, sl] - x[sl], axis=1) * 1000
         spread[name] = float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
 
-    warnings = stillness_warning(sensors[0][0], sensors[1][0])
+    blocking = stillness_warning(sensors[0][0], sensors[1][0])
+    warnings = []
     far = max(np.linalg.norm(x[:3]), np.linalg.norm(x[3:]))
-    if far > MAX_PLAUSIBLE_OFFSET_M:
-        warnings.append(
+    # Each singular value far below the largest is a direction of (o1, o2) the data
+    # barely see: one is the line of a hinge or of planar motion; three (the point's
+    # every coordinate) mean the joint did not move at all.
+    weak = int(np.sum(sv < MIN_SINGULAR_RATIO * sv[0])) if sv[0] > 0 else sv.size
+    if not blocking and weak >= 3:
+        blocking.append(
+            f"the joint barely moved ({weak} of {sv.size} directions of the joint position "
+            "are undetermined): the joint position is not identifiable from this recording; "
+            "record the joint moving in all directions"
+        )
+    if not blocking and far > MAX_PLAUSIBLE_OFFSET_M:
+        blocking.append(
             f"the estimate puts the joint {far:.2f} m from a sensor, implausible on a limb: "
             "the data do not determine the joint position"
         )
-    if line is None and singular_ratio < MIN_SINGULAR_RATIO:
+    if not blocking and weak and line is None:
         warnings.append(
-            "the relative motion stays close to one plane (or the joint is a hinge): the "
-            "joint position is only known along a line; use --joint hinge for a hinge"
+            "motion stays in one plane (or the joint is a hinge): the joint position is only "
+            "known along a line; use --joint hinge for a hinge"
+            if weak == 1 else
+            f"motion stays close to one axis: {weak} directions of the joint position are "
+            "barely determined"
         )
+    elif not blocking and weak:
+        warnings.append(f"{weak} directions of the point across the hinge axis are barely "
+                        "determined")
     if fraction < MIN_AGREEING_FRACTION:
         warnings.append(
             f"restarts disagree: only {fraction:.0%} of them reached the estimate (the lowest "
@@ -253,7 +321,21 @@ def estimate_position(
         warnings.append(
             f"the {joint} joint model fits poorly (residual {relative:.0%} of the signal)"
         )
+    worst = max(uncertainty.values())
+    if worst > MAX_UNCERTAINTY_MM:
+        warnings.append(
+            f"the joint position is uncertain: 1-sigma {worst:.0f} mm; record more varied "
+            "motion of the joint"
+        )
+    shift = sensitivity["max_shift_mm"]
+    if shift > MAX_CUTOFF_SHIFT_MM:
+        warnings.append(
+            f"the estimate depends strongly on the filter cut-off: it moves by {shift:.0f} mm "
+            f"when fitted with a {sensitivity['cutoffs_hz'][0]:g} or "
+            f"{sensitivity['cutoffs_hz'][1]:g} Hz low-pass"
+        )
     if axis_result is not None:
+        blocking.extend(f"axis: {w}" for w in axis_result.blocking)
         warnings.extend(f"axis: {w}" for w in axis_result.warnings)
 
     settings = {
@@ -264,6 +346,8 @@ def estimate_position(
         "filter": f"Butterworth order {FILTER_ORDER} low-pass, zero phase" if cutoff else None,
         "gdot": "central difference of the filtered gyroscope signal",
         "subsample": step,
+        "select": select,
+        "max_samples": max_samples,
         "subset_fraction": subset,
         "max_iterations": max_iterations,
         "step_tolerance_m": STEP_TOLERANCE,
@@ -278,6 +362,9 @@ def estimate_position(
         rms_residual=rms,
         relative_residual=relative,
         singular_ratio=singular_ratio,
+        uncertainty_mm=uncertainty,
+        excitation=excitation,
+        sensitivity=sensitivity,
         convergence_fraction=fraction,
         reached=reached,
         spread_mm=spread,
@@ -286,9 +373,39 @@ def estimate_position(
         settings=settings,
         samples_used=n,
         window=(win.start / rate, win.stop / rate),
+        time_ranges=win.start / rate + sel.ranges,
         axis=axis_result if joint == "hinge" else None,
+        line=line,
         warnings=warnings,
+        blocking=blocking,
     )
+
+
+def _across(line: np.ndarray) -> np.ndarray:
+    """(6, 5) orthonormal basis of the directions of (o1, o2) across the hinge line."""
+    along = line / np.linalg.norm(line)
+    return np.linalg.svd(np.eye(6) - np.outer(along, along))[0][:, :5]
+
+
+def _cutoff_sensitivity(signals, rate, cutoff, win, step, index, x, line, max_iterations):
+    """Refit from the estimate ``x`` with the cut-off halved and doubled; shifts in mm."""
+    top = MAX_CUTOFF_FRACTION * rate
+    base = cutoff if cutoff else default_cutoff(rate)
+    pair = (base / 2, min(2 * base, top)) if cutoff else (base, min(2 * base, top))
+    shifts = {"o1": [], "o2": []}
+    for c in pair:
+        parts = []
+        for g, a in (signals[:2], signals[2:]):
+            gf = lowpass(g, rate, c)
+            parts += [arr[win][::step][index] for arr in (gf, derivative(gf, rate),
+                                                          lowpass(a, rate, c))]
+        y = _solve(_SpheroidalProblem(*parts, None), x[None, :], max_iterations).x[0]
+        if line is not None:
+            y = closest_point_on_axis(y, line)
+        shifts["o1"].append(float(1000 * np.linalg.norm(y[:3] - x[:3])))
+        shifts["o2"].append(float(1000 * np.linalg.norm(y[3:] - x[3:])))
+    return {"cutoffs_hz": list(pair), "o1_shift_mm": shifts["o1"],
+            "o2_shift_mm": shifts["o2"], "max_shift_mm": max(shifts["o1"] + shifts["o2"])}
 
 
 def closest_point_on_axis(x: np.ndarray, line: np.ndarray) -> np.ndarray:

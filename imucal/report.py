@@ -29,7 +29,16 @@ POSITION_CONVENTION = (
 
 def axis_report(result: AxisResult, *, input_info: dict) -> dict:
     """JSON document for an axis estimate; ``input_info`` describes the recording."""
-    restarts = _restart_entries(result, "j1", "j2")
+    quality = _quality_block(
+        result, "deg", result.uncertainty_deg, result.spread_deg,
+        {
+            "sign": {
+                "method": "joint-plane projection angles vs. j2.g2 - j1.g1 (no integration)",
+                "evidence": result.sign_evidence,
+                "convention": result.settings["sign_convention"],
+            },
+        },
+    )
     doc = {
         "imucal_version": __version__,
         "command": "axis",
@@ -37,28 +46,18 @@ def axis_report(result: AxisResult, *, input_info: dict) -> dict:
         "settings": result.settings,
         "convention": AXIS_CONVENTION,
         "units": {"j1": "unit vector", "j2": "unit vector", "rms_residual": "rad/s",
-                  "cost": "rad/s (RMS residual)", "spread": "deg"},
+                  "cost": "rad/s (RMS residual)", "uncertainty": "deg", "spread": "deg"},
         "j1": result.j1,
         "j2": result.j2,
-        "rms_residual": result.rms_residual,
-        "relative_residual": result.relative_residual,
-        "sign": {
-            "method": "joint-plane projection angles vs. j2.g2 - j1.g1 (no integration)",
-            "evidence": result.sign_evidence,
-        },
-        "identifiability": {"singular_ratio": result.singular_ratio},
-        "convergence": _convergence_block(result, "agreement_deg", "spread_deg",
-                                          result.spread_deg),
-        "confident": result.confident,
-        "warnings": result.warnings,
-        "restarts": restarts,
+        "quality": quality,
+        "convergence": _convergence_block(result, "agreement_deg"),
+        "restarts": _restart_entries(result, "j1", "j2"),
     }
     return clean(doc)
 
 
 def position_report(result: PositionResult, *, input_info: dict) -> dict:
     """JSON document for a joint-position estimate."""
-    restarts = _restart_entries(result, "o1", "o2")
     doc = {
         "imucal_version": __version__,
         "command": "position",
@@ -66,31 +65,60 @@ def position_report(result: PositionResult, *, input_info: dict) -> dict:
         "settings": result.settings,
         "convention": POSITION_CONVENTION,
         "units": {"o1": "m", "o2": "m", "rms_residual": "m/s^2",
-                  "cost": "m/s^2 (RMS residual)", "spread": "mm"},
+                  "cost": "m/s^2 (RMS residual)", "uncertainty": "mm", "spread": "mm"},
         "joint": result.joint,
         "o1": result.o1,
         "o2": result.o2,
+    }
+    if result.line is not None:
+        doc["axis_line"] = {
+            "j1": result.line[:3],
+            "j2": result.line[3:],
+            "description": "every point o1 + lambda*j1, o2 + lambda*j2 fits the data; o1, o2 "
+            "is the point of this line closest to both sensors (lambda = -(o1.j1 + o2.j2)/2)",
+        }
+    doc["quality"] = _quality_block(result, "mm", result.uncertainty_mm, result.spread_mm, {})
+    doc["convergence"] = _convergence_block(result, "agreement_mm")
+    doc["restarts"] = _restart_entries(result, "o1", "o2")
+    return clean(doc)
+
+
+UNCERTAINTY_METHOD = (
+    "1-sigma from the curvature of the cost at the estimate, (J^T J)^-1 S (J^T J)^-1 with "
+    "a Newey-West estimate S of the residuals' covariance (robust to correlated residuals)"
+)
+SPREAD_METHOD = (
+    "RMS distance between the estimate and the results of the restarts that reached it, "
+    "each fitted on a random half of the samples"
+)
+
+
+def _quality_block(result, unit: str, uncertainty: dict, spread: dict, extra: dict) -> dict:
+    """The `quality` block both reports share (docs/quality.md)."""
+    first, second = uncertainty
+    sv = np.asarray(result.singular_values if hasattr(result, "singular_values")
+                    else result.excitation["singular_values_1_s2"])
+    block = {
+        "verdict": result.verdict,
+        "warnings": result.blocking + result.warnings,
         "rms_residual": result.rms_residual,
         "relative_residual": result.relative_residual,
-        "identifiability": {"singular_ratio": result.singular_ratio},
+        f"{first}_uncertainty_{unit}": uncertainty[first],
+        f"{second}_uncertainty_{unit}": uncertainty[second],
+        "uncertainty_method": UNCERTAINTY_METHOD,
+        f"{first}_spread_{unit}": spread[first],
+        f"{second}_spread_{unit}": spread[second],
+        "spread_method": SPREAD_METHOD,
+        "identifiability": {
+            "singular_ratio": result.singular_ratio,
+            "condition_number": 1 / result.singular_ratio if result.singular_ratio > 0 else None,
+            "smallest_singular_value": sv[-1],
+            "excitation": result.excitation,
+        },
+        "sensitivity": result.sensitivity,
     }
-    if result.joint == "hinge" and result.axis is not None:
-        doc["axis_line"] = {
-            "j1": result.axis.j1,
-            "j2": result.axis.j2,
-            "description": "every point o1 + lambda*j1, o2 + lambda*j2 fits the data; o1, o2 "
-            "is the point of this line closest to both sensors",
-        }
-    doc.update(
-        {
-            "convergence": _convergence_block(result, "agreement_mm", "spread_mm",
-                                              result.spread_mm),
-            "confident": result.confident,
-            "warnings": result.warnings,
-            "restarts": restarts,
-        }
-    )
-    return clean(doc)
+    block.update(extra)
+    return block
 
 
 def dumps(doc: dict) -> str:
@@ -147,10 +175,11 @@ def _input_block(info: dict, result) -> dict:
     t0 = out.pop("time_origin", 0.0)
     out["samples_used"] = result.samples_used
     out["window_s"] = [t0 + result.window[0], t0 + result.window[1]]
+    out["time_ranges_s"] = t0 + np.asarray(result.time_ranges)
     return out
 
 
-def _convergence_block(result, tol_key: str, spread_key: str, spread: dict) -> dict:
+def _convergence_block(result, tol_key: str) -> dict:
     it = result.batch.iterations
     return {
         "fraction": result.convergence_fraction,
@@ -158,5 +187,4 @@ def _convergence_block(result, tol_key: str, spread_key: str, spread: dict) -> d
         "iterations_median": float(np.median(it)),
         "iterations_max": int(it.max()),
         "converged_within_limit": float(np.mean(result.batch.converged)),
-        spread_key: spread,
     }

@@ -116,7 +116,8 @@ def test_lowest_cost_wins_even_when_most_restarts_end_elsewhere():
 def test_static_recording_is_flagged():
     rec, _ = simulated(1, motion="static")
     r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate, seed=1)
-    assert any("barely rotate" in w for w in r.warnings)
+    assert any("barely rotate" in w for w in r.blocking)
+    assert r.verdict == "not identifiable"
     assert np.isfinite(r.batch.x).all() and 1.0 <= r.sign_evidence < 1.5
 
 

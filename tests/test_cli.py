@@ -58,7 +58,7 @@ def test_axis_json_on_stdout_matches_truth(recordings):
     assert set(first) == {"initial", "final", "refined", "iterations", "converged",
                           "reached_estimate", "cost"}
     assert len(first["cost"]) == first["iterations"] + 1
-    assert doc["warnings"] == [] and doc["confident"] is True
+    assert doc["quality"]["warnings"] == [] and doc["quality"]["verdict"] == "good"
     assert b"restarts reached the estimate" in run.stderr
 
 
