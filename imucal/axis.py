@@ -37,7 +37,13 @@ from .preprocess import (
     window_slice,
 )
 from .quality import CAREFUL, GOOD, NOT_IDENTIFIABLE, robust_covariance, singular_values
-from .restarts import best_restart, check_restarts, random_subsets, resolve_seed
+from .restarts import (
+    best_restart,
+    check_restarts,
+    competing_agreement,
+    random_subsets,
+    resolve_seed,
+)
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
 
@@ -115,6 +121,7 @@ class AxisResult:
     excitation: dict
     sensitivity: dict
     convergence_fraction: float
+    competing_agreement: float
     reached: np.ndarray
     spread_deg: dict
     batch: BatchResult
@@ -276,6 +283,7 @@ def estimate_axis(
                                       max_iterations)
 
     fraction = float(reached.mean())
+    agreement = competing_agreement(refined.final_cost, reached)
     spread = {}
     for name, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6))):
         ang = _angle_deg(batch.x[reached, sl], (j1 if name == "j1" else j2))
@@ -296,19 +304,18 @@ def estimate_axis(
             f"{singular_ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not "
             "identifiable from this recording; record more varied motion"
         )
-    disagree = fraction < MIN_AGREEING_FRACTION
     poor = relative > MAX_RELATIVE_RESIDUAL
-    if not blocking and disagree and poor:
+    if not blocking and fraction < MIN_AGREEING_FRACTION and poor:
         blocking.append(
             f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge model "
             f"fits poorly (residual {relative:.0%} of the signal): the joint does not move "
             "like a hinge (a spheroidal joint such as the ankle?), so no axis is identifiable"
         )
-    elif disagree:
+    elif agreement < MIN_AGREEING_FRACTION:
         warnings.append(
-            f"restarts disagree: only {fraction:.0%} of them reached the estimate (the lowest "
-            "cost found): the answer depends on the starting point; the joint may have moved "
-            "too little or not as a hinge"
+            f"restarts disagree: of the restarts that fit almost as well as the best, only "
+            f"{agreement:.0%} reached the estimate: the answer depends on the starting point; "
+            "the joint may have moved too little or not as a hinge"
         )
     elif poor:
         warnings.append(
@@ -358,6 +365,7 @@ def estimate_axis(
         excitation=excitation,
         sensitivity=sensitivity,
         convergence_fraction=fraction,
+        competing_agreement=agreement,
         reached=reached,
         spread_deg=spread,
         batch=batch,

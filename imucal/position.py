@@ -41,7 +41,13 @@ from .preprocess import (
     window_slice,
 )
 from .quality import CAREFUL, GOOD, NOT_IDENTIFIABLE, robust_covariance, singular_values
-from .restarts import best_restart, check_restarts, random_subsets, resolve_seed
+from .restarts import (
+    best_restart,
+    check_restarts,
+    competing_agreement,
+    random_subsets,
+    resolve_seed,
+)
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
 
@@ -110,6 +116,7 @@ class PositionResult:
     excitation: dict
     sensitivity: dict
     convergence_fraction: float
+    competing_agreement: float
     reached: np.ndarray
     spread_mm: dict
     batch: BatchResult
@@ -278,6 +285,7 @@ def estimate_position(
     )
 
     fraction = float(reached.mean())
+    agreement = competing_agreement(refined.final_cost, reached)
     spread = {}
     for name, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6))):
         d = np.linalg.norm(subset_finals[reached, sl] - x[sl], axis=1) * 1000
@@ -312,10 +320,10 @@ def estimate_position(
     elif not blocking and weak:
         warnings.append(f"{weak} directions of the point across the hinge axis are barely "
                         "determined")
-    if fraction < MIN_AGREEING_FRACTION:
+    if agreement < MIN_AGREEING_FRACTION:
         warnings.append(
-            f"restarts disagree: only {fraction:.0%} of them reached the estimate (the lowest "
-            "cost found): the answer depends on the starting point"
+            f"restarts disagree: of the restarts that fit almost as well as the best, only "
+            f"{agreement:.0%} reached the estimate: the answer depends on the starting point"
         )
     if relative > MAX_RELATIVE_RESIDUAL:
         warnings.append(
@@ -366,6 +374,7 @@ def estimate_position(
         excitation=excitation,
         sensitivity=sensitivity,
         convergence_fraction=fraction,
+        competing_agreement=agreement,
         reached=reached,
         spread_mm=spread,
         batch=batch,

@@ -183,6 +183,7 @@ def _convergence_block(result, tol_key: str) -> dict:
     it = result.batch.iterations
     return {
         "fraction": result.convergence_fraction,
+        "competing_agreement": result.competing_agreement,
         tol_key: result.settings[tol_key],
         "iterations_median": float(np.median(it)),
         "iterations_max": int(it.max()),

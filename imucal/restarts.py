@@ -67,3 +67,18 @@ def best_restart(
     best = int(np.flatnonzero(finite)[np.argmin(costs[finite])])
     reached = finite & (distance(finals, finals[best]) <= tolerance)
     return best, reached
+
+
+#: A restart whose refined RMS residual is within this factor of the best one fits almost
+#: as well: if it ended elsewhere, the data do not single out one answer. Restarts in
+#: clearly worse local minima (on short simulated circling: 15 x the best RMS) are
+#: rejected by their cost and are no reason to doubt the estimate.
+COMPETING_RMS_FACTOR = 1.25
+
+
+def competing_agreement(costs: np.ndarray, reached: np.ndarray) -> float:
+    """Fraction of the competing restarts (RMS residual within ``COMPETING_RMS_FACTOR`` of
+    the best; ``costs`` are mean squares on all samples) that reached the estimate."""
+    rms = np.sqrt(np.where(np.isfinite(costs), costs, np.inf))
+    competing = rms <= COMPETING_RMS_FACTOR * rms.min()
+    return float(np.sum(reached & competing) / max(np.sum(competing), 1))

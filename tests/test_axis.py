@@ -109,8 +109,10 @@ def test_lowest_cost_wins_even_when_most_restarts_end_elsewhere():
     r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate, seed=1)
     assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
     assert r.refined.final_cost[r.reached].max() <= r.refined.final_cost.min() * 1.001
-    if r.convergence_fraction < 0.8:
-        assert any("restarts disagree" in w for w in r.warnings)
+    # The other minimum fits clearly worse, so it is no reason to doubt the estimate.
+    rms = np.sqrt(r.refined.final_cost)
+    assert r.convergence_fraction < 0.5 and rms[~r.reached].min() > 1.25 * rms.min()
+    assert r.competing_agreement == 1.0 and r.warnings == []
 
 
 def test_static_recording_is_flagged():
