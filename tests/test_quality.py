@@ -1,0 +1,210 @@
+"""The quality report: honest uncertainties, identifiability, signs, sample selection.
+
+Everything is checked against simulated recordings with known truth.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import axis_error_deg, simulated
+from test_cli import imucal
+
+from imucal import estimate_axis, estimate_position
+from imucal.recording import make_recording
+from imucal.simulate import simulate
+from imucal.writers import save_recording
+
+
+def _random_cases(n: int):
+    """n simulated recordings, SNR log-uniform in [30, 300], rate in [40, 200] Hz."""
+    rng = np.random.default_rng(2026)
+    for i in range(n):
+        snr = float(np.exp(rng.uniform(np.log(30), np.log(300))))
+        rate = float(rng.choice([40, 50, 60, 100, 120, 150, 200]))
+        rec, truth = simulate(seed=500 + i, rate=rate, duration=10, snr=snr)
+        yield rec, truth, snr, rate
+
+
+@pytest.fixture(scope="module")
+def random_batch():
+    """Axis and position estimates with their true errors on 60 random cases."""
+    rows = []
+    for rec, truth, _snr, rate in _random_cases(60):
+        th, sh, ft = rec.sensor("thigh"), rec.sensor("shank"), rec.sensor("foot")
+        a = estimate_axis(th.gyr, sh.gyr, rate=rate, seed=1, restarts=20)
+        p = estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=rate, seed=1, restarts=20)
+        knee, ankle = truth["knee"], truth["ankle"]
+        rows.append({
+            "axis_err": axis_error_deg(a.j1, a.j2, knee["j1"], knee["j2"]),
+            "axis_sigma": (a.uncertainty_deg["j1"], a.uncertainty_deg["j2"]),
+            "same_way": np.sign(a.j1 @ knee["j1"]) == np.sign(a.j2 @ knee["j2"]),
+            "pos_err": (1000 * np.linalg.norm(p.o1 - ankle["o1"]),
+                        1000 * np.linalg.norm(p.o2 - ankle["o2"])),
+            "pos_sigma": (p.uncertainty_mm["o1"], p.uncertainty_mm["o2"]),
+            "verdicts": (a.verdict, p.verdict),
+        })
+    return rows
+
+
+def test_axis_uncertainty_is_honest(random_batch):
+    err = np.array([r["axis_err"] for r in random_batch])
+    sigma = np.array([r["axis_sigma"] for r in random_batch])
+    within = np.all(err < 3 * sigma, axis=1)
+    assert within.mean() >= 0.95, within.mean()
+    # ... and not uselessly wide: the median error is a sizeable part of sigma
+    assert np.median(err / sigma) > 0.3
+
+
+def test_position_uncertainty_is_honest(random_batch):
+    err = np.array([r["pos_err"] for r in random_batch])
+    sigma = np.array([r["pos_sigma"] for r in random_batch])
+    within = np.all(err < 3 * sigma, axis=1)
+    assert within.mean() >= 0.95, within.mean()
+    assert np.median(err / sigma) > 0.3
+
+
+def test_relative_sign_is_right_in_every_case(random_batch):
+    assert all(r["same_way"] for r in random_batch)
+    assert all(max(r["axis_err"]) < 2 for r in random_batch)
+
+
+def test_good_recordings_raise_no_warning(random_batch):
+    verdicts = [v for r in random_batch for v in r["verdicts"]]
+    assert verdicts.count("good") >= 0.95 * len(verdicts), verdicts
+
+
+def test_uncertainty_shrinks_as_the_recording_grows():
+    sigmas = []
+    for duration in (8, 30):
+        rec, _ = simulate(seed=3, rate=100, duration=duration, snr=50)
+        th, sh, ft = rec.sensor("thigh"), rec.sensor("shank"), rec.sensor("foot")
+        a = estimate_axis(th.gyr, sh.gyr, rate=100, seed=1, restarts=10)
+        p = estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=100, seed=1, restarts=10)
+        sigmas.append([a.uncertainty_deg["j1"], a.uncertainty_deg["j2"],
+                       p.uncertainty_mm["o1"], p.uncertainty_mm["o2"]])
+    short, long = np.array(sigmas)
+    # about 1/sqrt(number of samples): 3000 against 800 samples
+    assert np.all(long < 0.75 * short), (short, long)
+
+
+@pytest.mark.parametrize(
+    ("motion", "pair", "phrase"),
+    [
+        ("rigid-knee", "thigh,shank", "barely bent"),
+        ("static", "thigh,shank", "barely rotate"),
+        ("circling", "shank,foot", "does not move like a hinge"),
+    ],
+)
+def test_axis_refuses_what_the_data_cannot_identify(tmp_path, motion, pair, phrase):
+    rec = tmp_path / f"{motion}.h5"
+    assert imucal("simulate", rec, "--seed", 1, "--motion", motion).returncode == 0
+    run = imucal("axis", rec, "--sensors", pair, "--seed", 1, "--out", tmp_path / "a.json")
+    assert run.returncode == 1
+    err = run.stderr.decode()
+    assert phrase in err and "--force" in err and "Traceback" not in err
+    assert run.stdout == b"" and not (tmp_path / "a.json").exists()
+
+    forced = imucal("axis", rec, "--sensors", pair, "--seed", 1, "--force")
+    assert forced.returncode == 0
+    quality = json.loads(forced.stdout)["quality"]
+    assert quality["verdict"] == "not identifiable"
+    assert any(phrase in w for w in quality["warnings"])
+
+
+def test_position_refuses_a_rigid_joint(tmp_path):
+    rec = tmp_path / "rigid.h5"
+    assert imucal("simulate", rec, "--seed", 1, "--motion", "rigid-knee").returncode == 0
+    run = imucal("position", rec, "--sensors", "thigh,shank", "--seed", 1)
+    assert run.returncode == 1 and b"barely moved" in run.stderr and run.stdout == b""
+
+
+def test_rigid_joint_identifiability_numbers():
+    rec, _ = simulated(1, motion="rigid-knee")
+    r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate,
+                      seed=1, restarts=10)
+    assert r.excitation["flexion_rate_rms_deg_s"] < 5 and r.verdict == "not identifiable"
+    good, _ = simulated(1)
+    g = estimate_axis(good.sensor("thigh").gyr, good.sensor("shank").gyr, rate=good.rate,
+                      seed=1, restarts=10)
+    assert g.excitation["flexion_rate_rms_deg_s"] > 50 and g.verdict == "good"
+    assert g.sensitivity["max_shift_deg"] < 0.5
+
+
+def test_line_ambiguity_is_a_warning_with_the_reason():
+    rec, _ = simulated(1)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_position(th.gyr, th.acc, sh.gyr, sh.acc, rate=rec.rate, seed=1, restarts=10)
+    assert r.verdict == "use with care"
+    assert any("only known along a line" in w for w in r.warnings)
+
+
+@pytest.mark.parametrize("sign", ["+x", "-x", "+y", "-z"])
+def test_sign_convention_pins_j1_and_keeps_j2_aligned(sign):
+    rec, truth = simulated(2)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(th.gyr, sh.gyr, rate=rec.rate, seed=1, restarts=10, sign=sign)
+    k = "xyz".index(sign[1])
+    assert (r.j1[k] > 0) == (sign[0] == "+")
+    assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
+
+
+def test_bad_sign_convention_is_a_usage_error(tmp_path):
+    run = imucal("axis", "sample_data/circling.h5", "--sign", "x+")
+    assert run.returncode == 2 and b"sign must be" in run.stderr
+
+
+def _with_still_stretch(seed: int, still_s: float):
+    """A simulated recording with ``still_s`` seconds of standing still in the middle."""
+    rec, truth = simulated(seed)
+    n_still = int(still_s * rec.rate)
+    half = rec.n_samples // 2
+    sensors = {}
+    for name, s in rec.sensors.items():
+        still_acc = np.tile(s.acc[half], (n_still, 1))
+        sensors[name] = {
+            "gyr": np.concatenate([s.gyr[:half], np.zeros((n_still, 3)), s.gyr[half:]]),
+            "acc": np.concatenate([s.acc[:half], still_acc, s.acc[half:]]),
+        }
+    return make_recording(sensors, rate=rec.rate, source="still.h5"), truth, half / rec.rate
+
+
+def test_selection_drops_still_stretches_and_reports_the_ranges():
+    rec, truth, t_still = _with_still_stretch(1, 30.0)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(th.gyr, sh.gyr, rate=rec.rate, seed=1, restarts=10)
+    assert r.time_ranges.shape == (2, 2)
+    assert abs(r.time_ranges[0, 1] - t_still) < 0.3
+    assert abs(r.time_ranges[1, 0] - (t_still + 30)) < 0.3
+    # the 0.2 s energy window reaches 0.1 s into the still stretch on each side
+    assert r.samples_used <= 2000 + 20 and r.verdict == "good"
+    assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
+    everything = estimate_axis(th.gyr, sh.gyr, rate=rec.rate, seed=1, restarts=10,
+                               select=False)
+    assert everything.samples_used == rec.n_samples and len(everything.time_ranges) == 1
+
+
+def test_selection_thins_to_max_samples_and_the_window_wins():
+    rec, _ = simulated(1)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(th.gyr, sh.gyr, rate=rec.rate, seed=1, restarts=10, max_samples=500,
+                      start=5.0, end=15.0)
+    assert r.samples_used <= 500
+    assert r.time_ranges.min() >= 5.0 - 1e-9 and r.time_ranges.max() <= 15.0 + 1e-9
+
+
+def test_cli_reports_time_ranges_and_the_verdict(tmp_path):
+    rec, _, _ = _with_still_stretch(1, 20.0)
+    path = tmp_path / "still.h5"
+    save_recording(rec, path)
+    run = imucal("axis", path, "--seed", 1, "--restarts", 10)
+    assert run.returncode == 0, run.stderr
+    doc = json.loads(run.stdout)
+    assert len(doc["input"]["time_ranges_s"]) == 2
+    q = doc["quality"]
+    assert q["verdict"] == "good" and q["warnings"] == []
+    assert q["j1_uncertainty_deg"] > 0 and q["j1_spread_deg"] >= 0
+    assert q["identifiability"]["condition_number"] >= 1
+    assert b"verdict: good" in run.stderr
