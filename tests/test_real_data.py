@@ -39,3 +39,40 @@ def test_ankle_position_on_real_data(real_recording, side):
     assert np.isfinite(r.batch.x).all() and np.isfinite(r.refined.x).all()
     # a sensor strapped to a shank or foot sits within half a metre of the ankle
     assert 0.02 < np.linalg.norm(r.o1) < 0.5 and 0.02 < np.linalg.norm(r.o2) < 0.5
+
+
+def qmt_axis(rec, first, second, start, end):
+    """One start of qmt's Olsson et al. (2020) estimator, gyroscope residual only."""
+    import contextlib
+    import io
+
+    import qmt  # a dev dependency (pyproject.toml), never a runtime one
+    sl = slice(int(start * rec.rate), int(end * rec.rate))
+    a, b = rec.sensor(first), rec.sensor(second)
+    with contextlib.redirect_stdout(io.StringIO()):  # qmt prints every iteration
+        j1, j2 = qmt.jointAxisEstHingeOlsson(a.acc[sl], b.acc[sl], a.gyr[sl], b.gyr[sl],
+                                             estSettings={"wa": 0.0, "wg": 1.0})[:2]
+    return np.ravel(j1), np.ravel(j2)
+
+
+def _sign_free_deg(a, b):
+    return float(np.degrees(np.arccos(min(1.0, abs(a @ b) / np.linalg.norm(b)))))
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_knee_axis_agrees_with_qmt_on_the_first_55_s(real_recording, side):
+    rec = real_recording
+    thigh, shank = f"{side}_thigh", f"{side}_shank"
+    r = estimate_axis(rec.sensor(thigh).gyr, rec.sensor(shank).gyr, rate=rec.rate, seed=1,
+                      end=55.0)
+    q1, q2 = qmt_axis(rec, thigh, shank, 0.0, 55.0)
+    assert _sign_free_deg(r.j1, q1) < 3 and _sign_free_deg(r.j2, q2) < 3
+    assert r.verdict != "not identifiable"
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_knee_in_the_vigorous_part_gets_a_poor_fit_warning(real_recording, side):
+    rec = real_recording
+    r = estimate_axis(rec.sensor(f"{side}_thigh").gyr, rec.sensor(f"{side}_shank").gyr,
+                      rate=rec.rate, seed=1, start=55.0)
+    assert any("fits poorly" in w for w in r.warnings)
