@@ -84,7 +84,8 @@ class AxisResult:
     Attributes
     ----------
     j1, j2 : (3,) unit hinge axis in the first / second sensor's frame, pointing the same
-        physical way (see ``sign_evidence``); overall sign: j1's largest component > 0.
+        physical way (see ``sign_evidence``); overall sign: j1's largest component > 0,
+        or as ``settings["sign_convention"]`` pins it.
     rms_residual : RMS of e(t) over all used samples at the estimate, rad/s.
     relative_residual : ``rms_residual`` over the RMS of the compared projections
         |g x j|, dimensionless (0 = perfect hinge).
@@ -93,9 +94,18 @@ class AxisResult:
     singular_ratio : smallest / largest singular value of the Jacobian of eq. (1) at the
         estimate (near 0: some direction of (j1, j2) is not determined by the data, e.g.
         a joint that did not move).
+    singular_values : singular values of that Jacobian over sqrt(samples), rad/s per rad.
+    uncertainty_deg : {"j1", "j2"} 1-sigma angle uncertainty from the curvature of the
+        cost, robust to correlated residuals (:func:`imucal.quality.robust_covariance`).
+    excitation : RMS flexion rate j2.g2 - j1.g1 and RMS joint-plane rate |g_i x j_i| of
+        each segment over the samples used, deg/s.
+    sensitivity : cut-offs of two refits (halved and doubled; without a filter: 1 and 2
+        times the default) and the angles the axes moved, deg.
     convergence_fraction : fraction of restarts that reached the estimate: whose final
         value, refined on all samples, lies within ``AGREEMENT_DEG`` of it. The estimate
         is the refined result with the lowest cost.
+    competing_agreement : the same fraction among restarts whose RMS residual is within
+        1.25 x the best (clearly worse local minima do not count).
     reached : (R,) which restarts did.
     spread_deg : RMS angle between the agreeing restarts' subset results and the
         estimate, per axis, deg: how much the answer depends on the data.
@@ -103,10 +113,13 @@ class AxisResult:
         iterations).
     refined : each restart's result refined on all samples; the estimate is the one with
         the lowest cost.
-    warnings : plain-language reasons not to trust the estimate; empty when fine.
+    warnings : plain-language reasons to use the estimate with care; empty when fine.
+    blocking : reasons the data cannot identify the axis at all (``verdict`` "not
+        identifiable"; the command line exits 1).
     settings : every setting used, including the seed.
-    samples_used : samples after window and subsampling.
+    samples_used : samples after window, subsampling and informative-sample selection.
     window : (start, end) in seconds from the first sample.
+    time_ranges : (K, 2) stretches the selection used, s from the first sample.
     gyr1, gyr2 : the filtered, windowed, subsampled rates used (M, 3), rad/s.
     """
 
@@ -204,6 +217,12 @@ def estimate_axis(
         first so the window edges have no filter transients.
     max_iterations
         Gauss-Newton iteration limit per restart.
+    sign
+        Overall sign convention: "auto" (j1's largest component positive) or "+x", "-x",
+        "+y", "-y", "+z", "-z" (that component of j1 positive). j2 follows j1.
+    select, max_samples
+        Informative-sample selection (:mod:`imucal.selection`): drop still stretches and
+        thin to at most ``max_samples`` (None: no cap). ``select=False`` fits every sample.
     """
     g1, g2 = check_pair(gyr1, gyr2)
     rate = check_rate(rate)

@@ -93,7 +93,14 @@ class PositionResult:
     rms_residual : RMS of e(t) at the estimate, m/s^2.
     relative_residual : ``rms_residual`` over the RMS of |a_i - Gamma_i(o_i)|.
     singular_ratio : smallest / largest singular value of the Jacobian at the estimate
-        (near 0: the position is only known along a line).
+        (near 0: the position is only known along a line); for a hinge, of the directions
+        across the axis.
+    uncertainty_mm : {"o1", "o2"} 1-sigma from the curvature of the cost (for a hinge:
+        across the axis line), mm.
+    excitation : RMS angular rate of each sensor, deg/s, and the Jacobian's singular
+        values over sqrt(samples), 1/s^2.
+    sensitivity : cut-offs of two refits (halved and doubled) and the shifts, mm.
+    competing_agreement : as in :class:`imucal.axis.AxisResult`.
     convergence_fraction : fraction of restarts whose final value, refined on all samples,
         lies within ``AGREEMENT_M`` of the estimate, the refined result with the lowest
         cost (for a hinge: after moving each to its closest point on the axis).
@@ -102,8 +109,10 @@ class PositionResult:
         per vector, mm: how much the answer depends on the data.
     batch : the restarts on their subsets.
     refined : each restart's result refined on all samples.
-    axis : for ``joint="hinge"``, the axis used (j1, j2 aligned), else None.
-    warnings, settings, samples_used, window : as in :class:`imucal.axis.AxisResult`.
+    axis : for ``joint="hinge"`` with an estimated axis, its :class:`AxisResult`.
+    line : for ``joint="hinge"``, the (j1, j2) used, else None.
+    warnings, blocking, settings, samples_used, window, time_ranges : as in
+        :class:`imucal.axis.AxisResult`.
     """
 
     o1: np.ndarray
@@ -186,7 +195,7 @@ def estimate_position(
         some low-pass is needed against the noise the difference amplifies.
     subsample
         Use every k-th sample after filtering; None: about 2.5 samples per cut-off period.
-    restarts, seed, subset, start, end, max_iterations
+    restarts, seed, subset, start, end, max_iterations, select, max_samples
         As in :func:`imucal.estimate_axis`. Initial offsets are uniform in the box
         [-0.5, 0.5]^3 m per sensor.
     joint
