@@ -15,13 +15,48 @@ Library use::
 Units everywhere: rad/s, m/s^2, Hz, s, m.
 """
 
-from .axis import AxisResult, estimate_axis
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from .errors import ImucalError, InputError, NotIdentifiableError
-from .loaders import load_recording
-from .position import PositionResult, estimate_position
-from .recording import Recording, SensorData, make_recording
 
 __version__ = "0.1.0"
+
+# The public names below load their modules on first use (PEP 562): the command line
+# imports this package for ``__version__`` alone, and eager imports here would make
+# every command pay for scipy.ndimage, h5py and the estimators before it parses its
+# arguments (docs/performance.md).
+_LAZY = {
+    "AxisResult": ".axis",
+    "estimate_axis": ".axis",
+    "PositionResult": ".position",
+    "estimate_position": ".position",
+    "load_recording": ".loaders",
+    "Recording": ".recording",
+    "SensorData": ".recording",
+    "make_recording": ".recording",
+}
+
+if TYPE_CHECKING:  # static analysers and IDEs see ordinary imports
+    from .axis import AxisResult, estimate_axis
+    from .loaders import load_recording
+    from .position import PositionResult, estimate_position
+    from .recording import Recording, SensorData, make_recording
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'imucal' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
 
 __all__ = [
     "AxisResult",

@@ -19,10 +19,21 @@ def check_writable(path: str | Path) -> Path:
     if path.is_dir():
         raise InputError(f"{path}: is a folder; give a file name")
     folder = path.parent if str(path.parent) else Path(".")
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"{path}: '{folder}' is a file, not a folder")
     if not folder.is_dir():
         raise InputError(f"{path}: folder '{folder}' does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise InputError(f"{path}: folder '{folder}' is not writable")
+    # os.access trusts permission bits; root, read-only mounts, ACLs and network file
+    # systems can disagree with them, so create (and remove) a real file to be sure.
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=f".{path.name}.", suffix=".probe"):
+            pass
+    except OSError as err:
+        raise InputError(
+            f"{path}: folder '{folder}' is not writable ({err.strerror or err})"
+        ) from None
     return path
 
 

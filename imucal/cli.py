@@ -7,11 +7,11 @@ Exit status: 0 success, 2 bad input or usage, 1 the data cannot answer.
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from . import __version__
@@ -40,6 +40,17 @@ app = typer.Typer(
 # Options shared by `axis` and `position`.
 Rec = Annotated[str, typer.Argument(metavar="REC", show_default=False,
                                     help="Recording (.h5, .hdf5 or .csv); - reads CSV from stdin.")]
+Recs = Annotated[list[str], typer.Argument(
+    metavar="REC...", show_default=False,
+    help="Recording(s) (.h5, .hdf5 or .csv); - reads CSV from stdin. Several RECs: one JSON "
+    "line per recording, in order (see --jobs).")]
+Jobs = Annotated[int, typer.Option(
+    "--jobs", "-j", min=0, help="With several RECs: recordings processed at once, in separate "
+    "processes (0: one per CPU core). Output is JSON Lines in input order, one object "
+    "{file, exit_code, error, warnings, result} per recording; a failed recording gets an "
+    "error line and the others go on; exit status: the highest of the recordings' codes "
+    "(0 ok, 1 not identifiable, 2 bad input, 3 internal error). --out writes the lines "
+    "to a file (complete or not at all); --plot needs a single REC.")]
 Restarts = Annotated[int, typer.Option(min=1, help="Random restarts (initial values and data "
                                        "subsets).")]
 Seed = Annotated[int | None, typer.Option(min=0, help="Random seed; default: a fresh one, "
@@ -86,10 +97,12 @@ Force = Annotated[bool, typer.Option(
         "imucal axis walk.h5 --sensors left_thigh,left_shank --start 0 --end 55 \\",
         "    --out knee.json --plot knee.png",
         "cat rec.csv | imucal axis - --rate 100 --gyr-units deg/s",
+        "imucal axis study/*.h5 --jobs 4 --seed 1 --out knees.jsonl   # a study, 4 processes",
+        "jq -c 'select(.exit_code == 0) | [.file, .result.j1]' knees.jsonl",
     )
 )
 def axis(
-    rec: Rec,
+    rec: Recs,
     sensors: Annotated[str, typer.Option(help="First (proximal) and second sensor, comma "
                                          "separated.")] = "thigh,shank",
     restarts: Restarts = 100,
@@ -110,17 +123,25 @@ def axis(
         "+y, -y, +z, -z (that component of j1 is positive). j2 always points the same "
         "physical way as j1.")] = "auto",
     force: Force = False,
+    jobs: Jobs = 1,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
     """Hinge joint axis: j1 in the first sensor's frame, j2 in the second's (unit vectors)."""
+    params = dict(locals())  # every option, for the per-recording runs of a study
     with _errors(debug):
+        if len(rec) > 1:
+            from .batch import run_study
+
+            raise typer.Exit(run_study("axis", params))
+        rec = rec[0]
         from .axis import estimate_axis
 
         def estimate(s1, s2, sample_rate, **window):
             return estimate_axis(s1.gyr, s2.gyr, rate=sample_rate, restarts=restarts, seed=seed,
                                  cutoff=cutoff, subsample=subsample, sign=sign,
-                                 select=select, max_samples=max_samples, **window)
+                                 select=select, max_samples=_max_samples(max_samples),
+                                 **window)
 
         _run(estimate, "axis", rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
              quiet, force)
@@ -131,10 +152,11 @@ def axis(
         "imucal position walk.h5 | jq .o1",
         "imucal position walk.h5 --sensors thigh,shank --joint hinge",
         "imucal position walk.h5 --out ankle.json --plot ankle.png",
+        "imucal position study/*.h5 --jobs 0 > ankles.jsonl   # one process per core",
     )
 )
 def position(
-    rec: Rec,
+    rec: Recs,
     sensors: Annotated[str, typer.Option(help="First (proximal) and second sensor, comma "
                                          "separated.")] = "shank,foot",
     joint: Annotated[str, typer.Option(help="spheroidal (ankle) or hinge (knee: reports the "
@@ -154,11 +176,18 @@ def position(
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
     force: Force = False,
+    jobs: Jobs = 1,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
     """Joint centre: o1, o2 = vectors from the joint centre to each sensor, own frame, m."""
+    params = dict(locals())  # every option, for the per-recording runs of a study
     with _errors(debug):
+        if len(rec) > 1:
+            from .batch import run_study
+
+            raise typer.Exit(run_study("position", params))
+        rec = rec[0]
         from .position import JOINTS, estimate_position
 
         if joint not in JOINTS:
@@ -168,7 +197,7 @@ def position(
             return estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, rate=sample_rate,
                                      restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
                                      subsample=subsample, select=select,
-                                     max_samples=max_samples, **window)
+                                     max_samples=_max_samples(max_samples), **window)
 
         _run(estimate, "position", rec, sensors, start, end, out, plot, rate, gyr_units,
              acc_units, quiet, force)
@@ -210,7 +239,7 @@ def simulate(
         check_writable(out)
         recording, truth = run_simulation(
             seed=seed, rate=rate, duration=duration,
-            snr=None if np.isinf(snr) else snr, motion=motion,
+            snr=None if math.isinf(snr) else snr, motion=motion,
         )
         save_recording(recording, out)
         write_text_atomic(truth_path, json.dumps(clean(truth), indent=2) + "\n")
@@ -295,7 +324,17 @@ def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units
         _summary(doc, names)
 
 
+def _max_samples(value: int | None) -> int:
+    """--max-samples left out means the estimators' default cap; their None means no cap,
+    which on a 1 h recording puts all 360 000 samples into every restart."""
+    from .selection import MAX_SAMPLES
+
+    return MAX_SAMPLES if value is None else value
+
+
 def _describe(recording) -> dict:
+    import numpy as np
+
     from .preprocess import STILL_RATE_DEG_S, rms_rate_deg_s
 
     sensors = {}

@@ -27,13 +27,16 @@ import io
 import re
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import h5py
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:  # pandas is imported where CSV is parsed: it costs ~0.2 s of start-up
+    import pandas as pd
 
 from .errors import InputError
-from .recording import Recording, make_recording
+from .recording import Recording, check_units, make_recording
 
 __all__ = ["load_recording", "HDF5_SIGNATURE"]
 
@@ -120,6 +123,9 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
             parsed = _guarded(_parse_csv, data, source, what="CSV")
 
     sensors, file_rate, time, units, warnings = parsed
+    for kind, unit in (("gyr", gyr_units), ("acc", acc_units)):
+        if unit is not None:
+            check_units(kind, unit, f"{source}: --{kind}-units ({kind}_units=)")
     for name in units:
         if gyr_units is not None:
             units[name]["gyr"] = gyr_units
@@ -249,6 +255,8 @@ def _starts_with_signature(file) -> bool:
 def _numeric_dataset(obj, what: str) -> np.ndarray:
     if not isinstance(obj, h5py.Dataset):
         raise InputError(f"{what} is a {type(obj).__name__}, expected a dataset")
+    if obj.dtype.kind in "cb":  # a float cast would drop imaginary parts / turn flags into 0, 1
+        raise InputError(f"{what} is not real numbers (dtype {obj.dtype})")
     try:
         return np.asarray(obj[()], dtype=np.float64)
     except (TypeError, ValueError):
@@ -276,6 +284,8 @@ def _attr_text(value) -> str | None:
 
 def _parse_csv(data: bytes, source: str):
     """Return (sensors, None, time, units, warnings) from the bytes of a CSV file."""
+    import pandas as pd
+
     if data.startswith(HDF5_SIGNATURE):
         raise InputError(f"{source}: not a CSV file; it looks like an HDF5 file, use a .h5 name")
     if b"\x00" in data:
@@ -398,6 +408,8 @@ def _numeric_column(table: pd.DataFrame, index: int, name: str, source: str) -> 
 
     Rows are numbered as in the file: the header is row 1, the first data row is row 2.
     """
+    import pandas as pd
+
     column = table[index]
     if pd.api.types.is_numeric_dtype(column.dtype):
         return column.to_numpy(dtype=np.float64)

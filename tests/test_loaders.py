@@ -1,9 +1,11 @@
-"""Tests of imucal.loaders.load_recording and imucal.writers.save_recording."""
+"""Tests of loading (imucal.loaders, imucal.recording), writing (imucal.writers, imucal.atomic)
+and of what the command line answers to every kind of bad input (issue 4's case list)."""
 
 from __future__ import annotations
 
 import io
 import os
+import subprocess
 import sys
 from pathlib import Path
 from types import SimpleNamespace
@@ -360,6 +362,18 @@ def test_hdf5_group_without_acc(tmp_path):
     expect_error(path, "sensor 't' has no 'acc' data")
 
 
+def test_hdf5_sensor_name_that_is_not_utf8(tmp_path):
+    ones = np.ones((N, 3))
+    path = tmp_path / "latin1.h5"
+    with h5py.File(path, "w") as h5:
+        h5.attrs["sample_rate"] = RATE
+        for kind in ("gyr", "acc"):
+            h5[b"b\xe9b\xe9/" + kind.encode()] = ones
+    rec = load_recording(path)
+    assert list(rec.sensors) == ["b\u00e9b\u00e9"]  # read as Latin-1, so it can be typed
+    assert rec.sensor("bébé").gyr.shape == (N, 3)
+
+
 def test_hdf5_groups_without_data_are_skipped(tmp_path):
     ones = np.ones((N, 3))
     path = write_h5(tmp_path / "g.h5", {"s": {"gyr": ones, "acc": ones}, "meta": {}})
@@ -454,12 +468,17 @@ def test_csv_row_with_extra_fields(tmp_path):
     expect_error(path, "not a valid CSV file")
 
 
-def test_csv_nan_text_is_reported_as_non_finite(tmp_path):
-    rows = good_rows()
-    rows[3][4] = "nan"
+def test_csv_nan_text_is_read_as_a_non_finite_number(tmp_path):
+    rows = good_rows(100)
+    rows[40][4] = "nan"  # one sample of a 100 Hz recording: a short gap, interpolated
     path = tmp_path / "nan.csv"
     path.write_text(csv_text(rows))
-    expect_error(path, "non-finite")
+    rec = load_recording(path)
+    assert any("1 non-finite sample" in w for w in rec.warnings)
+    rows = good_rows(5)
+    rows[3][4] = "nan"  # one sample in five is too large a share to repair
+    path.write_text(csv_text(rows))
+    expect_error(path, "1 non-finite samples (NaN or Inf), 20.0% of 5")
 
 
 def test_csv_header_only(tmp_path):
@@ -509,3 +528,522 @@ def test_units_that_look_wrong_give_warnings_with_evidence(tmp_path):
         units={"thigh": {"gyr": "deg/s", "acc": "g"}},
     )
     assert fine.warnings == []
+
+
+# ------------------------------------------------------------- issue 4: the case list
+# Each case of "Bad input never crashes, never lies, never loses a file" has a test here
+# (or, where noted, above); docs/errors.md lists the messages.
+
+
+def sensor_pair(n=N, seed=0, names=("thigh", "shank")):
+    rng = np.random.default_rng(seed)
+    return {name: {"gyr": rng.normal(0, 2, (n, 3)), "acc": rng.normal(0, 9, (n, 3))}
+            for name in names}
+
+
+def test_missing_sensor_names_the_sensors_that_exist(tmp_path):
+    path = write_h5(tmp_path / "s.h5", sensor_pair(names=("left_thigh", "left_shank", "pelvis")))
+    rec = load_recording(path)
+    with pytest.raises(InputError) as info:
+        rec.sensor("left_knee")
+    message = str(info.value)
+    assert str(path) in message and "no sensor 'left_knee'" in message
+    # files without creation order list their groups alphabetically
+    assert "sensors in this file: left_shank, left_thigh, pelvis" in message
+    with pytest.raises(InputError, match="did you mean 'left_thigh'"):
+        rec.sensor("left_thihg")
+
+
+@pytest.mark.parametrize(("present", "missing"), [("gyr", "acc"), ("acc", "gyr")])
+def test_sensor_with_only_gyr_or_only_acc(tmp_path, present, missing):
+    data = sensor_pair()
+    del data["shank"][missing]
+    path = write_h5(tmp_path / "half.h5", data)
+    message = expect_error(path, f"sensor 'shank' has no '{missing}' data (only '{present}')")
+    assert "needs both gyr and acc" in message
+
+
+@pytest.mark.parametrize(
+    ("shape", "phrase"),
+    [
+        ((N, 2), f"has shape ({N}, 2), expected (N, 3): one row per sample"),
+        ((N,), f"has shape ({N},), expected (N, 3)"),
+        ((N, 3, 1), f"has shape ({N}, 3, 1), expected (N, 3)"),
+        ((3, N), f"has shape (3, {N}): looks transposed, expected (N, 3)"),
+        ((N, 4), f"has shape ({N}, 4), expected (N, 3)"),
+    ],
+)
+def test_wrong_shapes_are_named(tmp_path, shape, phrase):
+    data = sensor_pair()
+    data["shank"]["gyr"] = np.ones(shape)
+    path = write_h5(tmp_path / "shape.h5", data)
+    message = expect_error(path, phrase)
+    assert "sensor 'shank' gyr" in message
+
+
+@pytest.mark.parametrize("dtype", [np.complex128, np.bool_])
+def test_complex_or_boolean_data_is_refused(tmp_path, dtype):
+    data = sensor_pair()
+    data["thigh"]["acc"] = np.ones((N, 3), dtype=dtype)
+    expect_error(write_h5(tmp_path / "c.h5", data), "sensor 'thigh' acc is not real numbers")
+
+
+def test_sensors_of_different_lengths(tmp_path):
+    data = sensor_pair()
+    data["shank"] = sensor_pair(n=N - 7)["shank"]
+    message = expect_error(write_h5(tmp_path / "len.h5", data), "sensors have different lengths")
+    assert f"thigh: {N}" in message and f"shank: {N - 7}" in message
+
+
+def test_gyr_and_acc_of_different_lengths(tmp_path):
+    data = sensor_pair()
+    data["shank"]["acc"] = data["shank"]["acc"][:-1]
+    expect_error(write_h5(tmp_path / "len.h5", data),
+                 f"sensor 'shank' has {N} gyr samples but {N - 1} acc samples")
+
+
+def test_hdf5_without_sample_rate_or_time(tmp_path):
+    path = write_h5(tmp_path / "norate.h5", sensor_pair(), rate=None)
+    message = expect_error(path, "no sample rate and no time stamps")
+    assert "--rate" in message
+    assert load_recording(path, rate=50).rate == 50.0  # the advice works
+
+
+@pytest.mark.parametrize("bad", [0.0, -100.0, np.nan, np.inf, "fast"])
+def test_bad_sample_rate_attribute(tmp_path, bad):
+    path = write_h5(tmp_path / "rate.h5", sensor_pair(), rate=bad)
+    phrase = "is not a number of Hz" if isinstance(bad, str) else "must be a positive number"
+    expect_error(path, phrase)
+
+
+@pytest.mark.parametrize("bad", [0, -1, float("nan"), float("inf")])
+def test_bad_rate_argument(tmp_path, bad):
+    path = tmp_path / "r.csv"
+    path.write_text(csv_text([row[1:] for row in good_rows()], header=HEADER[5:]))
+    expect_error(path, "sample rate must be a positive number of Hz", rate=bad)
+
+
+@pytest.mark.parametrize(
+    ("index", "value", "phrase"),
+    [
+        (50, 0.49, "it repeats a value at index 50 (t[49]=0.49 s, t[50]=0.49 s)"),
+        (50, 0.40, "it goes backwards at index 50 (t[49]=0.49 s, t[50]=0.4 s)"),
+        (0, 5.00, "it goes backwards at index 1"),
+    ],
+)
+def test_time_not_strictly_increasing(tmp_path, index, value, phrase):
+    time = np.arange(N) / RATE
+    time[index] = value
+    path = write_h5(tmp_path / "t.h5", sensor_pair(), rate=None, time=time)
+    message = expect_error(path, "'time' is not strictly increasing")
+    assert phrase in message
+    assert "remove duplicated or out-of-order rows" in message
+
+
+def test_time_with_nan(tmp_path):
+    time = np.arange(N) / RATE
+    time[7] = np.nan
+    path = write_h5(tmp_path / "t.h5", sensor_pair(), rate=None, time=time)
+    expect_error(path, "'time' contains NaN or Inf (first at index 7)")
+
+
+def test_csv_with_duplicated_row(tmp_path):
+    rows = good_rows(10)
+    rows.insert(4, list(rows[3]))
+    path = tmp_path / "dup.csv"
+    path.write_text(csv_text(rows))
+    expect_error(path, "it repeats a value at index 4")
+
+
+def test_jitter_within_the_documented_tolerance_is_accepted(tmp_path):
+    from imucal.recording import TIME_JITTER_TOLERANCE
+
+    rng = np.random.default_rng(2)
+    step = 1.0 / RATE
+    # every interval within 0.9 of the tolerance of the nominal one
+    dt = step * (1 + rng.uniform(-0.9, 0.9, N - 1) * TIME_JITTER_TOLERANCE / 2)
+    time = np.concatenate([[0.0], np.cumsum(dt)])
+    rec = load_recording(write_h5(tmp_path / "j.h5", sensor_pair(), rate=None, time=time))
+    np.testing.assert_array_equal(rec.time, time)  # kept as recorded, not resampled
+    assert rec.rate == pytest.approx(1.0 / np.median(dt))
+
+
+@pytest.mark.parametrize("kind", ["dropped packets", "jitter"])
+def test_irregular_sampling_is_refused_not_resampled(tmp_path, kind):
+    time = np.arange(N) / RATE
+    if kind == "dropped packets":
+        time[120:] += 3 / RATE  # three samples missing after t = 1.19 s
+        where = "the interval of 0.04 s after t=1.19 s"
+    else:
+        time[120] += 0.3 / RATE  # one stamp 30 % late
+        where = "the interval of 0.013 s after t=1.19 s"
+    path = write_h5(tmp_path / "irr.h5", sensor_pair(), rate=None, time=time)
+    message = expect_error(path, "irregular sampling")
+    assert where in message
+    assert "by more than 10%" in message and "imucal does not resample" in message
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "phrase"),
+    [
+        ({"gyr_units": "dps"}, "--gyr-units (gyr_units=): unknown units 'dps' (did you mean "
+                               "'deg/s'?); use one of rad/s, deg/s"),
+        ({"acc_units": "m/s2"}, "--acc-units (acc_units=): unknown units 'm/s2' (did you mean "
+                                "'m/s^2'?)"),
+        ({"acc_units": "G"}, "unknown units 'G' (did you mean 'g'?)"),
+        ({"gyr_units": "rpm"}, "unknown units 'rpm'; use one of rad/s, deg/s"),
+    ],
+)
+def test_unknown_unit_arguments(tmp_path, kwargs, phrase):
+    path = tmp_path / "u.csv"
+    path.write_text(csv_text(good_rows()))
+    expect_error(path, phrase, **kwargs)
+
+
+def test_unknown_units_attribute_suggests_the_spelling(tmp_path):
+    path = write_h5(tmp_path / "u.h5", sensor_pair(), units={("shank", "acc"): "m/s²"})
+    expect_error(path, "sensor 'shank' acc: unknown units 'm/s²' (did you mean 'm/s^2'?)")
+
+
+def test_units_that_look_wrong_reach_the_loaded_recording(tmp_path):
+    rng = np.random.default_rng(5)
+    data = {"thigh": {"gyr": np.degrees(rng.normal(0, 3, (N, 3))),
+                      "acc": np.tile([0.0, 0.0, 1.0], (N, 1)) + rng.normal(0, 0.05, (N, 3))}}
+    rec = load_recording(write_h5(tmp_path / "u.h5", data))
+    gyr_note, acc_note = rec.warnings
+    peak = np.linalg.norm(data["thigh"]["gyr"], axis=1).max()
+    median = np.median(np.linalg.norm(data["thigh"]["acc"], axis=1))
+    assert f"peaks at {peak:.0f} rad/s (rad/s)" in gyr_note and "is it in deg/s?" in gyr_note
+    assert f"median norm of {median:.2f} m/s^2" in acc_note and "is it in g?" in acc_note
+
+
+# --------------------------------------------------------------------- NaN and Inf samples
+
+
+def test_short_gaps_are_interpolated_with_a_warning(tmp_path):
+    data = sensor_pair()
+    gyr = data["shank"]["gyr"]
+    expected = gyr.copy()
+    gyr[50:53, 1] = np.nan  # 3 samples = 0.03 s, within MAX_INTERPOLATED_GAP_S
+    gyr[120, :] = np.inf
+    expected[50:53] = np.linspace(expected[49], expected[53], 5)[1:-1]
+    expected[120] = (expected[119] + expected[121]) / 2
+    rec = load_recording(write_h5(tmp_path / "gaps.h5", data))
+    assert rec.n_samples == N
+    np.testing.assert_allclose(rec.sensors["shank"].gyr, expected, rtol=1e-12, atol=1e-12)
+    note = [w for w in rec.warnings if "non-finite" in w]
+    assert note == ["sensor 'shank' gyr: 4 non-finite sample(s) (NaN or Inf) in 2 gap(s), the "
+                    "longest 3 sample(s) (0.03 s), filled by linear interpolation"]
+    # the caller's arrays are left as they were
+    make_recording(data, rate=RATE)
+    assert np.isnan(data["shank"]["gyr"][50:53, 1]).all()
+
+
+def test_non_finite_samples_at_the_ends_are_dropped_with_a_warning(tmp_path):
+    data = sensor_pair()
+    data["thigh"]["acc"][:4] = np.nan  # a sensor that started late
+    data["shank"]["gyr"][-2:, 0] = -np.inf
+    rec = load_recording(write_h5(tmp_path / "ends.h5", data))
+    assert rec.n_samples == N - 6
+    np.testing.assert_allclose(rec.time, np.arange(4, N - 2) / RATE)
+    np.testing.assert_array_equal(rec.sensors["shank"].gyr, data["shank"]["gyr"][4:-2])
+    assert rec.warnings[0] == (
+        "dropped 4 sample(s) at the start and 2 at the end where some sensor has non-finite "
+        "values (NaN or Inf); the recording now runs from t=0.04 to 1.97 s"
+    )
+
+
+def test_long_gap_is_refused(tmp_path):
+    data = sensor_pair()
+    data["thigh"]["gyr"][100:110] = np.nan  # 0.1 s
+    message = expect_error(write_h5(tmp_path / "gap.h5", data),
+                           "sensor 'thigh' gyr has a gap of 10 non-finite samples")
+    assert "(NaN or Inf, 0.1 s) from t=1 s" in message
+    assert "interpolates gaps of at most 0.05 s (5 samples)" in message
+
+
+def test_too_many_short_gaps_are_refused(tmp_path):
+    data = sensor_pair()
+    data["shank"]["acc"][10:190:10, 2] = np.nan  # 18 single samples, 9 % of the signal
+    expect_error(write_h5(tmp_path / "holes.h5", data),
+                 "sensor 'shank' acc has 18 non-finite samples (NaN or Inf), 9.0% of 200; "
+                 "imucal interpolates at most 5%")
+
+
+def test_sensor_with_no_finite_sample(tmp_path):
+    data = sensor_pair()
+    data["shank"]["acc"][:] = np.nan
+    expect_error(write_h5(tmp_path / "dead.h5", data), "sensor 'shank' acc has no finite sample")
+
+
+def test_overflow_in_unit_conversion_is_non_finite_not_a_crash(tmp_path):
+    data = sensor_pair()
+    data["thigh"]["acc"][5:150] = 1e308  # times 9.80665 overflows to Inf
+    path = write_h5(tmp_path / "big.h5", data, units={("thigh", "acc"): "g"})
+    expect_error(path, "sensor 'thigh' acc has a gap of 145 non-finite samples")
+
+
+# ---------------------------------------------------------- too short, never moves
+
+
+def test_single_sample_recording(tmp_path):
+    path = write_h5(tmp_path / "one.h5", sensor_pair(n=1))
+    expect_error(path, "only 1 sample(s); a recording needs at least 2, and an estimate a few "
+                       "seconds of motion")
+
+
+@pytest.mark.parametrize("what", ["axis", "position"])
+def test_too_short_to_estimate_says_how_long_is_needed(what):
+    from imucal import estimate_axis, estimate_position
+
+    rec = random_recording(n=12)
+    thigh, shank = rec.sensor("thigh"), rec.sensor("shank")
+    with pytest.raises(InputError, match=r"needs at least \d+ \(about [\d.]+ s of motion\)"):
+        if what == "axis":
+            estimate_axis(thigh.gyr, shank.gyr, rate=rec.rate, seed=1, restarts=3)
+        else:
+            estimate_position(thigh.gyr, thigh.acc, shank.gyr, shank.acc, rate=rec.rate,
+                              seed=1, restarts=3)
+
+
+def test_sensor_that_never_changes_is_flagged_at_load(tmp_path):
+    data = sensor_pair()
+    data["shank"]["gyr"] = np.zeros((N, 3))  # a dead gyroscope
+    rec = load_recording(write_h5(tmp_path / "dead.h5", data))
+    assert rec.warnings == [
+        f"sensor 'shank' gyr never changes (all {N} samples are [0, 0, 0] rad/s): a dead or "
+        "disconnected sensor? estimates that use it have nothing to go on"
+    ]
+
+
+def test_sensor_that_never_moves_gives_no_confident_estimate():
+    from imucal import estimate_axis
+
+    rec = random_recording(n=1000)
+    rng = np.random.default_rng(1)
+    still = rng.normal(0, 0.002, (1000, 3))  # gyro noise of a sensor lying on a table
+    r = estimate_axis(rec.sensor("thigh").gyr, still, rate=rec.rate, seed=1, restarts=5)
+    assert not r.confident
+    # reasons that make an estimate unusable may be kept apart from the other warnings
+    reasons = list(r.warnings) + list(getattr(r, "blocking", []))
+    assert any("barely rotate" in w for w in reasons)
+
+
+# --------------------------------------------------------------------------- output files
+
+
+def test_check_writable(tmp_path):
+    from imucal.atomic import check_writable
+
+    assert check_writable(tmp_path / "ok.json") == tmp_path / "ok.json"
+    assert os.listdir(tmp_path) == []  # the probe leaves nothing behind
+    with pytest.raises(InputError, match="folder '.*missing' does not exist"):
+        check_writable(tmp_path / "missing" / "x.json")
+    with pytest.raises(InputError, match="is a folder; give a file name"):
+        check_writable(tmp_path)
+
+
+def test_check_writable_read_only_folder_by_permission_bits(tmp_path, monkeypatch):
+    from imucal import atomic
+
+    monkeypatch.setattr(atomic.os, "access", lambda *args: False)
+    with pytest.raises(InputError, match=r"x.json: folder '.*' is not writable$"):
+        atomic.check_writable(tmp_path / "x.json")
+
+
+def test_check_writable_read_only_folder_found_by_trying(tmp_path, monkeypatch):
+    # Root ignores permission bits, and read-only mounts or ACLs can hide from them: the
+    # probe file is what finds out.
+    from imucal import atomic
+
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(atomic.tempfile, "NamedTemporaryFile", refuse)
+    with pytest.raises(InputError, match=r"is not writable \(Permission denied\)"):
+        atomic.check_writable(tmp_path / "x.json")
+
+
+@pytest.mark.parametrize("failure", [RuntimeError("plot crashed"), KeyboardInterrupt()])
+def test_write_atomic_keeps_the_old_file(tmp_path, failure):
+    from imucal.atomic import write_atomic
+
+    target = tmp_path / "knee.json"
+    target.write_text("old result")
+
+    def write(tmp):
+        tmp.write_text("half a res")
+        raise failure
+
+    with pytest.raises(type(failure)):
+        write_atomic(target, write)
+    assert target.read_text() == "old result"
+    assert os.listdir(tmp_path) == ["knee.json"]
+
+
+def test_write_text_atomic_replaces_and_keeps_permissions_usual(tmp_path):
+    from imucal.atomic import write_text_atomic
+
+    target = tmp_path / "knee.json"
+    write_text_atomic(target, "first\n")
+    write_text_atomic(target, "second\n")
+    assert target.read_text() == "second\n"
+    umask = os.umask(0)
+    os.umask(umask)
+    assert target.stat().st_mode & 0o777 == 0o666 & ~umask
+    assert os.listdir(tmp_path) == ["knee.json"]
+
+
+# ---------------------------------------------------------------------- the command line
+
+
+def cli(*args, stdin: bytes | None = None):
+    """Run the command line in-process (fast); returns click's Result."""
+    from typer.testing import CliRunner
+
+    from imucal.cli import app
+
+    return CliRunner().invoke(app, [str(a) for a in args], input=stdin)
+
+
+def assert_one_line_error(result, path_text: str, phrase: str, code: int = 2):
+    assert result.exit_code == code, (result.exit_code, result.stderr)
+    assert result.stdout == ""
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("imucal: error: ")
+    assert path_text in lines[0] and phrase in lines[0]
+    assert "Traceback" not in result.stderr
+
+
+BAD_FILES = {
+    "missing.h5": (None, "no such file"),
+    "empty.h5": (b"", "file is empty"),
+    "text.h5": (b"time,a\n0,1\n", "not an HDF5 file"),
+    "junk.csv": (bytes(range(256)) * 8, "not a CSV file"),
+    "corrupt.h5": (b"\x89HDF\r\n\x1a\n" + b"\x00" * 64, "corrupted or truncated HDF5"),
+    "header.csv": (HEADER.encode(), "has a header but no data rows"),
+    "typo.csv": (csv_text(good_rows(), header=HEADER.replace("t_acc_z", "t_acc_zz")).encode(),
+                 "did you mean 't_acc_zz'"),
+    "cell.csv": (csv_text(good_rows()).replace("0.02,1,2,3,4,5,6", "0.02,1,2,x,4,5,6").encode(),
+                 "row 4, column 't_gyr_z': 'x' is not a number"),
+}
+
+
+@pytest.mark.parametrize("command", ["info", "axis", "position"])
+@pytest.mark.parametrize("name", list(BAD_FILES))
+def test_cli_bad_file_gives_one_line_and_exit_2(tmp_path, command, name):
+    content, phrase = BAD_FILES[name]
+    path = tmp_path / name
+    if content is not None:
+        path.write_bytes(content)
+    assert_one_line_error(cli(command, path), str(path), phrase)
+
+
+@pytest.mark.parametrize(
+    ("setup", "args", "phrase"),
+    [
+        ("norate", [], "no sample rate and no time stamps"),
+        ("norate", ["--rate", "0"], "must be a positive number of Hz"),
+        ("norate", ["--rate", "nan"], "must be a positive number of Hz"),
+        ("good", ["--gyr-units", "dps"], "did you mean 'deg/s'"),
+        ("good", ["--sensors", "thigh,knee"], "sensors in this file: shank, thigh"),
+        ("gap", [], "gap of 10 non-finite samples"),
+        ("difflen", [], "sensors have different lengths"),
+    ],
+)
+def test_cli_bad_recording_gives_one_line_and_exit_2(tmp_path, setup, args, phrase):
+    data = sensor_pair()
+    rate = None if setup == "norate" else RATE
+    if setup == "gap":
+        data["thigh"]["gyr"][100:110] = np.nan
+    if setup == "difflen":
+        data["shank"] = sensor_pair(n=N - 1)["shank"]
+    path = write_h5(tmp_path / f"{setup}.h5", data, rate=rate)
+    assert_one_line_error(cli("axis", path, *args), str(path), phrase)
+
+
+def test_cli_empty_stdin(tmp_path):
+    assert_one_line_error(cli("axis", "-", stdin=b""), "<stdin>", "standard input is empty")
+
+
+@pytest.mark.parametrize(
+    ("target", "phrase"),
+    [("missing-folder/knee.json", "folder '{tmp}/missing-folder' does not exist"),
+     ("plain.txt/knee.json", "'{tmp}/plain.txt' is a file, not a folder")],
+)
+def test_cli_unwritable_out_fails_before_loading(tmp_path, monkeypatch, target, phrase):
+    import imucal.loaders
+
+    def must_not_load(*args, **kwargs):
+        raise AssertionError("loaded the recording before checking the output path")
+
+    monkeypatch.setattr(imucal.loaders, "load_recording", must_not_load)
+    (tmp_path / "plain.txt").write_text("a file, not a folder")
+    rec = write_h5(tmp_path / "rec.h5", sensor_pair())
+    for option in ("--out", "--plot"):
+        out = tmp_path / target.replace(".json", ".png" if option == "--plot" else ".json")
+        assert_one_line_error(cli("axis", rec, option, out), str(out),
+                              phrase.format(tmp=tmp_path))
+
+
+def test_cli_read_only_out_folder_fails_before_loading(tmp_path, monkeypatch):
+    import imucal.atomic
+    import imucal.loaders
+
+    monkeypatch.setattr(imucal.loaders, "load_recording", lambda *a, **k: 1 / 0)
+    monkeypatch.setattr(imucal.atomic.os, "access", lambda *args: False)
+    out = tmp_path / "knee.json"
+    result = cli("position", write_h5(tmp_path / "rec.h5", sensor_pair()), "--out", out)
+    assert_one_line_error(result, str(out), "is not writable")
+
+
+def test_cli_failed_run_keeps_the_old_output(tmp_path):
+    out = tmp_path / "knee.json"
+    out.write_text("old result\n")
+    rec = write_h5(tmp_path / "rec.h5", sensor_pair())
+    result = cli("axis", rec, "--out", out, "--start", "100")  # fails after loading
+    assert result.exit_code == 2 and "lies outside the recording" in result.stderr
+    assert out.read_text() == "old result\n"
+    assert sorted(os.listdir(tmp_path)) == ["knee.json", "rec.h5"]
+
+
+def test_cli_sensor_that_never_moves(tmp_path):
+    from conftest import simulated
+
+    rec, _ = simulated(3, duration=8.0)
+    data = {name: {"gyr": s.gyr, "acc": s.acc} for name, s in rec.sensors.items()}
+    data["shank"]["gyr"] = np.zeros_like(data["shank"]["gyr"])
+    path = write_h5(tmp_path / "dead.h5", data)
+    result = cli("axis", path, "--restarts", "5", "--seed", "1")
+    # Exit 1 ("the data cannot answer") once estimates refuse unidentifiable data, 0 with
+    # warnings before; either way the user is told, and never a crash.
+    assert result.exit_code in (0, 1), result.stderr
+    assert "sensor 'shank' gyr never changes" in result.stderr
+    assert "Traceback" not in result.stderr
+    if result.exit_code == 1:
+        assert result.stdout == ""
+    else:
+        assert "barely rotate" in result.stdout
+
+
+def test_cli_in_a_real_process_no_traceback_unless_debug(tmp_path):
+    path = tmp_path / "empty.h5"
+    path.write_bytes(b"")
+    command = [sys.executable, "-m", "imucal", "axis", str(path)]
+    run = subprocess.run(command, capture_output=True, timeout=120)
+    assert run.returncode == 2 and run.stdout == b""
+    assert run.stderr.decode() == f"imucal: error: {path}: file is empty\n"
+    run = subprocess.run(command + ["--debug"], capture_output=True, timeout=120)
+    assert run.returncode != 0 and run.stdout == b""
+    assert b"Traceback" in run.stderr and b"InputError" in run.stderr
+
+
+def test_errors_page_states_the_tolerances_the_code_uses():
+    from imucal import recording
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "errors.md").read_text()
+    assert f"| {recording.TIME_JITTER_TOLERANCE * 100:g} % (beyond: refused" in page
+    assert f"| {recording.MAX_INTERPOLATED_GAP_S:g} s (5 samples at 100 Hz" in page
+    assert f"| {recording.MAX_INTERPOLATED_FRACTION * 100:g} % |" in page
+    assert f"above {recording.MAX_LIMB_RATE:g} rad/s" in page

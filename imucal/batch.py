@@ -1,0 +1,379 @@
+"""Whole studies: ``imucal axis A.h5 B.h5 ... --jobs N`` (and ``position``) in parallel processes.
+
+Every recording is processed exactly as ``imucal axis REC`` would process it alone (the
+single-file command itself runs in the worker, with its output captured), and its
+outcome becomes one line of JSON Lines, in input order::
+
+    {"file": "A.h5", "exit_code": 0, "error": null, "warnings": [], "result": {...}}
+    {"file": "B.h5", "exit_code": 2, "error": "B.h5: no such file", "warnings": [], "result": null}
+
+``result`` is the document the single-file command prints (docs/json.md), compact on one
+line. ``warnings`` holds what the single-file command would print as warnings on stderr
+(loading notes; for a result that is not identifiable, the reasons). A failed recording
+does not stop the others. The exit status is the most severe (highest) code of all
+recordings: 0 all succeeded, 1 some were not identifiable (``--force`` writes them),
+2 some had bad input, 3 an internal error or a worker process that died.
+
+Parallelism comes from processes (Python threads would serialise on the interpreter), so
+each process is limited to one BLAS/OpenMP thread: with N processes on N cores, more
+threads per process would only compete for the same cores. See docs/performance.md.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import shutil
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from .atomic import check_writable, write_atomic
+from .errors import InputError
+
+__all__ = ["Outcome", "run_study", "process_recordings", "resolve_jobs"]
+
+#: Environment variables that size the thread pools of the BLAS and OpenMP libraries
+#: numpy and scipy may be linked against; they are read once, when the library loads.
+THREAD_VARIABLES = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+)
+#: Modules every worker needs; imported once before the workers start (fork) or in the
+#: fork server, so that no worker pays their import time (about a second) again.
+WORKER_MODULES = ("imucal.cli", "imucal.axis", "imucal.position", "imucal.report",
+                  "imucal.loaders")
+#: Exit code of a recording whose worker raised an unexpected exception or died.
+INTERNAL_ERROR = 3
+#: The progress bar redraws at least this often, s (its clock and estimate keep moving).
+PROGRESS_REFRESH_S = 0.5
+_WARNING_PREFIX = "imucal: warning: "
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one recording gave: its JSON line (no newline) and what to tell the user.
+
+    ``messages`` are the stderr lines the single-file command would have printed.
+    """
+
+    index: int
+    file: str
+    exit_code: int
+    error: str | None
+    line: str
+    messages: tuple[str, ...]
+
+
+def resolve_jobs(jobs: int, n_files: int) -> int:
+    """Worker processes to use: ``jobs`` (0: one per available core), at most one per file."""
+    if jobs < 0:
+        raise InputError(f"--jobs must be 0 (one per core) or a positive number, got {jobs}")
+    if jobs == 0:
+        try:
+            jobs = len(os.sched_getaffinity(0))
+        except AttributeError:  # not on Linux
+            jobs = os.cpu_count() or 1
+    return max(1, min(jobs, n_files))
+
+
+def run_study(command: str, params: dict) -> int:
+    """``imucal axis``/``position`` with several RECs (``--jobs``); returns the exit status.
+
+    ``params`` are the command's parameters as the command line parsed them (``rec`` the
+    list of recordings). Lines go to stdout as soon as they are ready in input order, or,
+    with ``--out``, into that file, which appears complete (atomically) at the end; with
+    several recordings ``--plot`` is refused, since one figure per file needs one name per
+    file (run the single-file command for figures).
+    """
+    files = [str(f) for f in params["rec"]]
+    if params.get("plot") is not None:
+        raise InputError("--plot draws one recording; with several RECs leave it out and run "
+                         f"'imucal {command} REC --plot FILE.png' for the recordings to draw")
+    if "-" in files:
+        raise InputError("- (standard input) can only be read as the only REC, not in a list "
+                         "of recordings")
+    out = params.get("out")
+    if out is not None:
+        check_writable(out)
+    quiet = bool(params.get("quiet"))
+    jobs = resolve_jobs(int(params.get("jobs", 1)), len(files))
+    progress = _Progress(len(files), f"imucal {command}",
+                         enabled=not quiet and _is_terminal(sys.stderr))
+    worst = 0
+    failed: list[str] = []
+    started = time.perf_counter()
+
+    def consume(write_line: Callable[[str], None]) -> None:
+        nonlocal worst
+        for outcome in process_recordings(command, files, params, jobs=jobs,
+                                          on_done=progress.done):
+            for message in outcome.messages:
+                progress.message(message)
+            if outcome.error is not None:
+                progress.message(f"imucal: error: {outcome.error}")
+                failed.append(outcome.file)
+            worst = max(worst, outcome.exit_code)
+            write_line(outcome.line + "\n")
+
+    try:
+        if out is None:
+            def to_stdout(text: str) -> None:
+                sys.stdout.write(text)
+                sys.stdout.flush()  # a reader (jq, tail -f) sees each recording at once
+
+            consume(to_stdout)
+        else:
+            def to_file(tmp: Path) -> None:
+                with open(tmp, "w", encoding="utf-8") as fh:
+                    consume(fh.write)
+
+            write_atomic(out, to_file)
+    finally:
+        progress.close()
+    if not quiet:
+        elapsed = time.perf_counter() - started
+        where = "" if out is None else f" -> {out}"
+        status = "all succeeded" if not failed else (
+            f"{len(failed)} failed ({_short(failed)}), exit status {worst}")
+        _err(f"imucal {command}: {len(files)} recordings in {elapsed:.1f} s with {jobs} "
+             f"process{'es' if jobs > 1 else ''}{where}: {status}")
+    return worst
+
+
+def process_recordings(
+    command: str,
+    files: Sequence[str],
+    params: dict,
+    *,
+    jobs: int = 1,
+    on_done: Callable[[int, int], None] | None = None,
+    start_method: str | None = None,
+) -> Iterator[Outcome]:
+    """Run ``command`` on every file; yield the outcomes in input order.
+
+    ``jobs`` 1 runs in this process; more use that many worker processes. ``on_done(done,
+    failed)`` is called whenever a recording finishes (in any order) and periodically
+    while waiting. ``start_method`` forces a multiprocessing start method (default:
+    "fork" on Linux when numpy is not yet loaded here, else "forkserver" or "spawn").
+    """
+    tasks = [(i, command, f, params) for i, f in enumerate(files)]
+    _limit_threads()
+    if jobs <= 1:
+        done = failed = 0
+        for task in tasks:
+            outcome = _work(task)
+            done += 1
+            failed += outcome.exit_code != 0
+            if on_done is not None:
+                on_done(done, failed)
+            yield outcome
+        return
+    yield from _parallel(tasks, jobs, on_done, start_method)
+
+
+def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Outcome]:
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    context = _context(start_method)
+    ready: dict[int, Outcome] = {}
+    next_index = 0
+    done = failed = 0
+    pending = list(tasks)
+    workers = jobs
+    while pending:
+        executor = ProcessPoolExecutor(max_workers=min(workers, len(pending)),
+                                       mp_context=context)
+        futures = {executor.submit(_work, task): task for task in pending}
+        broken = False
+        try:
+            waiting = set(futures)
+            while waiting:
+                finished, waiting = wait(waiting, timeout=PROGRESS_REFRESH_S,
+                                         return_when=FIRST_COMPLETED)
+                for future in finished:
+                    try:
+                        outcome = future.result()
+                    except BrokenProcessPool:
+                        broken = True
+                        continue
+                    ready[outcome.index] = outcome
+                    done += 1
+                    failed += outcome.exit_code != 0
+                if on_done is not None:
+                    on_done(done, failed)
+                while next_index in ready:
+                    yield ready.pop(next_index)
+                    next_index += 1
+        finally:
+            executor.shutdown(wait=True, cancel_futures=True)
+        pending = [t for t in pending if t[0] not in ready and t[0] >= next_index]
+        if not broken or not pending:
+            break
+        # A worker died (a crash in a library, or the out-of-memory killer) and took the
+        # pool with it; the futures cannot say which recording did it. Rerun the rest one
+        # at a time: there the first unfinished recording is the culprit, which gets an
+        # error line, and then the rest continue with all workers again.
+        if workers > 1:
+            workers = 1
+            continue
+        culprit = pending.pop(0)
+        ready[culprit[0]] = _outcome(
+            culprit[0], culprit[2], INTERNAL_ERROR,
+            f"{culprit[2]}: the worker process died while processing this recording (a "
+            "crash, or killed for lack of memory)", None, [])
+        done += 1
+        failed += 1
+        if on_done is not None:
+            on_done(done, failed)
+        while next_index in ready:
+            yield ready.pop(next_index)
+            next_index += 1
+        workers = jobs
+    while next_index in ready:
+        yield ready.pop(next_index)
+        next_index += 1
+
+
+def _context(start_method):
+    """The multiprocessing context for the workers (see :func:`process_recordings`)."""
+    import importlib
+    import multiprocessing
+
+    methods = multiprocessing.get_all_start_methods()
+    if start_method is None:
+        # fork is the cheapest start (workers inherit the imports), and safe only while
+        # this process runs a single thread: with numpy not yet loaded, it is imported
+        # now under the one-thread limit, so no BLAS thread pool exists when forking.
+        if sys.platform == "linux" and "fork" in methods and "numpy" not in sys.modules:
+            start_method = "fork"
+        else:
+            start_method = "forkserver" if "forkserver" in methods else "spawn"
+    context = multiprocessing.get_context(start_method)
+    if start_method == "fork":
+        for module in WORKER_MODULES:
+            importlib.import_module(module)
+    elif start_method == "forkserver":
+        context.set_forkserver_preload(list(WORKER_MODULES))
+    return context
+
+
+def _limit_threads() -> None:
+    """One BLAS/OpenMP thread per process, unless the user chose otherwise.
+
+    Child processes inherit the environment; this process follows it only if numpy is
+    not loaded yet (the libraries read it once, when they load).
+    """
+    for name in THREAD_VARIABLES:
+        os.environ.setdefault(name, "1")
+
+
+def _work(task) -> Outcome:
+    """Run the single-file command on one recording, capturing what it prints.
+
+    Runs in a worker process (or in this one with one job). ``debug`` makes the command
+    raise instead of printing the error, so the exit code comes from the exception.
+    """
+    index, command, file, params = task
+    from . import cli
+    from .errors import ImucalError
+
+    single = {**params, "rec": [file], "out": None, "plot": None, "quiet": True,
+              "debug": True}
+    stdout, stderr = io.StringIO(), io.StringIO()
+    doc, code, error = None, 0, None
+    try:
+        with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+            getattr(cli, command)(**single)
+        doc = json.loads(stdout.getvalue())
+    except ImucalError as err:
+        code, error = err.exit_code, str(err)
+    except OSError as err:  # as the command line reports it (cli._errors)
+        code, error = 2, f"{err.filename or file}: {err.strerror or err}"
+    except MemoryError:
+        code, error = INTERNAL_ERROR, f"{file}: out of memory"
+    except Exception as err:  # a bug must not stop the other recordings
+        code = INTERNAL_ERROR
+        error = f"{file}: internal error: {type(err).__name__}: {err} (rerun this file alone " \
+                "with --debug and report it)"
+    return _outcome(index, file, code, error, doc, stderr.getvalue().splitlines())
+
+
+def _outcome(index, file, code, error, doc, messages) -> Outcome:
+    warnings = [m[len(_WARNING_PREFIX):] if m.startswith(_WARNING_PREFIX) else m
+                for m in messages]
+    line = json.dumps({"file": file, "exit_code": code, "error": error, "warnings": warnings,
+                       "result": doc}, separators=(",", ":"), allow_nan=False)
+    return Outcome(index, file, code, error, line, tuple(messages))
+
+
+class _Progress:
+    """A one-line progress bar on a terminal's stderr; does nothing when disabled."""
+
+    def __init__(self, total: int, label: str, *, enabled: bool, stream=None):
+        self.total, self.label, self.enabled = total, label, enabled
+        self.stream = stream if stream is not None else sys.stderr
+        self.started = time.perf_counter()
+        self.state = (0, 0)
+        self.shown = False
+
+    def done(self, done: int, failed: int) -> None:
+        self.state = (done, failed)
+        self._draw()
+
+    def message(self, text: str) -> None:
+        """Print a line above the bar (the bar is redrawn below it)."""
+        self._clear()
+        print(text, file=self.stream, flush=True)
+        self._draw()
+
+    def close(self) -> None:
+        self._clear()
+
+    def _draw(self) -> None:
+        if not self.enabled:
+            return
+        done, failed = self.state
+        elapsed = time.perf_counter() - self.started
+        left = f", ~{elapsed / done * (self.total - done):.0f} s left" if 0 < done < self.total \
+            else ""
+        bad = f", {failed} failed" if failed else ""
+        text = f" {done}/{self.total} recordings{bad}, {elapsed:.0f} s{left}"
+        columns = shutil.get_terminal_size((80, 24)).columns
+        width = max(10, min(40, columns - len(self.label) - len(text) - 4))
+        filled = int(width * done / max(self.total, 1))
+        bar = f"{self.label} [{'#' * filled}{'.' * (width - filled)}]{text}"
+        self.stream.write("\r" + bar[: columns - 1] + "\x1b[K")
+        self.stream.flush()
+        self.shown = True
+
+    def _clear(self) -> None:
+        if self.enabled and self.shown:
+            self.stream.write("\r\x1b[K")
+            self.stream.flush()
+            self.shown = False
+
+
+def _is_terminal(stream) -> bool:
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):  # replaced or closed streams
+        return False
+
+
+def _short(names: list[str], limit: int = 3) -> str:
+    more = f" and {len(names) - limit} more" if len(names) > limit else ""
+    return ", ".join(names[:limit]) + more
+
+
+def _err(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)

@@ -1,0 +1,193 @@
+"""Whole studies: several RECs, --jobs, JSON Lines, exit status, progress bar (imucal.batch)."""
+
+from __future__ import annotations
+
+import json
+import os
+import pty
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from imucal import batch
+from imucal.simulate import simulate
+from imucal.writers import save_recording
+
+# Few restarts: these tests check the plumbing, test_cli.py checks the estimates.
+FAST = ("--restarts", "10", "--seed", "1")
+
+
+def imucal(*args, **kwargs):
+    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
+                          capture_output=True, timeout=120, **kwargs)
+
+
+def lines(text: bytes) -> list[dict]:
+    return [json.loads(line) for line in text.decode().splitlines()]
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    """Three short recordings (10 s, as `imucal simulate --duration 10`), a static one and
+    a file that is not a recording."""
+    folder = tmp_path_factory.mktemp("study")
+    files = {}
+    for name, seed, motion in (("a", 1, "circling"), ("b", 2, "walking"), ("c", 3, "circling"),
+                               ("still", 4, "static")):
+        recording, _ = simulate(seed=seed, rate=100.0, duration=10.0, snr=100.0, motion=motion)
+        files[name] = folder / f"{name}.h5"
+        save_recording(recording, files[name])
+    files["bad"] = folder / "bad.h5"
+    files["bad"].write_text("not a recording\n")
+    return files
+
+
+@pytest.fixture(scope="module")
+def runs(study):
+    """The same study with --jobs 1 and --jobs 2, a bad file in the middle."""
+    order = [study[k] for k in ("a", "bad", "b", "c")]
+    return {jobs: imucal("axis", *order, *FAST, "--jobs", jobs) for jobs in (1, 2)}
+
+
+def test_lines_in_input_order_with_file_names(runs, study):
+    run = runs[2]
+    out = lines(run.stdout)
+    assert [o["file"] for o in out] == [str(study[k]) for k in ("a", "bad", "b", "c")]
+    assert all(list(o) == ["file", "exit_code", "error", "warnings", "result"] for o in out)
+    # One compact object per line, each result the document `imucal axis REC` prints.
+    assert all(line.startswith(b'{"file":') for line in run.stdout.splitlines())
+    for o in (out[0], out[2], out[3]):
+        assert o["exit_code"] == 0 and o["error"] is None
+        assert o["result"]["command"] == "axis" and o["result"]["input"]["path"] == o["file"]
+        assert len(o["result"]["j1"]) == 3
+
+
+def test_bad_file_gets_an_error_line_and_exit_2(runs, study):
+    run = runs[2]
+    assert run.returncode == 2
+    bad = lines(run.stdout)[1]
+    assert bad["exit_code"] == 2 and bad["result"] is None
+    assert bad["error"].startswith(str(study["bad"])) and "HDF5" in bad["error"]
+    err = run.stderr.decode()
+    assert f"imucal: error: {study['bad']}" in err
+    assert "4 recordings" in err and "1 failed" in err
+
+
+def test_jobs_2_gives_the_same_lines_as_jobs_1(runs):
+    assert runs[1].returncode == runs[2].returncode == 2
+    assert lines(runs[1].stdout) == lines(runs[2].stdout)
+
+
+def test_result_equals_the_single_file_document(runs, study):
+    single = imucal("axis", study["a"], *FAST)
+    assert single.returncode == 0, single.stderr
+    assert lines(runs[2].stdout)[0]["result"] == json.loads(single.stdout)
+
+
+def test_no_progress_bar_when_stderr_is_not_a_terminal(runs):
+    for run in runs.values():
+        assert b"\r" not in run.stderr and b"[#" not in run.stderr and b"[." not in run.stderr
+
+
+def test_progress_bar_when_stderr_is_a_terminal(study):
+    leader, follower = pty.openpty()
+    try:
+        run = subprocess.run(
+            [sys.executable, "-m", "imucal", "axis", study["a"], study["c"], *FAST],
+            stdout=subprocess.PIPE, stderr=follower, timeout=120,
+        )
+        os.close(follower)
+        follower = None
+        shown = b""
+        while True:
+            try:
+                chunk = os.read(leader, 65536)
+            except OSError:  # Linux: EIO once the terminal's other end is closed
+                break
+            if not chunk:
+                break
+            shown += chunk
+    finally:
+        if follower is not None:
+            os.close(follower)
+        os.close(leader)
+    assert run.returncode == 0
+    assert b"2/2 recordings" in shown and b"\r" in shown
+    assert len(lines(run.stdout)) == 2  # the bar never reaches stdout
+
+
+def test_not_identifiable_is_exit_1_unless_force(study):
+    run = imucal("axis", study["a"], study["still"], *FAST, "--jobs", 2)
+    assert run.returncode == 1
+    ok, still = lines(run.stdout)
+    assert ok["exit_code"] == 0
+    assert still["exit_code"] == 1 and still["result"] is None
+    assert "cannot identify" in still["error"] and still["warnings"]
+    forced = imucal("axis", study["a"], study["still"], *FAST, "--force")
+    assert forced.returncode == 0
+    still = lines(forced.stdout)[1]
+    assert still["exit_code"] == 0 and still["result"]["quality"]["verdict"] == "not identifiable"
+
+
+def test_most_severe_code_wins(study):
+    run = imucal("axis", study["still"], study["bad"], *FAST, "-q")
+    assert run.returncode == 2
+    assert [o["exit_code"] for o in lines(run.stdout)] == [1, 2]
+    assert b"recordings in" not in run.stderr  # -q: no summary, errors still shown
+    assert b"imucal: error:" in run.stderr
+
+
+def test_position_study_to_out_file(study, tmp_path):
+    out = tmp_path / "ankles.jsonl"
+    run = imucal("position", study["a"], study["b"], *FAST, "--jobs", 2, "--out", out)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == b""
+    got = lines(out.read_bytes())
+    assert [o["file"] for o in got] == [str(study["a"]), str(study["b"])]
+    assert all(len(o["result"]["o1"]) == 3 for o in got)
+    assert [p.name for p in tmp_path.iterdir()] == ["ankles.jsonl"]  # no temporary left
+
+
+@pytest.mark.parametrize("args, phrase", [
+    (("--plot", "x.png"), b"--plot draws one recording"),
+    (("-",), b"only REC"),
+])
+def test_study_refuses_plot_and_stdin(study, tmp_path, args, phrase):
+    run = imucal("axis", study["a"], study["b"], *args, cwd=tmp_path)
+    assert run.returncode == 2 and run.stdout == b""
+    assert phrase in run.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_single_rec_keeps_pretty_json(study):
+    run = imucal("axis", study["a"], *FAST, "--jobs", 2)
+    assert run.returncode == 0
+    assert run.stdout.startswith(b"{\n  ")
+
+
+def _fake_work(task):
+    index, _, file, _ = task
+    if Path(file).name == "crash":
+        os._exit(1)  # as a segfault or the out-of-memory killer would end the worker
+    return batch._outcome(index, file, 0, None, {"ok": True}, [])
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # fork in a threaded pytest
+def test_a_dying_worker_fails_only_its_recording(monkeypatch):
+    # fork: the workers inherit the patched function, and no recording is computed
+    monkeypatch.setattr(batch, "_work", _fake_work)
+    files = ["a", "b", "crash", "c", "d"]
+    outcomes = list(batch.process_recordings("axis", files, {}, jobs=2, start_method="fork"))
+    assert [o.file for o in outcomes] == files
+    assert [o.exit_code for o in outcomes] == [0, 0, batch.INTERNAL_ERROR, 0, 0]
+    assert "worker process died" in outcomes[2].error
+
+
+def test_resolve_jobs():
+    assert batch.resolve_jobs(4, 2) == 2
+    assert batch.resolve_jobs(1, 10) == 1
+    assert batch.resolve_jobs(0, 1000) >= 1
+    with pytest.raises(batch.InputError):
+        batch.resolve_jobs(-1, 3)
