@@ -235,6 +235,9 @@ def simulate(
             raise InputError(f"--motion must be one of {', '.join(MOTIONS)}, got '{motion}'")
         if not snr > 0:
             raise InputError(f"--snr must be positive (inf: no noise), got {snr:g}")
+        if out.suffix.lower() not in {".h5", ".hdf5", ".csv"}:
+            raise InputError(f"{out}: unknown output format '{out.suffix or out.name}'; use "
+                             ".h5, .hdf5 or .csv")
         truth_path = out.with_name(out.stem + ".truth.json")
         check_writable(out)
         recording, truth = run_simulation(
@@ -426,6 +429,7 @@ def _input_info(recording, names) -> dict:
         "duration_s": recording.duration,
         "units_in_file": {n: recording.units.get(n, {}) for n in names},
         "time_origin": float(recording.time[0]),
+        "load_warnings": list(recording.warnings),
     }
 
 

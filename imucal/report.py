@@ -15,6 +15,7 @@ import numpy as np
 from . import __version__
 from .axis import AxisResult
 from .position import PositionResult
+from .quality import CAREFUL, GOOD
 
 AXIS_CONVENTION = (
     "j1 is the unit hinge axis in the first sensor's frame, j2 the same physical axis in "
@@ -30,7 +31,7 @@ POSITION_CONVENTION = (
 def axis_report(result: AxisResult, *, input_info: dict) -> dict:
     """JSON document for an axis estimate; ``input_info`` describes the recording."""
     quality = _quality_block(
-        result, "deg", result.uncertainty_deg, result.spread_deg,
+        result, input_info, "deg", result.uncertainty_deg, result.spread_deg,
         {
             "sign": {
                 "method": "joint-plane projection angles vs. j2.g2 - j1.g1 (no integration)",
@@ -77,7 +78,8 @@ def position_report(result: PositionResult, *, input_info: dict) -> dict:
             "description": "every point o1 + lambda*j1, o2 + lambda*j2 fits the data; o1, o2 "
             "is the point of this line closest to both sensors (lambda = -(o1.j1 + o2.j2)/2)",
         }
-    doc["quality"] = _quality_block(result, "mm", result.uncertainty_mm, result.spread_mm, {})
+    doc["quality"] = _quality_block(result, input_info, "mm", result.uncertainty_mm,
+                                    result.spread_mm, {})
     doc["convergence"] = _convergence_block(result, "agreement_mm")
     doc["restarts"] = _restart_entries(result, "o1", "o2")
     return clean(doc)
@@ -93,14 +95,23 @@ SPREAD_METHOD = (
 )
 
 
-def _quality_block(result, unit: str, uncertainty: dict, spread: dict, extra: dict) -> dict:
-    """The `quality` block both reports share (docs/quality.md)."""
+def _quality_block(result, info: dict, unit: str, uncertainty: dict, spread: dict,
+                   extra: dict) -> dict:
+    """The `quality` block both reports share (docs/quality.md).
+
+    Warnings from loading (repaired gaps, doubtful units) count, too: data that needed
+    repair are never "good".
+    """
+    loaded = [f"input: {w}" for w in info.get("load_warnings", [])]
+    verdict = result.verdict
+    if loaded and verdict == GOOD:
+        verdict = CAREFUL
     first, second = uncertainty
     sv = np.asarray(result.singular_values if hasattr(result, "singular_values")
                     else result.excitation["singular_values_1_s2"])
     block = {
-        "verdict": result.verdict,
-        "warnings": result.blocking + result.warnings,
+        "verdict": verdict,
+        "warnings": result.blocking + result.warnings + loaded,
         "rms_residual": result.rms_residual,
         "relative_residual": result.relative_residual,
         f"{first}_uncertainty_{unit}": uncertainty[first],
@@ -172,6 +183,7 @@ def _cost_trace(cost_row: np.ndarray) -> list:
 
 def _input_block(info: dict, result) -> dict:
     out = dict(info)
+    out.pop("load_warnings", None)
     t0 = out.pop("time_origin", 0.0)
     out["samples_used"] = result.samples_used
     out["window_s"] = [t0 + result.window[0], t0 + result.window[1]]

@@ -823,10 +823,8 @@ def test_sensor_that_never_moves_gives_no_confident_estimate():
     rng = np.random.default_rng(1)
     still = rng.normal(0, 0.002, (1000, 3))  # gyro noise of a sensor lying on a table
     r = estimate_axis(rec.sensor("thigh").gyr, still, rate=rec.rate, seed=1, restarts=5)
-    assert not r.confident
-    # reasons that make an estimate unusable may be kept apart from the other warnings
-    reasons = list(r.warnings) + list(getattr(r, "blocking", []))
-    assert any("barely rotate" in w for w in reasons)
+    assert not r.confident and not r.identifiable
+    assert any("barely rotate" in w for w in r.blocking)
 
 
 # --------------------------------------------------------------------------- output files
@@ -1016,15 +1014,13 @@ def test_cli_sensor_that_never_moves(tmp_path):
     data["shank"]["gyr"] = np.zeros_like(data["shank"]["gyr"])
     path = write_h5(tmp_path / "dead.h5", data)
     result = cli("axis", path, "--restarts", "5", "--seed", "1")
-    # Exit 1 ("the data cannot answer") once estimates refuse unidentifiable data, 0 with
-    # warnings before; either way the user is told, and never a crash.
-    assert result.exit_code in (0, 1), result.stderr
-    assert "sensor 'shank' gyr never changes" in result.stderr
+    assert result.exit_code == 1, result.stderr  # the data cannot answer
+    assert result.stdout == ""
+    assert "sensor 'shank' gyr never changes" in result.stderr  # at load, naming the sensor
+    assert "barely rotate" in result.stderr  # the estimate's reason
+    assert result.stderr.strip().splitlines()[-1].startswith(
+        f"imucal: error: {path}: the data cannot identify the axis")
     assert "Traceback" not in result.stderr
-    if result.exit_code == 1:
-        assert result.stdout == ""
-    else:
-        assert "barely rotate" in result.stdout
 
 
 def test_cli_in_a_real_process_no_traceback_unless_debug(tmp_path):

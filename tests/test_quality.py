@@ -6,6 +6,7 @@ Everything is checked against simulated recordings with known truth.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -208,3 +209,22 @@ def test_cli_reports_time_ranges_and_the_verdict(tmp_path):
     assert q["j1_uncertainty_deg"] > 0 and q["j1_spread_deg"] >= 0
     assert q["identifiability"]["condition_number"] >= 1
     assert b"verdict: good" in run.stderr
+
+
+def test_repaired_input_is_never_good(tmp_path):
+    lines = (Path(__file__).resolve().parents[1] / "sample_data" /
+             "circling_40hz.csv").read_text().splitlines()
+    row = lines[100].split(",")
+    lines[100] = ",".join([row[0]] + ["nan"] * (len(row) - 1))
+    path = tmp_path / "gap.csv"
+    path.write_text("\n".join(lines) + "\n")
+    run = imucal("axis", path, "--seed", 1, "--restarts", 10)
+    assert run.returncode == 0, run.stderr
+    quality = json.loads(run.stdout)["quality"]
+    assert quality["verdict"] == "use with care"
+    assert any(w.startswith("input: ") and "interpolation" in w for w in quality["warnings"])
+
+
+def test_simulate_refuses_an_unknown_format_before_simulating(tmp_path):
+    run = imucal("simulate", tmp_path / "x.txt", "--duration", 3600)
+    assert run.returncode == 2 and b"unknown output format" in run.stderr
