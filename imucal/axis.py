@@ -41,8 +41,8 @@ from .restarts import (
     best_restart,
     check_restarts,
     competing_agreement,
-    random_subsets,
     resolve_seed,
+    subset_mask,
 )
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
@@ -63,6 +63,9 @@ MIN_SAMPLES = 20
 #: A restart fraction below this, or a relative residual above the next, is not confident.
 MIN_AGREEING_FRACTION = 0.8
 MAX_RELATIVE_RESIDUAL = 0.25
+#: Iteration limit of the cut-off refits: they start at the estimate, and a shift is
+#: only reported to a fraction of a degree.
+SENSITIVITY_ITERATIONS = 10
 #: Below this RMS flexion rate (j2.g2 - j1.g1 at the estimate) the joint did not bend,
 #: deg/s: a rigid joint fits every pair j1 = R j2. Voluntary knee motion is 50-400 deg/s.
 MIN_FLEXION_RATE_DEG_S = 5.0
@@ -247,8 +250,8 @@ def estimate_axis(
 
     rng = np.random.default_rng(seed)
     x0 = np.concatenate([_random_unit(rng, restarts), _random_unit(rng, restarts)], axis=1)
-    idx = random_subsets(n, restarts, subset, rng)
-    batch = _solve(_HingeProblem(d1, d2, idx), x0, max_iterations)
+    batch = _solve(_HingeProblem(d1, d2, subset_mask(n, restarts, subset, rng)), x0,
+                   max_iterations)
 
     # Refine every restart on all samples: the refined costs are comparable, so the
     # lowest is the least-squares answer and the share of restarts reaching it measures
@@ -274,8 +277,7 @@ def estimate_axis(
         j1, j2 = -flip * j1, -flip * j2
 
     x = np.concatenate([j1, j2])
-    e, jac = full.linearise(x[None, :], np.arange(1))
-    e, jac = e[0], jac[0]
+    e, jac = full.residual_and_jacobian(x)
     n1 = np.linalg.norm(np.cross(d1, j1), axis=1)
     n2 = np.linalg.norm(np.cross(d2, j2), axis=1)
     rms = float(np.sqrt(np.mean(e**2)))
@@ -411,7 +413,7 @@ def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x, max_iteration
     for c in pair:
         h1 = lowpass(g1, rate, c)[win][::step][index]
         h2 = lowpass(g2, rate, c)[win][::step][index]
-        y = _solve(_HingeProblem(h1, h2, None), x[None, :], MAX_ITERATIONS).x[0]
+        y = _solve(_HingeProblem(h1, h2, None), x[None, :], SENSITIVITY_ITERATIONS).x[0]
         shifts["j1"].append(float(_angle_deg(y[:3], x[:3])))
         shifts["j2"].append(float(_angle_deg(y[3:], x[3:])))
     return {"cutoffs_hz": list(pair), "j1_shift_deg": shifts["j1"],
@@ -478,47 +480,143 @@ def joint_plane_projection(g: np.ndarray, j: np.ndarray) -> np.ndarray:
     return np.stack([g @ u, g @ np.cross(j, u)], axis=1)
 
 
+#: Samples per block in the hinge problem's sums: bounds its work arrays to
+#: restarts x CHUNK (about 10 MB per array kind at 100 restarts), whatever the length.
+CHUNK = 4096
+
+
 class _HingeProblem:
-    """Residual (1) and its tangent-plane Jacobian for restarts on sample subsets."""
+    """Residual (1) and its Gauss-Newton normal equations for many restarts at once.
 
-    def __init__(self, g1: np.ndarray, g2: np.ndarray, idx: np.ndarray | None):
-        """``idx`` (R, M): each restart's sample indices; None: all samples for all."""
-        self.idx = idx
+    With ``|g x j|^2 = |g|^2 - (g.j)^2`` every restart's residual needs only the matrix
+    product ``J G^T`` (restarts x samples), and the normal equations are sums of
+    per-sample outer products weighted per restart: one more matrix product with a fixed
+    table of products ``g g^T``. Data subsets are 0/1 weights, so every restart sees the
+    same arrays. All element-wise work happens in preallocated arrays, in blocks of
+    ``CHUNK`` samples: fresh large temporaries cost more (page faults) than the
+    arithmetic itself.
+    """
+
+    def __init__(self, g1: np.ndarray, g2: np.ndarray, mask: np.ndarray | None):
+        """``mask`` (R, N): 1 where restart r uses sample n; None: all samples for all."""
+        n = g1.shape[0]
         self.g1, self.g2 = g1, g2
-        self.gg1 = np.sum(g1 * g1, axis=1)
-        self.gg2 = np.sum(g2 * g2, axis=1)
+        self.g1t, self.g2t = np.ascontiguousarray(g1.T), np.ascontiguousarray(g2.T)
+        self.gg1, self.gg2 = np.sum(g1 * g1, axis=1), np.sum(g2 * g2, axis=1)
+        self.mask = mask
+        self.count = float(n) if mask is None else mask.sum(axis=1)
+        # Tables of g g^T products (N, 9): the normal equations' blocks are weighted sums.
+        self.p11 = (g1[:, :, None] * g1[:, None, :]).reshape(n, 9)
+        self.p22 = (g2[:, :, None] * g2[:, None, :]).reshape(n, 9)
+        self.p12 = (g1[:, :, None] * g2[:, None, :]).reshape(n, 9)
+        rows = 1 if mask is None else mask.shape[0]
+        self.blocks = [slice(k, min(k + CHUNK, n)) for k in range(0, n, CHUNK)]
+        self._work = None
+        self._rows = rows
 
-    def _parts(self, g, gg, rows, j, basis):
-        if self.idx is None:
-            gs, gg = g, gg  # broadcast over restarts, no copy
+    def _buffers(self, r: int):
+        width = self.blocks[0].stop - self.blocks[0].start
+        if self._work is None or self._work.shape[1] < r:
+            self._work = np.empty((8, max(r, 1), width))
+        return [w[:r] for w in self._work]
+
+    def _block(self, x, rows, sl, buf):
+        """Residual pieces of samples ``sl`` for restarts ``rows`` (views into ``buf``)."""
+        d1, d2, n1, n2, e, w = buf[:6]
+        width = sl.stop - sl.start
+        d1, d2, n1, n2, e, w = (a[:, :width] for a in (d1, d2, n1, n2, e, w))
+        np.matmul(x[:, :3], self.g1t[:, sl], out=d1)  # g1.j1, every restart and sample
+        np.matmul(x[:, 3:], self.g2t[:, sl], out=d2)
+        for d, nrm, gg in ((d1, n1, self.gg1), (d2, n2, self.gg2)):
+            np.multiply(d, d, out=nrm)
+            np.subtract(gg[sl], nrm, out=nrm)
+            np.maximum(nrm, 0.0, out=nrm)
+            np.sqrt(nrm, out=nrm)
+        np.subtract(n1, n2, out=e)
+        if self.mask is None:
+            w = None
         else:
-            sel = self.idx[rows]
-            gs, gg = g[sel], gg[sel]  # (r, M, 3), (r, M)
-        dots = gs @ basis  # (r, M, c): g.j, g.u, g.v
-        norm = np.sqrt(np.maximum(gg - dots[..., 0] ** 2, 0.0))
-        return dots, norm
+            np.take(self.mask[:, sl], rows, axis=0, out=w)
+        return d1, d2, n1, n2, e, w
 
-    def residual(self, x, rows):
-        j1, j2 = x[:, :3], x[:, 3:]
-        _, n1 = self._parts(self.g1, self.gg1, rows, j1, j1[:, :, None])
-        _, n2 = self._parts(self.g2, self.gg2, rows, j2, j2[:, :, None])
-        return n1 - n2
+    def _count(self, rows):
+        return self.count if self.mask is None else self.count[rows]
 
-    def linearise(self, x, rows):
-        j1, j2 = x[:, :3], x[:, 3:]
-        b1, b2 = _tangent_basis(j1), _tangent_basis(j2)
-        d1, n1 = self._parts(self.g1, self.gg1, rows, j1, b1)
-        d2, n2 = self._parts(self.g2, self.gg2, rows, j2, b2)
-        # d|g x j| / d(step along u) = -(g.j)(g.u) / |g x j|  (eq. 2 projected)
-        s1 = -d1[..., :1] * d1[..., 1:] / np.maximum(n1, 1e-12)[..., None]
-        s2 = d2[..., :1] * d2[..., 1:] / np.maximum(n2, 1e-12)[..., None]
-        return n1 - n2, np.concatenate([s1, s2], axis=-1)
+    def cost(self, x, rows):
+        """(r,) mean squared residual over each restart's samples."""
+        buf = self._buffers(x.shape[0])
+        total = np.zeros(x.shape[0])
+        for sl in self.blocks:
+            *_, e, w = self._block(x, rows, sl, buf)
+            np.multiply(e, e, out=e)
+            if w is not None:
+                np.multiply(e, w, out=e)
+            total += e.sum(axis=1)
+        return total / self._count(rows)
+
+    def normal(self, x, rows):
+        """Cost (r,), J^T J (r, 4, 4) and J^T e (r, 4) in tangent-plane coordinates."""
+        r = x.shape[0]
+        buf = self._buffers(r)
+        s = np.zeros((3, r, 9))
+        grad = np.zeros((2, r, 3))
+        total = np.zeros(r)
+        for sl in self.blocks:
+            d1, d2, n1, n2, e, w = self._block(x, rows, sl, buf)
+            width = sl.stop - sl.start
+            c1, c2 = buf[6][:, :width], buf[7][:, :width]
+            # d|g x j| / dj = -(g.j) g / |g x j|  (eq. 2), projected on the tangent plane;
+            # e = n1 - n2, so the second sensor's derivative changes sign: the Jacobian row
+            # is (c1 g1^T B1, c2 g2^T B2) with c1 = -(g1.j1)/n1, c2 = (g2.j2)/n2.
+            np.maximum(n1, 1e-12, out=c1)
+            np.divide(d1, c1, out=c1)
+            np.negative(c1, out=c1)
+            np.maximum(n2, 1e-12, out=c2)
+            np.divide(d2, c2, out=c2)
+            if w is not None:  # weight once: w c1 and w c2 (w is 0 or 1)
+                np.multiply(c1, w, out=c1)
+                np.multiply(c2, w, out=c2)
+            tmp = d1  # g.j is no longer needed
+            for k, (a, b, table) in enumerate(((c1, c1, self.p11), (c2, c2, self.p22),
+                                               (c1, c2, self.p12))):
+                np.multiply(a, b, out=tmp)
+                s[k] += tmp @ table[sl]
+            np.multiply(c1, e, out=tmp)
+            grad[0] += tmp @ self.g1[sl]
+            np.multiply(c2, e, out=tmp)
+            grad[1] += tmp @ self.g2[sl]
+            np.multiply(e, e, out=e)
+            if w is not None:
+                np.multiply(e, w, out=e)
+            total += e.sum(axis=1)
+        s11, s22, s12 = (m.reshape(r, 3, 3) for m in s)
+        b1 = _tangent_basis(x[:, :3])[:, :, 1:]
+        b2 = _tangent_basis(x[:, 3:])[:, :, 1:]
+        b1t, b2t = np.swapaxes(b1, 1, 2), np.swapaxes(b2, 1, 2)
+        jtj = np.empty((r, 4, 4))
+        jtj[:, :2, :2] = b1t @ s11 @ b1
+        jtj[:, 2:, 2:] = b2t @ s22 @ b2
+        jtj[:, :2, 2:] = b1t @ s12 @ b2
+        jtj[:, 2:, :2] = np.swapaxes(jtj[:, :2, 2:], 1, 2)
+        jte = np.concatenate([(grad[0][:, None, :] @ b1)[:, 0],
+                              (grad[1][:, None, :] @ b2)[:, 0]], axis=1)
+        return total / self._count(rows), jtj, jte
+
+    def residual_and_jacobian(self, x):
+        """e (N,) and J (N, 4) of one state ``x`` (6,) on all samples (for quality)."""
+        b1, b2 = _tangent_basis(x[None, :3])[0], _tangent_basis(x[None, 3:])[0]
+        d1, d2 = self.g1 @ b1, self.g2 @ b2  # (N, 3): g.j, g.u, g.v
+        n1 = np.sqrt(np.maximum(self.gg1 - d1[:, 0] ** 2, 0.0))
+        n2 = np.sqrt(np.maximum(self.gg2 - d2[:, 0] ** 2, 0.0))
+        s1 = -d1[:, :1] * d1[:, 1:] / np.maximum(n1, 1e-12)[:, None]
+        s2 = d2[:, :1] * d2[:, 1:] / np.maximum(n2, 1e-12)[:, None]
+        return n1 - n2, np.concatenate([s1, s2], axis=1)
 
 
 def _solve(problem: _HingeProblem, x0: np.ndarray, max_iterations: int) -> BatchResult:
     return gauss_newton(
-        problem.linearise,
-        problem.residual,
+        problem.normal,
+        problem.cost,
         _retract,
         x0,
         max_iterations=max_iterations,
@@ -540,17 +638,28 @@ def _retract(x: np.ndarray, step: np.ndarray) -> np.ndarray:
 def _tangent_basis(j: np.ndarray) -> np.ndarray:
     """(r, 3, 3) columns j, u, v: u, v orthonormal and perpendicular to the unit j."""
     u = _perpendicular(j)
-    v = np.cross(j, u)
+    v = _cross(j, u)
     return np.stack([j, u, v], axis=-1)
 
 
 def _perpendicular(j: np.ndarray) -> np.ndarray:
-    """A unit vector perpendicular to each unit ``j`` (..., 3), smooth away from axes."""
+    """A unit vector perpendicular to each unit ``j`` (..., 3), smooth away from axes.
+
+    Gram-Schmidt of the coordinate axis least aligned with ``j`` (written out: this runs
+    several times per Gauss-Newton iteration, where numpy's generic helpers cost more
+    than the arithmetic).
+    """
     j = np.asarray(j, dtype=np.float64)
-    helper = np.zeros_like(j)
-    np.put_along_axis(helper, np.argmin(np.abs(j), axis=-1)[..., None], 1.0, axis=-1)
+    helper = (np.abs(j).argmin(axis=-1)[..., None] == np.arange(3)).astype(np.float64)
     u = helper - np.sum(helper * j, axis=-1, keepdims=True) * j
-    return u / np.linalg.norm(u, axis=-1, keepdims=True)
+    return u / np.sqrt(np.sum(u * u, axis=-1, keepdims=True))
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b along the last axis (3)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:

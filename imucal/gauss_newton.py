@@ -57,8 +57,8 @@ class BatchResult:
 
 
 def gauss_newton(
-    linearise: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
-    residual: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    normal: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
+    cost: Callable[[np.ndarray, np.ndarray], np.ndarray],
     retract: Callable[[np.ndarray, np.ndarray], np.ndarray],
     x0: np.ndarray,
     *,
@@ -71,11 +71,12 @@ def gauss_newton(
 
     Parameters
     ----------
-    linearise
-        ``(x, rows) -> (e, J)``: residuals (r, M) and Jacobian (r, M, k) with respect to
-        the k local step coordinates, for states ``x`` (r, s) of restarts ``rows``.
-    residual
-        ``(x, rows) -> e`` (r, M), the residual alone (cheaper, for trial steps).
+    normal
+        ``(x, rows) -> (cost, JtJ, Jte)``: the cost (r,) (mean squared residual), J^T J
+        (r, k, k) and J^T e (r, k) with respect to the k local step coordinates, for
+        states ``x`` (r, s) of restarts ``rows`` (see :func:`normal_equations`).
+    cost
+        ``(x, rows) -> cost`` (r,), the cost alone (cheaper, for trial steps).
     retract
         ``(x, step) -> x_new``: apply a local step (r, k) to states (r, s).
     x0
@@ -97,21 +98,20 @@ def gauss_newton(
     costs = [None] * (max_iterations + 1)
     path = [x.copy()]
 
-    e, jac = linearise(x, active)
-    cost = np.mean(e**2, axis=1)
-    costs[0] = cost.copy()
-    current = cost.copy()
+    c0, jtj, jte = normal(x, active)
+    costs[0] = c0.copy()
+    current = c0.copy()
 
     for it in range(1, max_iterations + 1):
         if active.size == 0:
             break
-        step = _gauss_newton_step(e, jac)
+        step = _gauss_newton_step(jtj, jte)
         norm = np.linalg.norm(step, axis=1)
         step *= np.minimum(1.0, max_step / np.maximum(norm, 1e-300))[:, None]
 
         x_old = x[active]
         c_old = current[active]
-        x_new, c_new, taken, ok = _descend(residual, retract, x_old, step, c_old, active)
+        x_new, c_new, taken, ok = _descend(cost, retract, x_old, step, c_old, active)
 
         x[active] = x_new
         current[active] = c_new
@@ -128,7 +128,7 @@ def gauss_newton(
         keep = ok & ~small & (iterations[active] < max_iterations)
         active = active[keep]
         if active.size:
-            e, jac = linearise(x[active], active)
+            _, jtj, jte = normal(x[active], active)
 
     n_rows = sum(c is not None for c in costs)
     cost_table = np.stack(costs[:n_rows], axis=1)
@@ -141,10 +141,14 @@ def gauss_newton(
     )
 
 
-def _gauss_newton_step(e: np.ndarray, jac: np.ndarray) -> np.ndarray:
+def normal_equations(e: np.ndarray, jac: np.ndarray):
+    """Cost (r,), J^T J (r, k, k) and J^T e (r, k) from residuals (r, M) and a Jacobian
+    (r, M, k): for problems that build the Jacobian sample by sample."""
     jt = np.swapaxes(jac, 1, 2)
-    jtj = jt @ jac
-    jte = (jt @ e[..., None])[..., 0]
+    return np.mean(e**2, axis=1), jt @ jac, (jt @ e[..., None])[..., 0]
+
+
+def _gauss_newton_step(jtj: np.ndarray, jte: np.ndarray) -> np.ndarray:
     k = jtj.shape[-1]
     scale = np.trace(jtj, axis1=1, axis2=2) / k
     damping = RELATIVE_DAMPING * scale + 1e-300
@@ -153,7 +157,7 @@ def _gauss_newton_step(e: np.ndarray, jac: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(step), step, 0.0)
 
 
-def _descend(residual, retract, x_old, step, c_old, rows):
+def _descend(cost, retract, x_old, step, c_old, rows):
     """Take ``step`` where it lowers the cost; halve it where it does not.
 
     Returns the new states and costs, the norm of the step actually taken (0 where none
@@ -166,7 +170,7 @@ def _descend(residual, retract, x_old, step, c_old, rows):
     trial = np.arange(x_old.shape[0])
     for _ in range(MAX_HALVINGS + 1):
         x_try = retract(x_old[trial], step[trial])
-        c_try = np.mean(residual(x_try, rows[trial]) ** 2, axis=1)
+        c_try = cost(x_try, rows[trial])
         good = np.isfinite(c_try) & (c_try <= c_old[trial])
         x_new[trial[good]] = x_try[good]
         c_new[trial[good]] = c_try[good]
@@ -177,12 +181,3 @@ def _descend(residual, retract, x_old, step, c_old, rows):
         step[trial] *= 0.5
     step[~ok] = 0.0
     return x_new, c_new, np.linalg.norm(step, axis=1), ok
-
-
-def smallest_singular_ratio(jac: np.ndarray) -> float:
-    """Smallest over largest singular value of one (M, k) Jacobian; 0 for a zero matrix.
-
-    Near 0, some direction of the state is not determined by the data.
-    """
-    sv = np.linalg.svd(jac, compute_uv=False)
-    return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0

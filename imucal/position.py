@@ -26,7 +26,7 @@ import numpy as np
 
 from .axis import AxisResult, estimate_axis
 from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton
+from .gauss_newton import BatchResult, gauss_newton, normal_equations
 from .preprocess import (
     FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
@@ -486,8 +486,8 @@ class _SpheroidalProblem:
 
 def _solve(problem: _SpheroidalProblem, x0: np.ndarray, max_iterations: int) -> BatchResult:
     return gauss_newton(
-        problem.linearise,
-        problem.residual,
+        lambda x, rows: normal_equations(*problem.linearise(x, rows)),
+        lambda x, rows: np.mean(problem.residual(x, rows) ** 2, axis=1),
         lambda x, step: x + step,
         x0,
         max_iterations=max_iterations,

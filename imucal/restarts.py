@@ -49,6 +49,19 @@ def random_subsets(
     return np.sort(np.argpartition(keys, m - 1, axis=1)[:, :m], axis=1)
 
 
+def subset_mask(
+    n: int, restarts: int, fraction: float, rng: np.random.Generator
+) -> np.ndarray | None:
+    """(restarts, n) 0/1 weights: row r marks the samples of restart r's random subset
+    (as :func:`random_subsets`, same random draws). None when every restart sees all."""
+    idx = random_subsets(n, restarts, fraction, rng)
+    if idx is None:
+        return None
+    mask = np.zeros((restarts, n))
+    np.put_along_axis(mask, idx, 1.0, axis=1)
+    return mask
+
+
 def best_restart(
     finals: np.ndarray,
     costs: np.ndarray,
