@@ -74,7 +74,7 @@ def gauss_newton(
     normal
         ``(x, rows) -> (cost, JtJ, Jte)``: the cost (r,) (mean squared residual), J^T J
         (r, k, k) and J^T e (r, k) with respect to the k local step coordinates, for
-        states ``x`` (r, s) of restarts ``rows`` (see :func:`normal_equations`).
+        states ``x`` (r, s) of restarts ``rows``.
     cost
         ``(x, rows) -> cost`` (r,), the cost alone (cheaper, for trial steps).
     retract
@@ -139,13 +139,6 @@ def gauss_newton(
     return BatchResult(
         x=x, iterations=iterations, converged=converged, cost=cost_table, path=np.stack(path)
     )
-
-
-def normal_equations(e: np.ndarray, jac: np.ndarray):
-    """Cost (r,), J^T J (r, k, k) and J^T e (r, k) from residuals (r, M) and a Jacobian
-    (r, M, k): for problems that build the Jacobian sample by sample."""
-    jt = np.swapaxes(jac, 1, 2)
-    return np.mean(e**2, axis=1), jt @ jac, (jt @ e[..., None])[..., 0]
 
 
 def _gauss_newton_step(jtj: np.ndarray, jte: np.ndarray) -> np.ndarray:

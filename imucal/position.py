@@ -26,7 +26,7 @@ import numpy as np
 
 from .axis import AxisResult, estimate_axis
 from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton, normal_equations
+from .gauss_newton import BatchResult, gauss_newton
 from .preprocess import (
     FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
@@ -45,8 +45,8 @@ from .restarts import (
     best_restart,
     check_restarts,
     competing_agreement,
-    random_subsets,
     resolve_seed,
+    subset_mask,
 )
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
@@ -254,8 +254,8 @@ def estimate_position(
 
     rng = np.random.default_rng(seed)
     x0 = rng.uniform(-INIT_BOX_M, INIT_BOX_M, size=(restarts, 6))
-    idx = random_subsets(n, restarts, subset, rng)
-    batch = _solve(_SpheroidalProblem(*sensors[0], *sensors[1], idx), x0, max_iterations)
+    mask = subset_mask(n, restarts, subset, rng)
+    batch = _solve(_SpheroidalProblem(*sensors[0], *sensors[1], mask), x0, max_iterations)
 
     # As for the axis: refine every restart on all samples, agree on the refined values,
     # measure the data dependence on the subset values.
@@ -268,7 +268,7 @@ def estimate_position(
     best, reached = best_restart(finals, refined.final_cost, _position_distance, AGREEMENT_M)
     x = finals[best]
 
-    e, jac = full.linearise(x[None, :], np.arange(1))
+    e, jac = full.linearise(x[None, :])
     e, jac = e[0], jac[0]
     r1 = full.joint_acceleration_norm(0, x[:3])
     r2 = full.joint_acceleration_norm(1, x[3:])
@@ -439,55 +439,104 @@ def closest_point_on_axis(x: np.ndarray, line: np.ndarray) -> np.ndarray:
 
 
 class _SpheroidalProblem:
-    """Residual (3) and Jacobian (4) for restarts on sample subsets."""
+    """Residual (3) and the Gauss-Newton normal equations of eq. (4) for many restarts.
 
-    def __init__(self, g1, gdot1, a1, g2, gdot2, a2, idx):
-        """``idx`` (R, M): each restart's sample indices; None: all samples for all."""
-        self.idx = idx
-        self.data = [(g1, gdot1, a1, np.sum(g1 * g1, axis=1)),
-                     (g2, gdot2, a2, np.sum(g2 * g2, axis=1))]
+    ``Gamma_g(o) = (g g^T - |g|^2 I + [gdot]x) o`` is linear in ``o``: each sample's 3x3
+    matrix is built once, and every restart's ``a - Gamma(o)`` is one matrix product
+    (restarts x 3 samples). Data subsets are 0/1 weights, so no per-restart copies.
+    """
 
-    def _r(self, k, rows, o):
-        """a - Gamma_g(o) for sensor k, restarts ``rows``, offsets o (r, 3): (r, M, 3)."""
-        if self.idx is None:
-            g, gdot, a, gg = (arr[None] for arr in self.data[k])  # broadcast, no copy
-        else:
-            sel = self.idx[rows]
-            g, gdot, a, gg = (arr[sel] for arr in self.data[k])
-        o = o[:, None, :]
-        # g x (g x o) = g (g.o) - o |g|^2
-        gamma = g * np.sum(g * o, axis=-1, keepdims=True) - o * gg[..., None]
-        gamma += np.cross(gdot, o)
-        return a - gamma, g, gdot, gg
+    def __init__(self, g1, gdot1, a1, g2, gdot2, a2, mask):
+        """``mask`` (R, N): 1 where restart r uses sample n; None: all samples for all."""
+        self.mask = mask
+        self.count = float(g1.shape[0]) if mask is None else mask.sum(axis=1)
+        # Component-major layouts (3, N), so every sum over x, y, z adds three
+        # contiguous rows instead of reducing a short inner axis.
+        self.sensors = [(self._gamma(g, gdot), np.ascontiguousarray(a.T))
+                        for g, gdot, a in ((g1, gdot1, a1), (g2, gdot2, a2))]
+
+    @staticmethod
+    def _gamma(g, gdot):
+        """(3, 3, N) array G with (Gamma_n o)_k = sum_i G[k, i, n] o_i, where
+        Gamma o = g x (g x o) + gdot x o = (g g^T - |g|^2 I + [gdot]x) o."""
+        gt, dt = g.T, gdot.T
+        m = gt[:, None, :] * gt[None, :, :]
+        m -= np.sum(gt * gt, axis=0)[None, None, :] * np.eye(3)[:, :, None]
+        m[0, 1] -= dt[2]
+        m[0, 2] += dt[1]
+        m[1, 0] += dt[2]
+        m[1, 2] -= dt[0]
+        m[2, 0] -= dt[1]
+        m[2, 1] += dt[0]
+        return m
+
+    def _r(self, k, o):
+        """a - Gamma(o) for sensor k and offsets o (r, 3): (r, 3, N), and G."""
+        gam, at = self.sensors[k]
+        n = at.shape[1]
+        # (r, 3) @ (3, 3N): row r holds (Gamma_n o_r)_k for every component k, sample n
+        flat = o @ gam.transpose(1, 0, 2).reshape(3, 3 * n)
+        return at - flat.reshape(o.shape[0], 3, n), gam
+
+    @staticmethod
+    def _norm(r):
+        return np.sqrt(r[:, 0] ** 2 + r[:, 1] ** 2 + r[:, 2] ** 2)
+
+    def _weights(self, rows):
+        return None if self.mask is None else self.mask[rows]
+
+    def _count(self, rows):
+        return self.count if self.mask is None else self.count[rows]
 
     def joint_acceleration_norm(self, k: int, o: np.ndarray) -> np.ndarray:
-        """|a_k - Gamma(o)| per sample of restart 0's samples, m/s^2."""
-        r, *_ = self._r(k, np.arange(1), o[None, :])
-        return np.linalg.norm(r[0], axis=-1)
+        """|a_k - Gamma(o)| per sample for one offset ``o`` (3,), m/s^2."""
+        r, _ = self._r(k, o[None, :])
+        return self._norm(r)[0]
 
-    def residual(self, x, rows):
-        r1, *_ = self._r(0, rows, x[:, :3])
-        r2, *_ = self._r(1, rows, x[:, 3:])
-        return np.linalg.norm(r1, axis=-1) - np.linalg.norm(r2, axis=-1)
+    def residual(self, x):
+        """e (r, N) for states ``x`` (r, 6)."""
+        return self._norm(self._r(0, x[:, :3])[0]) - self._norm(self._r(1, x[:, 3:])[0])
 
-    def linearise(self, x, rows):
-        parts = []
-        norms = []
-        for k, sl in ((0, slice(0, 3)), (1, slice(3, 6))):
-            r, g, gdot, gg = self._r(k, rows, x[:, sl])
-            nr = np.linalg.norm(r, axis=-1)
-            # Gamma^T r = g (g.r) - r |g|^2 + r x gdot   (eq. 4)
-            gtr = g * np.sum(g * r, axis=-1, keepdims=True) - r * gg[..., None]
-            gtr += np.cross(r, gdot)
-            parts.append(-gtr / np.maximum(nr, 1e-12)[..., None])
+    def cost(self, x, rows):
+        e = self.residual(x)
+        e *= e
+        w = self._weights(rows)
+        if w is not None:
+            e *= w
+        return e.sum(axis=1) / self._count(rows)
+
+    def _linearise(self, x):
+        """e (r, N) and Jacobian (r, 6, N) of eq. (4)."""
+        parts, norms = [], []
+        for k, sign in ((0, -1.0), (1, 1.0)):
+            r, gam = self._r(k, x[:, 3 * k:3 * k + 3])
+            nr = self._norm(r)
+            r /= np.maximum(nr, 1e-12)[:, None, :]
+            # d|a - Gamma o| / do = -Gamma^T r / |r|  (eq. 4); e = |r1| - |r2|
+            gtr = r[:, 0, None, :] * gam[0][None]
+            gtr += r[:, 1, None, :] * gam[1][None]
+            gtr += r[:, 2, None, :] * gam[2][None]
+            parts.append(sign * gtr)
             norms.append(nr)
-        return norms[0] - norms[1], np.concatenate([parts[0], -parts[1]], axis=-1)
+        return norms[0] - norms[1], np.concatenate(parts, axis=1)
+
+    def linearise(self, x):
+        """e (r, N) and Jacobian (r, N, 6) of eq. (4)."""
+        e, jac = self._linearise(x)
+        return e, np.swapaxes(jac, 1, 2)
+
+    def normal(self, x, rows):
+        e, jac = self._linearise(x)  # jac (r, 6, N)
+        w = self._weights(rows)
+        wj = jac if w is None else jac * w[:, None, :]
+        cost = np.sum((e * e) * (1.0 if w is None else w), axis=1) / self._count(rows)
+        return cost, wj @ np.swapaxes(jac, 1, 2), (wj @ e[..., None])[..., 0]
 
 
 def _solve(problem: _SpheroidalProblem, x0: np.ndarray, max_iterations: int) -> BatchResult:
     return gauss_newton(
-        lambda x, rows: normal_equations(*problem.linearise(x, rows)),
-        lambda x, rows: np.mean(problem.residual(x, rows) ** 2, axis=1),
+        problem.normal,
+        problem.cost,
         lambda x, step: x + step,
         x0,
         max_iterations=max_iterations,
