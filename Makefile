@@ -32,6 +32,10 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check .
 
+## bench: the performance targets against their baselines (docs/performance.md)
+bench: $(STAMP)
+	$(BIN)/python benchmarks/run.py
+
 ## sample-data: regenerate sample_data/ with the simulator (deterministic seeds)
 sample-data: $(STAMP)
 	$(BIN)/imucal simulate sample_data/circling.h5 --seed 7 --rate 100 --duration 20 --snr 100 --motion circling

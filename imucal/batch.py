@@ -193,8 +193,13 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Outcome]:
     while pending:
         executor = ProcessPoolExecutor(max_workers=min(workers, len(pending)),
                                        mp_context=context)
-        futures = {executor.submit(_work, task): task for task in pending}
         broken = False
+        futures = []
+        try:
+            for task in pending:
+                futures.append(executor.submit(_work, task))
+        except BrokenProcessPool:  # a worker died while the rest were being queued
+            broken = True
         try:
             waiting = set(futures)
             while waiting:

@@ -42,7 +42,7 @@ app = typer.Typer(
 Rec = Annotated[str, typer.Argument(metavar="REC", show_default=False,
                                     help="Recording (.h5, .hdf5 or .csv); - reads CSV from stdin.")]
 Recs = Annotated[list[str], typer.Argument(
-    metavar="REC...", show_default=False,
+    metavar="REC", show_default=False,
     help="Recording(s) (.h5, .hdf5 or .csv); - reads CSV from stdin. Several RECs: one JSON "
     "line per recording, in order (see --jobs).")]
 Jobs = Annotated[int, typer.Option(
