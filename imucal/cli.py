@@ -312,11 +312,15 @@ def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units
     what = f"{command} ({doc['joint']})" if "joint" in doc else command
     _progress(quiet, recording, names, what)
     if doc["quality"]["verdict"] == "not identifiable" and not force:
-        for w in doc["quality"]["warnings"]:
-            _err(f"imucal: warning: {recording.source}: {w}")
+        # The first warning is the reason (blocking reasons come first); the others
+        # only help a human reading along.
+        reason, *others = doc["quality"]["warnings"]
+        if not quiet:
+            for w in others:
+                _err(f"imucal: warning: {recording.source}: {w}")
         raise NotIdentifiableError(
-            f"{recording.source}: the data cannot identify the {what}; nothing written "
-            "(--force writes the result with its warnings)"
+            f"{recording.source}: the data cannot identify the {what}: {reason}; nothing "
+            "written (--force writes the result with its warnings)"
         )
     if plot is not None:
         from . import plots
@@ -514,4 +518,21 @@ def main() -> None:
     # parallel work is done across recordings (--jobs). A setting in the environment wins.
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")
-    app()
+    try:
+        code = app(standalone_mode=False)
+    except typer.Abort:
+        _err("imucal: interrupted")
+        code = 130
+    except Exception as err:
+        # Usage errors (unknown option, unparsable value, missing argument) come from the
+        # click layer typer builds on; they carry exit_code 2 and format_message().
+        if getattr(err, "exit_code", None) != 2 or not hasattr(err, "format_message"):
+            raise
+        if type(err).__name__ == "NoArgsIsHelpError":
+            err.show()  # plain `imucal` or `imucal axis`: the help is the answer
+        else:
+            ctx = getattr(err, "ctx", None)
+            command = ctx.command_path if ctx is not None else "imucal"
+            _err(f"imucal: error: {err.format_message()} (see '{command} --help')")
+        code = 2
+    sys.exit(code if isinstance(code, int) else 0)
