@@ -111,7 +111,13 @@ def gauss_newton(
 
         x_old = x[active]
         c_old = current[active]
-        x_new, c_new, taken, ok = _descend(cost, retract, x_old, step, c_old, active)
+        # The full step is tried with ``normal``: it is accepted almost always, and then
+        # its normal equations serve the next iteration (no second pass over the data).
+        x_try = retract(x_old, step)
+        c_try, jtj_try, jte_try = normal(x_try, active)
+        first = np.isfinite(c_try) & (c_try <= c_old)
+        x_new, c_new, taken, ok = _descend(cost, retract, x_old, step, c_old, active,
+                                           x_try, c_try, first)
 
         x[active] = x_new
         current[active] = c_new
@@ -126,9 +132,12 @@ def gauss_newton(
         path.append(x.copy())
 
         keep = ok & ~small & (iterations[active] < max_iterations)
+        halved = keep & ~first  # accepted after halving: their equations are still due
+        jtj, jte = jtj_try[keep], jte_try[keep]
         active = active[keep]
-        if active.size:
-            _, jtj, jte = normal(x[active], active)
+        if halved.any():
+            where = np.flatnonzero(halved[keep])
+            _, jtj[where], jte[where] = normal(x[active[where]], active[where])
 
     n_rows = sum(c is not None for c in costs)
     cost_table = np.stack(costs[:n_rows], axis=1)
@@ -150,21 +159,25 @@ def _gauss_newton_step(jtj: np.ndarray, jte: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(step), step, 0.0)
 
 
-def _descend(cost, retract, x_old, step, c_old, rows):
+def _descend(cost, retract, x_old, step, c_old, rows, x_full, c_full, good_full):
     """Take ``step`` where it lowers the cost; halve it where it does not.
 
-    Returns the new states and costs, the norm of the step actually taken (0 where none
-    was) and where a step was taken.
+    ``x_full``, ``c_full``, ``good_full``: the full step, already tried. Returns the new
+    states and costs, the norm of the step actually taken (0 where none was) and where a
+    step was taken.
     """
     step = step.copy()
     x_new = x_old.copy()
     c_new = c_old.copy()
     ok = np.zeros(x_old.shape[0], dtype=bool)
     trial = np.arange(x_old.shape[0])
-    for _ in range(MAX_HALVINGS + 1):
-        x_try = retract(x_old[trial], step[trial])
-        c_try = cost(x_try, rows[trial])
-        good = np.isfinite(c_try) & (c_try <= c_old[trial])
+    for attempt in range(MAX_HALVINGS + 1):
+        if attempt == 0:
+            x_try, c_try, good = x_full, c_full, good_full
+        else:
+            x_try = retract(x_old[trial], step[trial])
+            c_try = cost(x_try, rows[trial])
+            good = np.isfinite(c_try) & (c_try <= c_old[trial])
         x_new[trial[good]] = x_try[good]
         c_new[trial[good]] = c_try[good]
         ok[trial[good]] = True
