@@ -454,6 +454,7 @@ class _SpheroidalProblem:
         # contiguous rows instead of reducing a short inner axis.
         self.sensors = [(self._gamma(g, gdot), np.ascontiguousarray(a.T))
                         for g, gdot, a in ((g1, gdot1, a1), (g2, gdot2, a2))]
+        self._work = None
 
     @staticmethod
     def _gamma(g, gdot):
@@ -505,30 +506,52 @@ class _SpheroidalProblem:
             e *= w
         return e.sum(axis=1) / self._count(rows)
 
+    def _buffers(self, r: int):
+        """Work arrays for ``r`` restarts, reused across iterations: fresh large
+        temporaries cost more (page faults) than the arithmetic on them."""
+        n = self.sensors[0][1].shape[1]
+        if self._work is None or self._work[0].shape[0] < r:
+            self._work = (np.empty((r, 6, n)), np.empty((r, 6, n)), np.empty((r, 3, n)),
+                          np.empty((r, 3, n)), np.empty((3, r, n)))
+        return [w[:r] for w in self._work[:4]] + [self._work[4][:, :r]]
+
     def _linearise(self, x):
-        """e (r, N) and Jacobian (r, 6, N) of eq. (4)."""
-        parts, norms = [], []
+        """e (r, N) and Jacobian (r, 6, N) of eq. (4); the Jacobian is a reused buffer."""
+        r = x.shape[0]
+        jac, wj, res, tmp, norms = self._buffers(r)
+        n = res.shape[2]
         for k, sign in ((0, -1.0), (1, 1.0)):
-            r, gam = self._r(k, x[:, 3 * k:3 * k + 3])
-            nr = self._norm(r)
-            r /= np.maximum(nr, 1e-12)[:, None, :]
+            gam, at = self.sensors[k]
+            flat = x[:, 3 * k:3 * k + 3] @ gam.transpose(1, 0, 2).reshape(3, 3 * n)
+            np.subtract(at, flat.reshape(r, 3, n), out=res)
+            nr = norms[k]
+            np.multiply(res[:, 0], res[:, 0], out=nr)
+            nr += res[:, 1] ** 2
+            nr += res[:, 2] ** 2
+            np.sqrt(nr, out=nr)
+            res /= np.maximum(nr, 1e-12)[:, None, :]
             # d|a - Gamma o| / do = -Gamma^T r / |r|  (eq. 4); e = |r1| - |r2|
-            gtr = r[:, 0, None, :] * gam[0][None]
-            gtr += r[:, 1, None, :] * gam[1][None]
-            gtr += r[:, 2, None, :] * gam[2][None]
-            parts.append(sign * gtr)
-            norms.append(nr)
-        return norms[0] - norms[1], np.concatenate(parts, axis=1)
+            out = jac[:, 3 * k:3 * k + 3]
+            np.multiply(res[:, 0, None, :], gam[0][None], out=out)
+            for c in (1, 2):
+                np.multiply(res[:, c, None, :], gam[c][None], out=tmp)
+                out += tmp
+            if sign < 0:
+                np.negative(out, out=out)
+        return norms[0] - norms[1], jac
 
     def linearise(self, x):
         """e (r, N) and Jacobian (r, N, 6) of eq. (4)."""
         e, jac = self._linearise(x)
-        return e, np.swapaxes(jac, 1, 2)
+        return e, np.swapaxes(jac, 1, 2).copy()
 
     def normal(self, x, rows):
         e, jac = self._linearise(x)  # jac (r, 6, N)
         w = self._weights(rows)
-        wj = jac if w is None else jac * w[:, None, :]
+        wj = jac
+        if w is not None:
+            wj = self._buffers(x.shape[0])[1]
+            np.multiply(jac, w[:, None, :], out=wj)
         cost = np.sum((e * e) * (1.0 if w is None else w), axis=1) / self._count(rows)
         return cost, wj @ np.swapaxes(jac, 1, 2), (wj @ e[..., None])[..., 0]
 
