@@ -590,8 +590,8 @@ class _HingeProblem:
                 np.multiply(e, w, out=e)
             total += e.sum(axis=1)
         s11, s22, s12 = (m.reshape(r, 3, 3) for m in s)
-        b1 = _tangent_basis(x[:, :3])[:, :, 1:]
-        b2 = _tangent_basis(x[:, 3:])[:, :, 1:]
+        both = _tangent_basis(x.reshape(2 * r, 3))[:, :, 1:]  # rows j1, j2, j1, j2, ...
+        b1, b2 = both[0::2], both[1::2]
         b1t, b2t = np.swapaxes(b1, 1, 2), np.swapaxes(b2, 1, 2)
         jtj = np.empty((r, 4, 4))
         jtj[:, :2, :2] = b1t @ s11 @ b1
@@ -627,12 +627,12 @@ def _solve(problem: _HingeProblem, x0: np.ndarray, max_iterations: int) -> Batch
 
 
 def _retract(x: np.ndarray, step: np.ndarray) -> np.ndarray:
-    out = np.empty_like(x)
-    for sl, st in ((slice(0, 3), slice(0, 2)), (slice(3, 6), slice(2, 4))):
-        basis = _tangent_basis(x[:, sl])
-        moved = x[:, sl] + (basis[:, :, 1:] @ step[:, st, None])[..., 0]
-        out[:, sl] = moved / np.linalg.norm(moved, axis=1, keepdims=True)
-    return out
+    r = x.shape[0]
+    j = x.reshape(2 * r, 3)  # rows j1, j2, j1, j2, ...
+    basis = _tangent_basis(j)[:, :, 1:]
+    moved = j + (basis @ step.reshape(2 * r, 2, 1))[..., 0]
+    moved /= np.sqrt(np.sum(moved * moved, axis=1, keepdims=True))
+    return moved.reshape(r, 6)
 
 
 def _tangent_basis(j: np.ndarray) -> np.ndarray:
