@@ -52,13 +52,17 @@ def random_subsets(
 def subset_mask(
     n: int, restarts: int, fraction: float, rng: np.random.Generator
 ) -> np.ndarray | None:
-    """(restarts, n) 0/1 weights: row r marks the samples of restart r's random subset
-    (as :func:`random_subsets`, same random draws). None when every restart sees all."""
-    idx = random_subsets(n, restarts, fraction, rng)
-    if idx is None:
+    """(restarts, n) 0/1 weights: row r marks restart r's random subset, each sample in
+    with probability ``fraction`` (independently: an exact count would need a sort per
+    row and buys nothing). None when every restart sees all samples (``fraction`` 1)."""
+    if not 0 < fraction <= 1:
+        raise InputError(f"subset fraction must be in (0, 1], got {fraction}")
+    if fraction == 1:
         return None
-    mask = np.zeros((restarts, n))
-    np.put_along_axis(mask, idx, 1.0, axis=1)
+    mask = (rng.random((restarts, n)) < fraction).astype(np.float64)
+    # a restart needs samples; with tiny n a row could come out empty
+    empty = mask.sum(axis=1) == 0
+    mask[empty, rng.integers(0, n, size=int(empty.sum()))] = 1.0
     return mask
 
 

@@ -40,3 +40,16 @@ def test_seed_is_drawn_when_missing_and_kept_when_given():
     assert 0 <= resolve_seed(None) < 2**32
     with pytest.raises(InputError):
         resolve_seed(-1)
+
+
+def test_subset_mask_rows_are_random_halves():
+    from imucal.restarts import subset_mask
+
+    mask = subset_mask(2000, 50, 0.5, np.random.default_rng(0))
+    assert mask.shape == (50, 2000) and set(np.unique(mask)) == {0.0, 1.0}
+    share = mask.mean(axis=1)
+    assert np.all(np.abs(share - 0.5) < 0.06)  # 0.011 standard deviation per row
+    assert not np.array_equal(mask[0], mask[1])
+    assert subset_mask(2000, 50, 1.0, np.random.default_rng(0)) is None
+    tiny = subset_mask(2, 200, 0.01, np.random.default_rng(0))
+    assert np.all(tiny.sum(axis=1) >= 1)
