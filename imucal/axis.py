@@ -36,7 +36,7 @@ from .preprocess import (
     stillness_warning,
     window_slice,
 )
-from .quality import CAREFUL, GOOD, NOT_IDENTIFIABLE, robust_covariance, singular_values
+from .quality import Verdict, robust_covariance, sensitivity_cutoffs, singular_values
 from .restarts import (
     best_restart,
     check_restarts,
@@ -81,7 +81,7 @@ MAX_SIGN_EVIDENCE = 1e6
 
 
 @dataclass
-class AxisResult:
+class AxisResult(Verdict):
     """Result of :func:`estimate_axis`.
 
     Attributes
@@ -150,22 +150,6 @@ class AxisResult:
     gyr2: np.ndarray
     warnings: list[str] = field(default_factory=list)
     blocking: list[str] = field(default_factory=list)
-
-    @property
-    def verdict(self) -> str:
-        """"good", "use with care" (warnings) or "not identifiable" (``blocking``)."""
-        if self.blocking:
-            return NOT_IDENTIFIABLE
-        return CAREFUL if self.warnings else GOOD
-
-    @property
-    def identifiable(self) -> bool:
-        return not self.blocking
-
-    @property
-    def confident(self) -> bool:
-        """True when no warning of either kind was raised."""
-        return not (self.warnings or self.blocking)
 
     @property
     def iterations(self) -> np.ndarray:
@@ -406,9 +390,7 @@ def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x, max_iteration
     """Refit from the estimate ``x`` with the cut-off halved and doubled (no filter: the
     default cut-off and twice it); the shifts show how much the answer rests on the filter.
     """
-    top = MAX_CUTOFF_FRACTION * rate
-    base = cutoff if cutoff else default_cutoff(rate)
-    pair = (base / 2, min(2 * base, top)) if cutoff else (base, min(2 * base, top))
+    pair = sensitivity_cutoffs(cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
     shifts = {"j1": [], "j2": []}
     for c in pair:
         h1 = lowpass(g1, rate, c)[win][::step][index]

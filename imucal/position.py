@@ -40,7 +40,7 @@ from .preprocess import (
     stillness_warning,
     window_slice,
 )
-from .quality import CAREFUL, GOOD, NOT_IDENTIFIABLE, robust_covariance, singular_values
+from .quality import Verdict, robust_covariance, sensitivity_cutoffs, singular_values
 from .restarts import (
     best_restart,
     check_restarts,
@@ -82,7 +82,7 @@ MAX_PLAUSIBLE_OFFSET_M = 1.0
 
 
 @dataclass
-class PositionResult:
+class PositionResult(Verdict):
     """Result of :func:`estimate_position`.
 
     Attributes
@@ -138,21 +138,6 @@ class PositionResult:
     line: np.ndarray | None = None
     warnings: list[str] = field(default_factory=list)
     blocking: list[str] = field(default_factory=list)
-
-    @property
-    def verdict(self) -> str:
-        """"good", "use with care" (warnings) or "not identifiable" (``blocking``)."""
-        if self.blocking:
-            return NOT_IDENTIFIABLE
-        return CAREFUL if self.warnings else GOOD
-
-    @property
-    def identifiable(self) -> bool:
-        return not self.blocking
-
-    @property
-    def confident(self) -> bool:
-        return not (self.warnings or self.blocking)
 
     @property
     def iterations(self) -> np.ndarray:
@@ -407,9 +392,7 @@ def _across(line: np.ndarray) -> np.ndarray:
 
 def _cutoff_sensitivity(signals, rate, cutoff, win, step, index, x, line, max_iterations):
     """Refit from the estimate ``x`` with the cut-off halved and doubled; shifts in mm."""
-    top = MAX_CUTOFF_FRACTION * rate
-    base = cutoff if cutoff else default_cutoff(rate)
-    pair = (base / 2, min(2 * base, top)) if cutoff else (base, min(2 * base, top))
+    pair = sensitivity_cutoffs(cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
     shifts = {"o1": [], "o2": []}
     for c in pair:
         parts = []

@@ -27,6 +27,37 @@ CAREFUL = "use with care"
 NOT_IDENTIFIABLE = "not identifiable"
 
 
+class Verdict:
+    """The verdict of a result with ``warnings`` and ``blocking`` lists (a mixin for the
+    estimators' result classes)."""
+
+    warnings: list[str]
+    blocking: list[str]
+
+    @property
+    def verdict(self) -> str:
+        """"good", "use with care" (warnings) or "not identifiable" (``blocking``)."""
+        if self.blocking:
+            return NOT_IDENTIFIABLE
+        return CAREFUL if self.warnings else GOOD
+
+    @property
+    def identifiable(self) -> bool:
+        return not self.blocking
+
+    @property
+    def confident(self) -> bool:
+        """True when no warning of either kind was raised."""
+        return not (self.warnings or self.blocking)
+
+
+def sensitivity_cutoffs(cutoff: float, default: float, top: float) -> tuple[float, float]:
+    """The two cut-offs, Hz, of the sensitivity refits: ``cutoff`` halved and doubled, or
+    without a filter (``cutoff`` 0) the ``default`` and twice it; never above ``top``."""
+    base = cutoff if cutoff else default
+    return (base / 2, min(2 * base, top)) if cutoff else (base, min(2 * base, top))
+
+
 def newey_west_lags(m: int) -> int:
     """Newey-West rule-of-thumb number of lags for ``m`` samples: floor(4 (m / 100)^(2/9))."""
     return int(np.floor(4 * (max(m, 1) / 100) ** (2 / 9)))
