@@ -69,3 +69,37 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
 def write_text_atomic(path: str | Path, text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically."""
     write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+def check_not_inputs(outputs, inputs) -> None:
+    """InputError when an output path names one of the input files or another output.
+
+    ``outputs``: (option, path or None) pairs such as ("--out", path); ``inputs``: the
+    recordings read ("-" for stdin is skipped). Writing such an output would destroy the
+    recording, or one output would silently replace the other.
+    """
+    read = {_identity(p) for p in inputs if str(p) != "-"}
+    seen: dict = {}
+    for option, path in outputs:
+        if path is None:
+            continue
+        key = _identity(path)
+        if key in read:
+            raise InputError(f"{path}: {option} names an input recording and would overwrite "
+                             "it; give another file name")
+        if key in seen:
+            raise InputError(f"{path}: {option} and {seen[key]} name the same file; give "
+                             "each its own name")
+        seen[key] = option
+
+
+def _identity(path):
+    """The file a path names: device and inode when it exists (links and other spellings
+    of one file compare equal), else the absolute path."""
+    p = Path(path)
+    try:
+        st = p.stat()
+    except OSError:
+        return str(p.resolve())
+    return (st.st_dev, st.st_ino)
+

@@ -32,7 +32,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .atomic import check_writable, write_atomic
+from .atomic import check_not_inputs, check_writable, write_atomic
 from .errors import InputError
 
 __all__ = ["Outcome", "run_study", "process_recordings", "resolve_jobs"]
@@ -103,6 +103,7 @@ def run_study(command: str, params: dict) -> int:
                          "of recordings")
     out = params.get("out")
     if out is not None:
+        check_not_inputs([("--out", out)], files)
         check_writable(out)
     quiet = bool(params.get("quiet"))
     jobs = resolve_jobs(int(params.get("jobs", 1)), len(files))

@@ -16,7 +16,7 @@ from typing import Annotated
 import typer
 
 from . import __version__
-from .atomic import check_writable, write_atomic, write_text_atomic
+from .atomic import check_not_inputs, check_writable, write_atomic, write_text_atomic
 from .errors import ImucalError, InputError, NotIdentifiableError
 
 
@@ -300,7 +300,7 @@ def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units
     """
     from . import report
 
-    _check_outputs(out, plot)
+    _check_outputs(out, plot, rec)
     recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
     s1, s2 = (recording.sensor(n) for n in names)
     window = _window(recording, start, end)
@@ -438,7 +438,8 @@ def _input_info(recording, names) -> dict:
     }
 
 
-def _check_outputs(out, plot) -> None:
+def _check_outputs(out, plot, rec) -> None:
+    check_not_inputs([("--out", out), ("--plot", plot)], [rec])
     for path in (out, plot):
         if path is not None:
             check_writable(path)

@@ -12,6 +12,7 @@ import numpy as np
 from scipy import signal
 
 from .errors import InputError
+from .recording import MAX_RATE_HZ, MIN_RATE_HZ
 
 #: Default low-pass cut-off in Hz. Voluntary leg motion (circling, gait) has almost all
 #: its energy below 6 Hz; 10 Hz keeps it and removes sensor noise and soft-tissue ringing.
@@ -79,10 +80,13 @@ def check_pair(a, b) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_rate(rate) -> float:
-    """A positive, finite sample rate in Hz, else InputError."""
+    """A sample rate in Hz within the plausible range of body-worn IMUs, else InputError."""
     rate = float(rate)
     if not np.isfinite(rate) or rate <= 0:
         raise InputError(f"sample rate must be a positive number of Hz, got {rate}")
+    if not MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
+        raise InputError(f"sample rate {rate:g} Hz is outside the {MIN_RATE_HZ:g} to "
+                         f"{MAX_RATE_HZ:g} Hz of body-worn IMUs; check its units")
     return rate
 
 

@@ -30,6 +30,9 @@ ACC_LOOKS_LIKE_G = (0.5, 2.0)
 #: still treated as regular sampling (timestamps of wireless sensors jitter a little).
 #: Beyond it loading stops: imucal never resamples, because a resampled gap would be
 #: invented data that the estimate then fits.
+#: Plausible sample rates of body-worn IMUs, Hz.
+MIN_RATE_HZ = 1.0
+MAX_RATE_HZ = 10_000.0
 TIME_JITTER_TOLERANCE = 0.1
 
 #: Longest run of non-finite samples (NaN or Inf: a dropped packet) inside a recording that
@@ -351,6 +354,16 @@ def _as_n_by_3(value, what: str) -> np.ndarray:
     )
 
 
+def _check_plausible_rate(rate: float, source: str, origin: str = "") -> None:
+    """Body-worn IMUs sample at a few Hz to a few kHz; outside MIN/MAX_RATE_HZ the number
+    is a unit mistake (ms for s, kHz for Hz), not a sample rate."""
+    if not MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
+        raise InputError(
+            f"{source}: sample rate {rate:g} Hz{origin} is outside the {MIN_RATE_HZ:g} to "
+            f"{MAX_RATE_HZ:g} Hz of body-worn IMUs; check the rate's units"
+        )
+
+
 def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray]:
     if rate is not None:
         try:
@@ -364,6 +377,7 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray]:
                 f"{source}: sample rate must be a positive number of Hz, got {rate:g}; fix "
                 "the 'sample_rate' attribute or give --rate"
             )
+        _check_plausible_rate(rate, source)
     if time is None:
         if rate is None:
             raise InputError(
@@ -411,6 +425,7 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray]:
         )
     if not (np.isfinite(time_rate) and time_rate > 0):
         raise InputError(f"{source}: 'time' steps of {step:g} s give no usable sample rate")
+    _check_plausible_rate(time_rate, source, " from the 'time' steps (are they in seconds?)")
     if rate is not None and abs(time_rate - rate) > TIME_JITTER_TOLERANCE * rate:
         raise InputError(
             f"{source}: 'sample_rate' says {rate:g} Hz but 'time' says {time_rate:g} Hz; "

@@ -167,3 +167,23 @@ def test_csv_at_40_hz_meets_paper_targets(recordings):
         assert doc["input"]["sample_rate_hz"] == pytest.approx(40.0)
         assert doc["convergence"]["fraction"] >= 0.95
         assert doc["convergence"]["iterations_median"] <= 10
+
+
+def test_outputs_never_overwrite_the_input_or_each_other(tmp_path):
+    rec = tmp_path / "rec.h5"
+    rec.write_bytes((ROOT / "sample_data" / "circling.h5").read_bytes())
+    before = rec.read_bytes()
+    run = imucal("axis", rec, "--out", rec)
+    assert run.returncode == 2 and b"names an input recording" in run.stderr
+    run = imucal("axis", rec, "--out", tmp_path / "x.png", "--plot", tmp_path / "x.png")
+    assert run.returncode == 2 and b"name the same file" in run.stderr
+    run = imucal("axis", rec, ROOT / "sample_data" / "circling.h5", "--out", rec)
+    assert run.returncode == 2 and b"names an input recording" in run.stderr
+    assert rec.read_bytes() == before
+
+
+@pytest.mark.parametrize("rate", ["1e300", "1e-300", "0.5", "20000"])
+def test_implausible_rates_are_refused(rate):
+    run = imucal("axis", ROOT / "sample_data" / "circling_40hz.csv", "--rate", rate)
+    assert run.returncode == 2 and b"body-worn IMUs" in run.stderr
+    assert b"Traceback" not in run.stderr
