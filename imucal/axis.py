@@ -352,7 +352,7 @@ def estimate_axis(
         "sign_convention": sign,
         "subsample": step,
         "select": select,
-        "max_samples": max_samples,
+        "max_samples": max_samples if select else None,
         "subset_fraction": subset,
         "max_iterations": max_iterations,
         "step_tolerance_rad": STEP_TOLERANCE,

@@ -317,6 +317,8 @@ def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units
         reason, *others = doc["quality"]["warnings"]
         if not quiet:
             for w in others:
+                if w.startswith("input: "):
+                    continue  # printed already, at load
                 _err(f"imucal: warning: {recording.source}: {w}")
         raise NotIdentifiableError(
             f"{recording.source}: the data cannot identify the {what}: {reason}; nothing "

@@ -349,7 +349,7 @@ def estimate_position(
         "gdot": "central difference of the filtered gyroscope signal",
         "subsample": step,
         "select": select,
-        "max_samples": max_samples,
+        "max_samples": max_samples if select else None,
         "subset_fraction": subset,
         "max_iterations": max_iterations,
         "step_tolerance_m": STEP_TOLERANCE,

@@ -20,8 +20,14 @@ from .quality import CAREFUL, GOOD
 AXIS_CONVENTION = (
     "j1 is the unit hinge axis in the first sensor's frame, j2 the same physical axis in "
     "the second sensor's frame; j1 and j2 point the same physical way (decided from the "
-    "data), overall sign chosen so that j1's largest component is positive"
+    "data), overall sign chosen so that {sign}"
 )
+
+
+def _axis_convention(sign: str) -> str:
+    rule = ("j1's largest component is positive" if sign == "auto"
+            else f"j1's {sign[1]} component is {'positive' if sign[0] == '+' else 'negative'}")
+    return AXIS_CONVENTION.format(sign=rule)
 POSITION_CONVENTION = (
     "o1 and o2 are the vectors from the joint centre to the first and second sensor's "
     "origin, each in its own sensor's frame, in metres (Seel et al. 2012)"
@@ -45,7 +51,7 @@ def axis_report(result: AxisResult, *, input_info: dict) -> dict:
         "command": "axis",
         "input": _input_block(input_info, result),
         "settings": result.settings,
-        "convention": AXIS_CONVENTION,
+        "convention": _axis_convention(result.settings["sign_convention"]),
         "units": {"j1": "unit vector", "j2": "unit vector", "rms_residual": "rad/s",
                   "cost": "rad/s (RMS residual)", "uncertainty": "deg", "spread": "deg"},
         "j1": result.j1,
