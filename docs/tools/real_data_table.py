@@ -141,13 +141,20 @@ FOOTER = """
   a degree (the test suite requires 3 deg: `tests/test_real_data.py`). Both estimators
   minimise the same residual and land in the same minimum; qmt's default, which adds an
   accelerometer residual, moves the axes by up to a few degrees.
-- The knee's hinge residual is large in both windows (relative residual about 0.75 of the
-  joint-plane rates it compares): a human knee on soft tissue is not an ideal hinge, so
-  every knee row warns of a poor fit, as the data README says for 55-100 s.
-- The knee estimate moves by many degrees when the rates are low-passed first, and the
-  gyro sign test cannot decide the relative sign here: both are reported as warnings.
-- The ankle-as-hinge rows are honest about a spheroidal joint: poor fit, restarts that do
-  not agree, or a verdict of "not identifiable".
+- The knee's hinge residual is large in both windows (0.37-0.43 of the angular-rate
+  magnitude, against below 0.03 for simulated hinges): a human knee on soft tissue is not
+  an ideal hinge, so every knee row warns of a poor fit, as the data README says for
+  55-100 s. The 0-55 s part is no better a hinge by this measure.
+- The knee estimate moves by many degrees when the rates are low-passed first.
+- Relative sign: the gyroscope sign test cannot decide it here (evidence 1.0-1.2, so every
+  row warns "check the relative sign"). imucal then reports j2 pointing opposite to the
+  rough lateral reference of the data README, while qmt's default estimator (with its
+  accelerometer residual) and that reference agree with each other: on this recording the
+  relative sign imucal reports is probably wrong, which is what the warning is for. The
+  angles in the table are sign-free.
+- The ankle-as-hinge rows fit worse than a hinge should (0.26-0.38) but, unlike simulated
+  full 3-D ankle motion, the restarts agree (this ankle moves mostly in one plane), so
+  imucal warns instead of refusing.
 - The ankle position in 0-55 s has a 1-sigma uncertainty near 20 mm: the short bursts of
   motion barely excite it. The vigorous part pins it to a few mm, but the estimate moves
   by several centimetres with the filter cut-off, which the report flags.
