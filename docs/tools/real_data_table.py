@@ -147,11 +147,13 @@ FOOTER = """
   55-100 s. The 0-55 s part is no better a hinge by this measure.
 - The knee estimate moves by many degrees when the rates are low-passed first.
 - Relative sign: the gyroscope sign test cannot decide it here (evidence 1.0-1.2, so every
-  row warns "check the relative sign"). imucal then reports j2 pointing opposite to the
-  rough lateral reference of the data README, while qmt's default estimator (with its
-  accelerometer residual) and that reference agree with each other: on this recording the
-  relative sign imucal reports is probably wrong, which is what the warning is for. The
-  angles in the table are sign-free.
+  row warns "check the relative sign"). For the knees in 0-55 s imucal reports j2 pointing
+  opposite to the rough lateral reference of the data README, while qmt's default
+  estimator (with its accelerometer residual) agrees with that reference; a separate
+  accelerometer check (which of (j1, j2) and (j1, -j2) is the direction a hinge leaves
+  free in the joint-position fit) sides with imucal, by a ratio of only 1.4-1.6 against
+  30-50 on simulated knees. The data do not settle the sign, and that is what the warning
+  says. The angles in the table are sign-free.
 - The ankle-as-hinge rows fit worse than a hinge should (0.26-0.38) but, unlike simulated
   full 3-D ankle motion, the restarts agree (this ankle moves mostly in one plane), so
   imucal warns instead of refusing.
