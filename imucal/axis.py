@@ -251,8 +251,11 @@ def estimate_axis(
     # The sign test follows the projections' angles sample by sample: it needs the
     # full rate and a smooth signal, so it always sees low-passed rates.
     sign_cutoff = cutoff or default_cutoff(rate)
+    # Filtered copies by cut-off: without a user filter the sign test's 10 Hz copy is
+    # also the first sensitivity refit's input.
+    filtered = {sign_cutoff: (lowpass(g1, rate, sign_cutoff), lowpass(g2, rate, sign_cutoff))}
     relative_sign, evidence = align_signs(
-        lowpass(g1, rate, sign_cutoff)[win], lowpass(g2, rate, sign_cutoff)[win], j1, j2, rate
+        filtered[sign_cutoff][0][win], filtered[sign_cutoff][1][win], j1, j2, rate
     )
     j2 = relative_sign * j2
     k = int(np.argmax(np.abs(j1))) if flip_axis is None else flip_axis
@@ -288,7 +291,7 @@ def estimate_axis(
     }
 
     sensitivity = _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, sel.index, x,
-                                      max_iterations)
+                                      filtered)
 
     fraction = float(reached.mean())
     agreement = competing_agreement(refined.final_cost, reached)
@@ -389,15 +392,17 @@ def estimate_axis(
     )
 
 
-def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x, max_iterations) -> dict:
+def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x, filtered) -> dict:
     """Refit from the estimate ``x`` with the cut-off halved and doubled (no filter: the
     default cut-off and twice it); the shifts show how much the answer rests on the filter.
+    ``filtered``: {cut-off: (gyr1, gyr2)} already low-passed.
     """
     pair = sensitivity_cutoffs(cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
     shifts = {"j1": [], "j2": []}
     for c in pair:
-        h1 = lowpass(g1, rate, c)[win][::step][index]
-        h2 = lowpass(g2, rate, c)[win][::step][index]
+        if c not in filtered:
+            filtered[c] = (lowpass(g1, rate, c), lowpass(g2, rate, c))
+        h1, h2 = (h[win][::step][index] for h in filtered[c])
         y = _solve(_HingeProblem(h1, h2, None), x[None, :], SENSITIVITY_ITERATIONS).x[0]
         shifts["j1"].append(float(_angle_deg(y[:3], x[:3])))
         shifts["j2"].append(float(_angle_deg(y[3:], x[3:])))
@@ -494,10 +499,8 @@ class _HingeProblem:
         self.p11 = (g1[:, :, None] * g1[:, None, :]).reshape(n, 9)
         self.p22 = (g2[:, :, None] * g2[:, None, :]).reshape(n, 9)
         self.p12 = (g1[:, :, None] * g2[:, None, :]).reshape(n, 9)
-        rows = 1 if mask is None else mask.shape[0]
         self.blocks = [slice(k, min(k + CHUNK, n)) for k in range(0, n, CHUNK)]
         self._work = None
-        self._rows = rows
 
     def _buffers(self, r: int):
         width = self.blocks[0].stop - self.blocks[0].start

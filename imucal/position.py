@@ -95,6 +95,7 @@ class PositionResult(Verdict):
     singular_ratio : smallest / largest singular value of the Jacobian at the estimate
         (near 0: the position is only known along a line); for a hinge, of the directions
         across the axis.
+    singular_values : singular values of that Jacobian over sqrt(samples), 1/s^2.
     uncertainty_mm : {"o1", "o2"} 1-sigma from the curvature of the cost (for a hinge:
         across the axis line), mm.
     excitation : RMS angular rate of each sensor, deg/s, and the Jacobian's singular
@@ -121,6 +122,7 @@ class PositionResult(Verdict):
     rms_residual: float
     relative_residual: float
     singular_ratio: float
+    singular_values: np.ndarray
     uncertainty_mm: dict
     excitation: dict
     sensitivity: dict
@@ -364,6 +366,7 @@ def estimate_position(
         rms_residual=rms,
         relative_residual=relative,
         singular_ratio=singular_ratio,
+        singular_values=sv,
         uncertainty_mm=uncertainty,
         excitation=excitation,
         sensitivity=sensitivity,

@@ -113,8 +113,6 @@ def _quality_block(result, info: dict, unit: str, uncertainty: dict, spread: dic
     if loaded and verdict == GOOD:
         verdict = CAREFUL
     first, second = uncertainty
-    sv = np.asarray(result.singular_values if hasattr(result, "singular_values")
-                    else result.excitation["singular_values_1_s2"])
     block = {
         "verdict": verdict,
         "warnings": result.blocking + result.warnings + loaded,
@@ -129,7 +127,7 @@ def _quality_block(result, info: dict, unit: str, uncertainty: dict, spread: dic
         "identifiability": {
             "singular_ratio": result.singular_ratio,
             "condition_number": 1 / result.singular_ratio if result.singular_ratio > 0 else None,
-            "smallest_singular_value": sv[-1],
+            "smallest_singular_value": result.singular_values[-1],
             "excitation": result.excitation,
         },
         "sensitivity": result.sensitivity,

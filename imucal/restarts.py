@@ -33,22 +33,6 @@ def check_restarts(restarts) -> int:
     return restarts
 
 
-def random_subsets(
-    n: int, restarts: int, fraction: float, rng: np.random.Generator
-) -> np.ndarray | None:
-    """(restarts, m) sorted sample indices, each row a random subset of ``fraction`` of ``n``.
-
-    None when every restart sees all samples (``fraction`` 1).
-    """
-    if not 0 < fraction <= 1:
-        raise InputError(f"subset fraction must be in (0, 1], got {fraction}")
-    m = max(1, int(round(fraction * n)))
-    if m >= n:
-        return None
-    keys = rng.random((restarts, n))
-    return np.sort(np.argpartition(keys, m - 1, axis=1)[:, :m], axis=1)
-
-
 def subset_mask(
     n: int, restarts: int, fraction: float, rng: np.random.Generator
 ) -> np.ndarray | None:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from imucal import InputError
-from imucal.restarts import best_restart, random_subsets, resolve_seed
+from imucal.restarts import best_restart, resolve_seed, subset_mask
 
 
 def _dist(x, y):
@@ -26,13 +26,9 @@ def test_best_restart_needs_one_finite_result():
         best_restart(np.full((2, 1), np.nan), np.full(2, np.nan), _dist, 1.0)
 
 
-def test_random_subsets_are_sorted_distinct_and_sized():
-    idx = random_subsets(100, 7, 0.3, np.random.default_rng(0))
-    assert idx.shape == (7, 30)
-    assert all(len(set(row)) == 30 and np.all(np.diff(row) > 0) for row in idx)
-    assert random_subsets(100, 7, 1.0, np.random.default_rng(0)) is None
+def test_subset_fraction_must_be_in_0_1():
     with pytest.raises(InputError):
-        random_subsets(100, 7, 0.0, np.random.default_rng(0))
+        subset_mask(100, 7, 0.0, np.random.default_rng(0))
 
 
 def test_seed_is_drawn_when_missing_and_kept_when_given():
@@ -43,8 +39,6 @@ def test_seed_is_drawn_when_missing_and_kept_when_given():
 
 
 def test_subset_mask_rows_are_random_halves():
-    from imucal.restarts import subset_mask
-
     mask = subset_mask(2000, 50, 0.5, np.random.default_rng(0))
     assert mask.shape == (50, 2000) and set(np.unique(mask)) == {0.0, 1.0}
     share = mask.mean(axis=1)
