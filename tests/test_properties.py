@@ -24,11 +24,11 @@ from pathlib import Path
 from types import SimpleNamespace
 from unittest import mock
 
-import h5py
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
+from test_loaders import write_h5
 
 from imucal.errors import InputError
 from imucal.loaders import HDF5_SIGNATURE, load_recording
@@ -246,17 +246,12 @@ def layouts(draw):
 
 
 def write_layout(path: Path, rate, time, sensors) -> None:
-    with h5py.File(path, "w") as h5:
-        if rate is not None:
-            h5.attrs["sample_rate"] = rate
-        if time is not None:
-            h5["time"] = time
-        for name, kinds in sensors.items():
-            group = h5.create_group(name)
-            for kind, (data, units) in kinds.items():
-                group[kind] = data
-                if units is not None:
-                    group[kind].attrs["units"] = units
+    """Write a drawn layout: sensors {name: {kind: (data, units or None)}}."""
+    write_h5(path, {name: {kind: data for kind, (data, _) in kinds.items()}
+                    for name, kinds in sensors.items()},
+             rate=rate, time=time,
+             units={(name, kind): units for name, kinds in sensors.items()
+                    for kind, (_, units) in kinds.items() if units is not None})
 
 
 @SLOW
