@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton
+from .gauss_newton import BatchResult, chain, gauss_newton
 from .preprocess import (
     FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
@@ -38,10 +38,12 @@ from .preprocess import (
 )
 from .quality import Verdict, robust_covariance, sensitivity_cutoffs, singular_values
 from .restarts import (
+    agreeing,
     best_restart,
     check_restarts,
     competing_agreement,
     resolve_seed,
+    settled,
     subset_mask,
 )
 from .selection import MAX_SAMPLES
@@ -52,8 +54,21 @@ AGREEMENT_DEG = 2.0
 MAX_ITERATIONS = 50
 #: Stop when the tangent-plane step is below this, rad (about 6e-4 deg).
 STEP_TOLERANCE = 1e-5
+#: The restarts (on their subsets and refined) stop at this step, rad (about 0.06 deg).
+RESTART_STEP_TOLERANCE = 1e-3
+#: The coarse stage only has to find each restart's basin, rad (about 0.6 deg).
+COARSE_STEP_TOLERANCE = 1e-2
+#: Samples shared by all restarts in the coarse stage (each sees its subset of them).
+COARSE_SAMPLES = 600
+#: The coarse stage stops after this many steps; restarts still moving go on on their
+#: subsets (a few restarts in flat valleys would otherwise run long on little data).
+COARSE_ITERATIONS = 6
+#: Precision of the restarts' arithmetic: single precision halves the time of the
+#: element-wise work and resolves the axis to about 1e-5 rad, far below
+#: ``RESTART_STEP_TOLERANCE``; the estimate itself is polished in double precision.
+RESTART_DTYPE = np.float32
 #: Stop when a step lowers the mean squared residual by less than this fraction.
-COST_TOLERANCE = 1e-9
+COST_TOLERANCE = 1e-12
 #: Largest tangent step per iteration, rad (norm over both axes).
 MAX_STEP = 1.0
 #: Fraction of the samples each restart sees (the paper's "different subsets").
@@ -113,9 +128,10 @@ class AxisResult(Verdict):
         1.25 x the best (clearly worse local minima do not count).
     reached : (R,) which restarts did.
     spread_deg : RMS angle between the agreeing restarts' subset results and the
-        estimate, per axis, deg: how much the answer depends on the data.
+        estimate, per axis, deg: how much the answer depends on the data (subset fits
+        stuck in a local minimum left out, :func:`imucal.restarts.settled`).
     batch : the restarts on their subsets (initial states ``batch.path[0]``, costs,
-        iterations).
+        iterations), the coarse stage's steps first (see :func:`_multistart`).
     refined : each restart's result refined on all samples; the estimate is the one with
         the lowest cost.
     warnings : plain-language reasons to use the estimate with care; empty when fine.
@@ -205,7 +221,7 @@ def estimate_axis(
         Window in seconds from the first sample; the filter runs on the whole signal
         first so the window edges have no filter transients.
     max_iterations
-        Gauss-Newton iteration limit per restart.
+        Iteration limit per restart and stage (subset fit, refinement, polish).
     sign
         Overall sign convention: "auto" (j1's largest component positive) or "+x", "-x",
         "+y", "-y", "+z", "-z" (that component of j1 positive). j2 follows j1.
@@ -236,16 +252,8 @@ def estimate_axis(
 
     rng = np.random.default_rng(seed)
     x0 = np.concatenate([_random_unit(rng, restarts), _random_unit(rng, restarts)], axis=1)
-    batch = _solve(_HingeProblem(d1, d2, subset_mask(n, restarts, subset, rng)), x0,
-                   max_iterations)
-
-    # Refine every restart on all samples: the refined costs are comparable, so the
-    # lowest is the least-squares answer and the share of restarts reaching it measures
-    # independence from the start; the subset finals (``batch.x``) show how much the
-    # answer depends on the data (Sec. IV).
-    full = _HingeProblem(d1, d2, None)
-    refined = _solve(full, batch.x, max_iterations)
-    best, reached = best_restart(refined.x, refined.final_cost, _axis_distance, AGREEMENT_DEG)
+    batch, refined, best, reached = _multistart(d1, d2, subset_mask(n, restarts, subset, rng),
+                                                x0, max_iterations, rng)
     j1, j2 = _unit(refined.x[best, :3]), _unit(refined.x[best, 3:])
 
     # The sign test follows the projections' angles sample by sample: it needs the
@@ -266,7 +274,7 @@ def estimate_axis(
         j1, j2 = -flip * j1, -flip * j2
 
     x = np.concatenate([j1, j2])
-    e, jac = full.residual_and_jacobian(x)
+    e, jac = _residual_and_jacobian(d1, d2, x)
     n1 = np.linalg.norm(np.cross(d1, j1), axis=1)
     n2 = np.linalg.norm(np.cross(d2, j2), axis=1)
     rms = float(np.sqrt(np.mean(e**2)))
@@ -296,8 +304,9 @@ def estimate_axis(
     fraction = float(reached.mean())
     agreement = competing_agreement(refined.final_cost, reached)
     spread = {}
+    keep = settled(batch.final_cost, reached)
     for name, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6))):
-        ang = _angle_deg(batch.x[reached, sl], (j1 if name == "j1" else j2))
+        ang = _angle_deg(batch.x[keep, sl], (j1 if name == "j1" else j2))
         spread[name] = float(np.sqrt(np.mean(ang**2))) if ang.size else float("nan")
 
     blocking = stillness_warning(d1, d2)
@@ -359,6 +368,9 @@ def estimate_axis(
         "subset_fraction": subset,
         "max_iterations": max_iterations,
         "step_tolerance_rad": STEP_TOLERANCE,
+        "restart_step_tolerance_rad": RESTART_STEP_TOLERANCE,
+        "coarse_samples": COARSE_SAMPLES,
+        "coarse_iterations": COARSE_ITERATIONS,
         "cost_tolerance": COST_TOLERANCE,
         "agreement_deg": AGREEMENT_DEG,
         "initial_values": "j1, j2 uniform on the unit sphere",
@@ -398,14 +410,22 @@ def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x, filtered) -> 
     ``filtered``: {cut-off: (gyr1, gyr2)} already low-passed.
     """
     pair = sensitivity_cutoffs(cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
-    shifts = {"j1": [], "j2": []}
+    data = []
     for c in pair:
         if c not in filtered:
             filtered[c] = (lowpass(g1, rate, c), lowpass(g2, rate, c))
-        h1, h2 = (h[win][::step][index] for h in filtered[c])
-        y = _solve(_HingeProblem(h1, h2, None), x[None, :], SENSITIVITY_ITERATIONS).x[0]
-        shifts["j1"].append(float(_angle_deg(y[:3], x[:3])))
-        shifts["j2"].append(float(_angle_deg(y[3:], x[3:])))
+        data.append([h[win][::step][index] for h in filtered[c]])
+    # Both refits as one batch of two restarts, each on its own half of the stacked
+    # samples: one pass of the solver's fixed costs instead of two.
+    m = data[0][0].shape[0]
+    own = np.zeros((2, 2 * m))
+    own[0, :m] = own[1, m:] = 1.0
+    problem = _HingeProblem(np.concatenate([data[0][0], data[1][0]]),
+                            np.concatenate([data[0][1], data[1][1]]), own, RESTART_DTYPE,
+                            newton=True)
+    y = _solve(problem, np.stack([x, x]), SENSITIVITY_ITERATIONS, RESTART_STEP_TOLERANCE).x
+    shifts = {"j1": [float(a) for a in _angle_deg(y[:, :3], x[:3])],
+              "j2": [float(a) for a in _angle_deg(y[:, 3:], x[3:])]}
     return {"cutoffs_hz": list(pair), "j1_shift_deg": shifts["j1"],
             "j2_shift_deg": shifts["j2"],
             "max_shift_deg": max(shifts["j1"] + shifts["j2"])}
@@ -470,6 +490,13 @@ def joint_plane_projection(g: np.ndarray, j: np.ndarray) -> np.ndarray:
     return np.stack([g @ u, g @ np.cross(j, u)], axis=1)
 
 
+#: Entry (i, k) of a symmetric 3 x 3 matrix stored as its upper triangle (6,).
+_SYMMETRIC = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
+
+#: Newton steps only where the Hessian's smallest eigenvalue exceeds this fraction of
+#: the trace of J^T J (else Gauss-Newton): a nearly singular Hessian gives wild steps.
+MIN_HESSIAN_EIGENVALUE = 1e-3
+
 #: Samples per block in the hinge problem's sums: bounds its work arrays to
 #: restarts x CHUNK (about 10 MB per array kind at 100 restarts), whatever the length.
 CHUNK = 4096
@@ -487,44 +514,65 @@ class _HingeProblem:
     arithmetic itself.
     """
 
-    def __init__(self, g1: np.ndarray, g2: np.ndarray, mask: np.ndarray | None):
-        """``mask`` (R, N): 1 where restart r uses sample n; None: all samples for all."""
+    def __init__(self, g1: np.ndarray, g2: np.ndarray, mask: np.ndarray | None,
+                 dtype=np.float64, newton: bool = False):
+        """``mask`` (R, N): 1 where restart r uses sample n; None: all samples for all.
+        ``newton``: :meth:`normal` returns the exact Hessian where it is positive definite
+        (see there); ``dtype``: precision of the element-wise work."""
         n = g1.shape[0]
+        self.dtype = dtype
+        self.newton = newton
+        g1, g2 = g1.astype(dtype), g2.astype(dtype)
+        if mask is not None:
+            mask = mask.astype(dtype)
         self.g1, self.g2 = g1, g2
         self.g1t, self.g2t = np.ascontiguousarray(g1.T), np.ascontiguousarray(g2.T)
         self.gg1, self.gg2 = np.sum(g1 * g1, axis=1), np.sum(g2 * g2, axis=1)
         self.mask = mask
-        self.count = float(n) if mask is None else mask.sum(axis=1)
-        # Tables of g g^T products (N, 9): the normal equations' blocks are weighted sums.
-        self.p11 = (g1[:, :, None] * g1[:, None, :]).reshape(n, 9)
-        self.p22 = (g2[:, :, None] * g2[:, None, :]).reshape(n, 9)
-        self.p12 = (g1[:, :, None] * g2[:, None, :]).reshape(n, 9)
+        self.count = float(n) if mask is None else mask.sum(axis=1, dtype=np.float64)
+        # Tables of g g^T products: the normal equations' blocks are weighted sums of them.
+        # Split into GEMMs at most 6 columns wide: OpenBLAS multiplies a (restarts x N)
+        # matrix by N x 6 three times faster than by N x 9.
+        up = np.triu_indices(3)
+        self.tables = [
+            np.ascontiguousarray((g1[:, :, None] * g1[:, None, :])[:, up[0], up[1]]),
+            np.ascontiguousarray((g2[:, :, None] * g2[:, None, :])[:, up[0], up[1]]),
+            np.ascontiguousarray((g1[:, :, None] * g2[:, None, :]).reshape(n, 9)[:, :5]),
+            np.ascontiguousarray((g1[:, :, None] * g2[:, None, :]).reshape(n, 9)[:, 5:]),
+        ]
         self.blocks = [slice(k, min(k + CHUNK, n)) for k in range(0, n, CHUNK)]
         self._work = None
 
     def _buffers(self, r: int):
         width = self.blocks[0].stop - self.blocks[0].start
         if self._work is None or self._work.shape[1] < r:
-            self._work = np.empty((8, max(r, 1), width))
+            self._work = np.empty((7, max(r, 1), width), dtype=self.dtype)
         return [w[:r] for w in self._work]
 
     def _block(self, x, rows, sl, buf):
-        """Residual pieces of samples ``sl`` for restarts ``rows`` (views into ``buf``)."""
-        d1, d2, n1, n2, e, w = buf[:6]
+        """Residual pieces of samples ``sl`` for restarts ``rows`` (views into ``buf``):
+        g.j and |g x j| of both sensors, e = n1 - n2 (times the 0/1 weights when subset),
+        and the weights (None: all samples)."""
         width = sl.stop - sl.start
-        d1, d2, n1, n2, e, w = (a[:, :width] for a in (d1, d2, n1, n2, e, w))
+        d1, d2, n1, n2, e = (a[:, :width] for a in buf[:5])
+        x = x.astype(self.dtype, copy=False)
         np.matmul(x[:, :3], self.g1t[:, sl], out=d1)  # g1.j1, every restart and sample
         np.matmul(x[:, 3:], self.g2t[:, sl], out=d2)
         for d, nrm, gg in ((d1, n1, self.gg1), (d2, n2, self.gg2)):
             np.multiply(d, d, out=nrm)
             np.subtract(gg[sl], nrm, out=nrm)
-            np.maximum(nrm, 0.0, out=nrm)
+            # |g x j| >= 1e-12 rad/s: rounding can make it negative, and the Jacobian
+            # divides by it (a rate parallel to the axis has no joint-plane part).
+            np.maximum(nrm, 1e-24, out=nrm)
             np.sqrt(nrm, out=nrm)
         np.subtract(n1, n2, out=e)
-        if self.mask is None:
-            w = None
-        else:
-            np.take(self.mask[:, sl], rows, axis=0, out=w)
+        w = None
+        if self.mask is not None:
+            w = self.mask[:, sl]
+            if rows.size != self.mask.shape[0]:  # only some restarts are still active
+                w = np.take(w, rows, axis=0)
+            # w is 0 or 1, so weighting e once weights e^2 and every product with e
+            np.multiply(e, w, out=e)
         return d1, d2, n1, n2, e, w
 
     def _count(self, rows):
@@ -535,50 +583,63 @@ class _HingeProblem:
         buf = self._buffers(x.shape[0])
         total = np.zeros(x.shape[0])
         for sl in self.blocks:
-            *_, e, w = self._block(x, rows, sl, buf)
-            np.multiply(e, e, out=e)
-            if w is not None:
-                np.multiply(e, w, out=e)
-            total += e.sum(axis=1)
+            *_, e, _ = self._block(x, rows, sl, buf)
+            total += np.einsum("ij,ij->i", e, e)
         return total / self._count(rows)
 
     def normal(self, x, rows):
-        """Cost (r,), J^T J (r, 4, 4) and J^T e (r, 4) in tangent-plane coordinates."""
+        """Cost (r,), J^T J (r, 4, 4) and J^T e (r, 4) in tangent-plane coordinates.
+
+        With ``newton`` the first matrix is the cost's exact Hessian J^T J + sum e H_e
+        wherever that is safely positive definite. Gauss-Newton alone converges only
+        linearly when the residuals stay large (real knees: about 0.4 of the rates), each
+        step 0.2-0.9 times the last; Newton steps converge quadratically near a minimum.
+        The Hessian of |g x j| on the sphere, in the tangent basis B, is
+        -(|g|^2 / n^3) B^T g g^T B + ((g.j)^2 / n) I with n = |g x j|.
+        """
         r = x.shape[0]
         buf = self._buffers(r)
-        s = np.zeros((3, r, 9))
+        sums = [np.zeros((r, t.shape[1])) for t in self.tables]
         grad = np.zeros((2, r, 3))
         total = np.zeros(r)
+        if self.newton:
+            curv = np.zeros((2, r, 6))  # sum e |g|^2/n^3 g g^T, upper triangles
+            shift = np.zeros((2, r))  # sum e (g.j)^2 / n
         for sl in self.blocks:
             d1, d2, n1, n2, e, w = self._block(x, rows, sl, buf)
             width = sl.stop - sl.start
-            c1, c2 = buf[6][:, :width], buf[7][:, :width]
+            tmp, aux = buf[5][:, :width], buf[6][:, :width]
             # d|g x j| / dj = -(g.j) g / |g x j|  (eq. 2), projected on the tangent plane;
-            # e = n1 - n2, so the second sensor's derivative changes sign: the Jacobian row
-            # is (c1 g1^T B1, c2 g2^T B2) with c1 = -(g1.j1)/n1, c2 = (g2.j2)/n2.
-            np.maximum(n1, 1e-12, out=c1)
-            np.divide(d1, c1, out=c1)
-            np.negative(c1, out=c1)
-            np.maximum(n2, 1e-12, out=c2)
-            np.divide(d2, c2, out=c2)
-            if w is not None:  # weight once: w c1 and w c2 (w is 0 or 1)
+            # e = n1 - n2, so the Jacobian row is (-c1 g1^T B1, c2 g2^T B2) with
+            # c_i = (g_i.j_i)/n_i. The sign of the first block is applied to the sums.
+            c1, c2 = np.divide(d1, n1, out=d1), np.divide(d2, n2, out=d2)
+            if w is not None:  # weight the Jacobian rows (w^2 = w)
                 np.multiply(c1, w, out=c1)
                 np.multiply(c2, w, out=c2)
-            tmp = d1  # g.j is no longer needed
-            for k, (a, b, table) in enumerate(((c1, c1, self.p11), (c2, c2, self.p22),
-                                               (c1, c2, self.p12))):
-                np.multiply(a, b, out=tmp)
-                s[k] += tmp @ table[sl]
+            for k, (c, nrm) in enumerate(((c1, n1), (c2, n2))):
+                np.multiply(c, c, out=tmp)
+                sums[k] += tmp @ self.tables[k][sl]
+                if self.newton:
+                    # (g.j)^2/n = c^2 n and |g|^2/n^3 = (1 + c^2)/n, as |g|^2 = n^2 + (g.j)^2
+                    np.multiply(e, nrm, out=aux)
+                    shift[k] += np.einsum("ij,ij->i", tmp, aux)
+                    tmp += 1.0
+                    np.multiply(tmp, e, out=tmp)
+                    np.divide(tmp, nrm, out=tmp)
+                    curv[k] += tmp @ self.tables[k][sl]
+            np.multiply(c1, c2, out=tmp)
+            sums[2] += tmp @ self.tables[2][sl]
+            sums[3] += tmp @ self.tables[3][sl]
             np.multiply(c1, e, out=tmp)
             grad[0] += tmp @ self.g1[sl]
             np.multiply(c2, e, out=tmp)
             grad[1] += tmp @ self.g2[sl]
-            np.multiply(e, e, out=e)
-            if w is not None:
-                np.multiply(e, w, out=e)
-            total += e.sum(axis=1)
-        s11, s22, s12 = (m.reshape(r, 3, 3) for m in s)
-        both = _tangent_basis(x.reshape(2 * r, 3))[:, :, 1:]  # rows j1, j2, j1, j2, ...
+            total += np.einsum("ij,ij->i", e, e)
+        grad[0] *= -1.0
+        s11 = sums[0][:, _SYMMETRIC]
+        s22 = sums[1][:, _SYMMETRIC]
+        s12 = -np.concatenate(sums[2:], axis=1).reshape(r, 3, 3)
+        both = _tangent_basis(x.reshape(2 * r, 3))  # rows j1, j2, j1, j2, ...
         b1, b2 = both[0::2], both[1::2]
         b1t, b2t = np.swapaxes(b1, 1, 2), np.swapaxes(b2, 1, 2)
         jtj = np.empty((r, 4, 4))
@@ -588,66 +649,133 @@ class _HingeProblem:
         jtj[:, 2:, :2] = np.swapaxes(jtj[:, :2, 2:], 1, 2)
         jte = np.concatenate([(grad[0][:, None, :] @ b1)[:, 0],
                               (grad[1][:, None, :] @ b2)[:, 0]], axis=1)
-        return total / self._count(rows), jtj, jte
+        cost = total / self._count(rows)
+        if not self.newton:
+            return cost, jtj, jte
+        # e = n1 - n2: the second sensor's curvature enters with the opposite sign
+        hess = jtj.copy()
+        eye = np.eye(2)
+        hess[:, :2, :2] += (-(b1t @ curv[0][:, _SYMMETRIC] @ b1)
+                            + shift[0][:, None, None] * eye)
+        hess[:, 2:, 2:] += b2t @ curv[1][:, _SYMMETRIC] @ b2 - shift[1][:, None, None] * eye
+        # Far from a minimum the Hessian can be indefinite: there Gauss-Newton's J^T J
+        # (always positive semi-definite) gives a descent direction instead.
+        scale = np.trace(jtj, axis1=1, axis2=2)[:, None]
+        safe = np.linalg.eigvalsh(hess)[:, 0] > MIN_HESSIAN_EIGENVALUE * scale[:, 0]
+        return cost, np.where(safe[:, None, None], hess, jtj), jte
 
-    def residual_and_jacobian(self, x):
-        """e (N,) and J (N, 4) of one state ``x`` (6,) on all samples (for quality)."""
-        b1, b2 = _tangent_basis(x[None, :3])[0], _tangent_basis(x[None, 3:])[0]
-        d1, d2 = self.g1 @ b1, self.g2 @ b2  # (N, 3): g.j, g.u, g.v
-        n1 = np.sqrt(np.maximum(self.gg1 - d1[:, 0] ** 2, 0.0))
-        n2 = np.sqrt(np.maximum(self.gg2 - d2[:, 0] ** 2, 0.0))
-        s1 = -d1[:, :1] * d1[:, 1:] / np.maximum(n1, 1e-12)[:, None]
-        s2 = d2[:, :1] * d2[:, 1:] / np.maximum(n2, 1e-12)[:, None]
-        return n1 - n2, np.concatenate([s1, s2], axis=1)
+
+def _residual_and_jacobian(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
+    """e (N,) and J (N, 4) of one state ``x`` (6,) on all samples (for quality)."""
+    j = x.reshape(2, 3)
+    u = _tangent_basis(j)
+    b1, b2 = np.column_stack([j[0], u[0]]), np.column_stack([j[1], u[1]])
+    d1, d2 = g1 @ b1, g2 @ b2  # (N, 3): g.j, g.u, g.v
+    n1 = np.sqrt(np.maximum(np.sum(g1 * g1, axis=1) - d1[:, 0] ** 2, 0.0))
+    n2 = np.sqrt(np.maximum(np.sum(g2 * g2, axis=1) - d2[:, 0] ** 2, 0.0))
+    s1 = -d1[:, :1] * d1[:, 1:] / np.maximum(n1, 1e-12)[:, None]
+    s2 = d2[:, :1] * d2[:, 1:] / np.maximum(n2, 1e-12)[:, None]
+    return n1 - n2, np.concatenate([s1, s2], axis=1)
 
 
-def _solve(problem: _HingeProblem, x0: np.ndarray, max_iterations: int) -> BatchResult:
+def _multistart(d1, d2, mask, x0, max_iterations, rng):
+    """Every restart fitted on its subset, then refined on all samples (Sec. IV).
+
+    Returns the subset stage ``batch``, the ``refined`` results, the index of the best
+    refined restart (the estimate) and which restarts reached it. What keeps 100
+    restarts cheaper than one start of a plain solver, without changing what is
+    reported:
+
+    - a coarse stage runs every restart on its subset of a shared random sample of
+      ``COARSE_SAMPLES``: the first, large steps from a random start only have to find
+      the basin, and there they cost a fraction of a step on the whole subset;
+    - near the minimum, Newton steps (:meth:`_HingeProblem.normal`) instead of
+      Gauss-Newton's linear convergence;
+    - the restarts compute in single precision and stop at ``RESTART_STEP_TOLERANCE``,
+      far finer than anything reported about them (agreement within 2 deg, spreads of
+      tenths of a degree and more); only the best one is polished in double precision
+      to ``STEP_TOLERANCE``.
+    """
+    n = d1.shape[0]
+    batch = None
+    if n >= 2 * COARSE_SAMPLES:
+        cols = np.sort(rng.choice(n, COARSE_SAMPLES, replace=False))
+        coarse = _HingeProblem(d1[cols], d2[cols], None if mask is None else mask[:, cols],
+                               RESTART_DTYPE)
+        batch = _solve(coarse, x0, min(max_iterations, COARSE_ITERATIONS),
+                       COARSE_STEP_TOLERANCE)
+    subset = _HingeProblem(d1, d2, mask, RESTART_DTYPE, newton=True)
+    fitted = _solve(subset, x0 if batch is None else batch.x, max_iterations,
+                    RESTART_STEP_TOLERANCE)
+    batch = fitted if batch is None else chain(batch, fitted)
+
+    # Refine every restart on all samples: the refined costs are comparable, so the
+    # lowest is the least-squares answer and the share of restarts reaching it measures
+    # independence from the start; the subset finals (``batch.x``) show how much the
+    # answer depends on the data (Sec. IV).
+    everything = _HingeProblem(d1, d2, None, RESTART_DTYPE, newton=True)
+    refined = _solve(everything, batch.x, max_iterations, RESTART_STEP_TOLERANCE)
+    best, _ = best_restart(refined.x, refined.final_cost, _axis_distance, AGREEMENT_DEG)
+    polished = _solve(_HingeProblem(d1, d2, None, newton=True), refined.x[best][None, :],
+                      max_iterations, STEP_TOLERANCE)
+    refined = chain(refined, polished, np.array([best]))
+    # best is not chosen again: the other restarts' costs are single precision
+    return batch, refined, best, agreeing(refined.x, best, _axis_distance, AGREEMENT_DEG)
+
+
+def _solve(problem: _HingeProblem, x0: np.ndarray, max_iterations: int,
+           step_tolerance: float = STEP_TOLERANCE) -> BatchResult:
     return gauss_newton(
         problem.normal,
         problem.cost,
         _retract,
         x0,
         max_iterations=max_iterations,
-        step_tolerance=STEP_TOLERANCE,
+        step_tolerance=step_tolerance,
         cost_tolerance=COST_TOLERANCE,
         max_step=MAX_STEP,
+        contraction=True,
     )
 
 
 def _retract(x: np.ndarray, step: np.ndarray) -> np.ndarray:
     r = x.shape[0]
     j = x.reshape(2 * r, 3)  # rows j1, j2, j1, j2, ...
-    basis = _tangent_basis(j)[:, :, 1:]
+    basis = _tangent_basis(j)
     moved = j + (basis @ step.reshape(2 * r, 2, 1))[..., 0]
     moved /= np.sqrt(np.sum(moved * moved, axis=1, keepdims=True))
     return moved.reshape(r, 6)
 
 
 def _tangent_basis(j: np.ndarray) -> np.ndarray:
-    """(r, 3, 3) columns j, u, v: u, v orthonormal and perpendicular to the unit j."""
-    u = _perpendicular(j)
-    v = _cross(j, u)
-    return np.stack([j, u, v], axis=-1)
+    """(m, 3, 2) columns u, v: orthonormal and perpendicular to each unit row of ``j``.
+
+    The branch-free construction of Duff et al. (2017, "Building an orthonormal basis,
+    revisited"): a few element-wise operations, because this runs twice per Gauss-Newton
+    iteration. It jumps where j's z component changes sign; the solver does not mind, as
+    every step is applied in the basis it was computed in.
+    """
+    x, y, z = j[:, 0], j[:, 1], j[:, 2]
+    sign = np.copysign(1.0, z)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    basis = np.empty((j.shape[0], 3, 2))
+    basis[:, 0, 0] = 1.0 + sign * x * x * a
+    basis[:, 1, 0] = sign * b
+    basis[:, 2, 0] = -sign * x
+    basis[:, 0, 1] = b
+    basis[:, 1, 1] = sign + y * y * a
+    basis[:, 2, 1] = -y
+    return basis
 
 
 def _perpendicular(j: np.ndarray) -> np.ndarray:
-    """A unit vector perpendicular to each unit ``j`` (..., 3), smooth away from axes.
-
-    Gram-Schmidt of the coordinate axis least aligned with ``j`` (written out: this runs
-    several times per Gauss-Newton iteration, where numpy's generic helpers cost more
-    than the arithmetic).
-    """
+    """A unit vector perpendicular to each unit ``j`` (..., 3), smooth away from axes:
+    Gram-Schmidt of the coordinate axis least aligned with ``j``."""
     j = np.asarray(j, dtype=np.float64)
     helper = (np.abs(j).argmin(axis=-1)[..., None] == np.arange(3)).astype(np.float64)
     u = helper - np.sum(helper * j, axis=-1, keepdims=True) * j
     return u / np.sqrt(np.sum(u * u, axis=-1, keepdims=True))
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b along the last axis (3)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -4,7 +4,7 @@ Figures are built on :class:`matplotlib.figure.Figure` directly, without pyplot,
 GUI backend or global state is involved; this module is imported only when a plot is
 asked for.
 
-Every restart is drawn through both of its phases: Gauss-Newton on its random data
+Every restart is drawn through both of its phases: the fit on its random data
 subset, then the refinement on all samples (right of the dotted line), so the curves
 end on the reported estimate when the restart reached it. Blue: restarts that reached
 the estimate; grey: the others.
@@ -108,7 +108,7 @@ def _cost_panel(ax, result, ylabel: str) -> None:
     _phase_line(ax, subset.shape[1] - 1)
     ax.set_yscale("log")
     n = len(result.reached)
-    ax.set(xlabel="Gauss-Newton iteration", ylabel=ylabel,
+    ax.set(xlabel="iteration", ylabel=ylabel,
            title=f"Cost of {n} restarts ({int(result.reached.sum())} reached the estimate)")
 
 
@@ -120,7 +120,7 @@ def _component_panel(ax, path, result, final, label: str) -> None:
         ax.plot(its, path[:, reached, c], color=colour, lw=0.6, alpha=0.4)
         ax.axhline(final[c], color=colour, ls="--", lw=1.5, label=f"{'xyz'[c]} = {final[c]:.3f}")
     _phase_line(ax, result.batch.path.shape[0] - 1)
-    ax.set(xlabel="Gauss-Newton iteration", ylabel="component",
+    ax.set(xlabel="iteration", ylabel="component",
            title=f"{label} per iteration")
     ax.legend(fontsize=8, loc="best", framealpha=0.8)
 

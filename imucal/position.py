@@ -46,6 +46,7 @@ from .restarts import (
     check_restarts,
     competing_agreement,
     resolve_seed,
+    settled,
     subset_mask,
 )
 from .selection import MAX_SAMPLES
@@ -107,7 +108,8 @@ class PositionResult(Verdict):
         cost (for a hinge: after moving each to its closest point on the axis).
     reached : (R,) which restarts did.
     spread_mm : RMS distance of the agreeing restarts' subset results from the estimate
-        per vector, mm: how much the answer depends on the data.
+        per vector, mm: how much the answer depends on the data (subset fits stuck in a
+        local minimum left out, :func:`imucal.restarts.settled`).
     batch : the restarts on their subsets.
     refined : each restart's result refined on all samples.
     axis : for ``joint="hinge"`` with an estimated axis, its :class:`AxisResult`.
@@ -283,8 +285,9 @@ def estimate_position(
     fraction = float(reached.mean())
     agreement = competing_agreement(refined.final_cost, reached)
     spread = {}
+    keep = settled(batch.final_cost, reached)
     for name, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6))):
-        d = np.linalg.norm(subset_finals[reached, sl] - x[sl], axis=1) * 1000
+        d = np.linalg.norm(subset_finals[keep, sl] - x[sl], axis=1) * 1000
         spread[name] = float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
 
     blocking = stillness_warning(sensors[0][0], sensors[1][0])

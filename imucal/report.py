@@ -97,7 +97,8 @@ UNCERTAINTY_METHOD = (
 )
 SPREAD_METHOD = (
     "RMS distance between the estimate and the results of the restarts that reached it, "
-    "each fitted on a random half of the samples"
+    "each fitted on a random half of the samples (leaving out subset fits stuck in a local "
+    "minimum: RMS residual above 1.25 x the median)"
 )
 
 

@@ -66,8 +66,18 @@ def best_restart(
     if not finite.any():
         raise InputError("no restart produced a finite result")
     best = int(np.flatnonzero(finite)[np.argmin(costs[finite])])
-    reached = finite & (distance(finals, finals[best]) <= tolerance)
-    return best, reached
+    return best, agreeing(finals, best, distance, tolerance)
+
+
+def agreeing(
+    finals: np.ndarray,
+    best: int,
+    distance: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    tolerance: float,
+) -> np.ndarray:
+    """(R,) which finite restarts ended within ``tolerance`` of restart ``best``."""
+    finite = np.isfinite(finals).all(axis=1)
+    return finite & (distance(finals, finals[best]) <= tolerance)
 
 
 #: A restart whose refined RMS residual is within this factor of the best one fits almost
@@ -83,3 +93,18 @@ def competing_agreement(costs: np.ndarray, reached: np.ndarray) -> float:
     rms = np.sqrt(np.where(np.isfinite(costs), costs, np.inf))
     competing = rms <= COMPETING_RMS_FACTOR * rms.min()
     return float(np.sum(reached & competing) / max(np.sum(competing), 1))
+
+
+def settled(subset_costs: np.ndarray, reached: np.ndarray) -> np.ndarray:
+    """(R,) restarts that reached the estimate and whose subset fit was not stuck.
+
+    A restart can sit in a local minimum of its subset's cost (on simulated circling:
+    40 deg off, at 300 x the typical mean square) and still reach the estimate once
+    refined on all samples. Its subset result says nothing about how much the answer
+    depends on the data, so the spread leaves it out: kept are the restarts whose subset
+    RMS residual is within ``COMPETING_RMS_FACTOR`` of the median of those that reached.
+    """
+    rms = np.sqrt(np.where(np.isfinite(subset_costs), subset_costs, np.inf))
+    if not reached.any():
+        return reached
+    return reached & (rms <= COMPETING_RMS_FACTOR * np.median(rms[reached]))
