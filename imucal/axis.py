@@ -534,11 +534,12 @@ class _HingeProblem:
         # Split into GEMMs at most 6 columns wide: OpenBLAS multiplies a (restarts x N)
         # matrix by N x 6 three times faster than by N x 9.
         up = np.triu_indices(3)
+        p12 = (g1[:, :, None] * g2[:, None, :]).reshape(n, 9)
         self.tables = [
             np.ascontiguousarray((g1[:, :, None] * g1[:, None, :])[:, up[0], up[1]]),
             np.ascontiguousarray((g2[:, :, None] * g2[:, None, :])[:, up[0], up[1]]),
-            np.ascontiguousarray((g1[:, :, None] * g2[:, None, :]).reshape(n, 9)[:, :5]),
-            np.ascontiguousarray((g1[:, :, None] * g2[:, None, :]).reshape(n, 9)[:, 5:]),
+            np.ascontiguousarray(p12[:, :5]),
+            np.ascontiguousarray(p12[:, 5:]),
         ]
         self.blocks = [slice(k, min(k + CHUNK, n)) for k in range(0, n, CHUNK)]
         self._work = None
