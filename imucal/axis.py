@@ -52,9 +52,12 @@ from .selection import select as select_samples
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
 MAX_ITERATIONS = 50
-#: Stop when the tangent-plane step is below this, rad (about 6e-4 deg).
+#: The estimate is polished until its estimated distance to the minimum (tangent-plane
+#: step x rho / (1 - rho), see :func:`imucal.gauss_newton.gauss_newton`) is below this,
+#: rad (about 6e-4 deg).
 STEP_TOLERANCE = 1e-5
-#: The restarts (on their subsets and refined) stop at this step, rad (about 0.06 deg).
+#: The restarts (on their subsets and refined) stop at this estimated distance, rad
+#: (about 0.06 deg).
 RESTART_STEP_TOLERANCE = 1e-3
 #: The coarse stage only has to find each restart's basin, rad (about 0.6 deg).
 COARSE_STEP_TOLERANCE = 1e-2
@@ -661,8 +664,8 @@ class _HingeProblem:
         hess[:, 2:, 2:] += b2t @ curv[1][:, _SYMMETRIC] @ b2 - shift[1][:, None, None] * eye
         # Far from a minimum the Hessian can be indefinite: there Gauss-Newton's J^T J
         # (always positive semi-definite) gives a descent direction instead.
-        scale = np.trace(jtj, axis1=1, axis2=2)[:, None]
-        safe = np.linalg.eigvalsh(hess)[:, 0] > MIN_HESSIAN_EIGENVALUE * scale[:, 0]
+        scale = np.trace(jtj, axis1=1, axis2=2)
+        safe = np.linalg.eigvalsh(hess)[:, 0] > MIN_HESSIAN_EIGENVALUE * scale
         return cost, np.where(safe[:, None, None], hess, jtj), jte
 
 

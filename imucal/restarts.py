@@ -66,7 +66,7 @@ def best_restart(
     if not finite.any():
         raise InputError("no restart produced a finite result")
     best = int(np.flatnonzero(finite)[np.argmin(costs[finite])])
-    return best, agreeing(finals, best, distance, tolerance)
+    return best, finite & agreeing(finals, best, distance, tolerance)
 
 
 def agreeing(
@@ -90,7 +90,7 @@ COMPETING_RMS_FACTOR = 1.25
 def competing_agreement(costs: np.ndarray, reached: np.ndarray) -> float:
     """Fraction of the competing restarts (RMS residual within ``COMPETING_RMS_FACTOR`` of
     the best; ``costs`` are mean squares on all samples) that reached the estimate."""
-    rms = np.sqrt(np.where(np.isfinite(costs), costs, np.inf))
+    rms = _rms(costs)
     competing = rms <= COMPETING_RMS_FACTOR * rms.min()
     return float(np.sum(reached & competing) / max(np.sum(competing), 1))
 
@@ -104,7 +104,12 @@ def settled(subset_costs: np.ndarray, reached: np.ndarray) -> np.ndarray:
     depends on the data, so the spread leaves it out: kept are the restarts whose subset
     RMS residual is within ``COMPETING_RMS_FACTOR`` of the median of those that reached.
     """
-    rms = np.sqrt(np.where(np.isfinite(subset_costs), subset_costs, np.inf))
+    rms = _rms(subset_costs)
     if not reached.any():
         return reached
     return reached & (rms <= COMPETING_RMS_FACTOR * np.median(rms[reached]))
+
+
+def _rms(costs: np.ndarray) -> np.ndarray:
+    """RMS residuals from mean-square costs; non-finite costs become infinite."""
+    return np.sqrt(np.where(np.isfinite(costs), costs, np.inf))
