@@ -48,6 +48,7 @@ from .restarts import (
 )
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
+from .sign import decide_relative_sign, perpendicular, plane_test
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -94,10 +95,8 @@ MIN_FLEXION_RATE_DEG_S = 5.0
 MIN_SINGULAR_RATIO = 0.04
 #: Refits with the cut-off halved and doubled may move the axis by this much, deg.
 MAX_CUTOFF_SHIFT_DEG = 2.0
-#: The sign test must favour one hypothesis by at least this ratio of errors.
+#: The sign tests together must favour one hypothesis by at least this ratio of errors.
 MIN_SIGN_EVIDENCE = 1.5
-#: Evidence ratios are capped here (a perfect fit would divide by zero).
-MAX_SIGN_EVIDENCE = 1e6
 
 
 @dataclass
@@ -112,8 +111,11 @@ class AxisResult(Verdict):
     rms_residual : RMS of e(t) over all used samples at the estimate, rad/s.
     relative_residual : ``rms_residual`` over the RMS angular-rate magnitude of both
         sensors, dimensionless (0 = perfect hinge).
-    sign_evidence : how much better the chosen relative sign explains the data than the
-        opposite one (ratio of weighted errors, > 1; below 1.5 the data barely decides).
+    sign_evidence : how much better the data's relative sign explains the data than the
+        opposite one: the product of the sign tests' evidence ratios for it over those
+        against it (>= 1; below 1.5 the data barely decide; :mod:`imucal.sign`).
+    sign_tests : each test's evidence, whether it favours the reported j2, and the
+        numbers behind it for the reported and the flipped j2 (:mod:`imucal.sign`).
     singular_ratio : smallest / largest singular value of the Jacobian of eq. (1) at the
         estimate (near 0: some direction of (j1, j2) is not determined by the data, e.g.
         a joint that did not move).
@@ -152,6 +154,7 @@ class AxisResult(Verdict):
     rms_residual: float
     relative_residual: float
     sign_evidence: float
+    sign_tests: dict
     singular_ratio: float
     singular_values: np.ndarray
     uncertainty_deg: dict
@@ -191,6 +194,9 @@ def estimate_axis(
     end: float | None = None,
     max_iterations: int = MAX_ITERATIONS,
     sign: str = "auto",
+    j2_sign: str = "auto",
+    acc1: np.ndarray | None = None,
+    acc2: np.ndarray | None = None,
     select: bool = True,
     max_samples: int | None = MAX_SAMPLES,
 ) -> AxisResult:
@@ -228,15 +234,32 @@ def estimate_axis(
     sign
         Overall sign convention: "auto" (j1's largest component positive) or "+x", "-x",
         "+y", "-y", "+z", "-z" (that component of j1 positive). j2 follows j1.
+    j2_sign
+        Relative sign: "auto" decides from the data which way j2 points relative to j1
+        (:func:`imucal.sign.decide_relative_sign`); "+x" ... "-z" pins that component of
+        j2 positive / negative instead (when you know how both sensors sit, e.g. both x
+        axes lateral). The data's tests are reported either way, and a pin they clearly
+        contradict gets a warning.
+    acc1, acc2
+        Optional (N, 3) specific force of the two sensors, m/s^2: adds the
+        accelerometer test of the relative sign (the fit itself uses only the rates).
     select, max_samples
         Informative-sample selection (:mod:`imucal.selection`): drop still stretches and
         thin to at most ``max_samples`` (None: no cap). ``select=False`` fits every sample.
     """
     g1, g2 = check_pair(gyr1, gyr2)
+    if (acc1 is None) != (acc2 is None):
+        raise InputError("give both acc1 and acc2, or neither")
+    if acc1 is not None:
+        acc1, acc2 = check_pair(acc1, acc2)
+        if acc1.shape != g1.shape:
+            raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, "
+                             f"{acc1.shape[0]})")
     rate = check_rate(rate)
     restarts = check_restarts(restarts)
     seed = resolve_seed(seed)
     flip_axis = _check_sign(sign)
+    pin_j2 = _check_sign(j2_sign, "j2_sign")
     cutoff = 0.0 if cutoff is None else float(cutoff)
     step = resolve_subsample(rate, cutoff, subsample)
 
@@ -259,22 +282,13 @@ def estimate_axis(
                                                 x0, max_iterations, rng)
     j1, j2 = _unit(refined.x[best, :3]), _unit(refined.x[best, 3:])
 
-    # The sign test follows the projections' angles sample by sample: it needs the
-    # full rate and a smooth signal, so it always sees low-passed rates.
+    # The sign tests follow the rates sample by sample: they need the full rate and a
+    # smooth signal, so they always see low-passed rates.
     sign_cutoff = cutoff or default_cutoff(rate)
-    # Filtered copies by cut-off: without a user filter the sign test's 10 Hz copy is
-    # also the first sensitivity refit's input.
-    filtered = {sign_cutoff: (lowpass(g1, rate, sign_cutoff), lowpass(g2, rate, sign_cutoff))}
-    relative_sign, evidence = align_signs(
-        filtered[sign_cutoff][0][win], filtered[sign_cutoff][1][win], j1, j2, rate
-    )
-    j2 = relative_sign * j2
-    k = int(np.argmax(np.abs(j1))) if flip_axis is None else flip_axis
-    flip = 1.0 if j1[k] >= 0 else -1.0
-    if flip_axis is None or sign[0] == "+":
-        j1, j2 = flip * j1, flip * j2
-    else:
-        j1, j2 = -flip * j1, -flip * j2
+    decision = decide_relative_sign(g1, g2, j1, j2, rate, acc1, acc2, cutoff=sign_cutoff,
+                                    window=win)
+    j1, j2, applied = _orient(j1, j2, decision.sign, sign, flip_axis, j2_sign, pin_j2)
+    evidence = decision.evidence
 
     x = np.concatenate([j1, j2])
     e, jac = _residual_and_jacobian(d1, d2, x)
@@ -301,8 +315,7 @@ def estimate_axis(
                                        float(np.degrees(np.sqrt(np.mean(n2**2))))],
     }
 
-    sensitivity = _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, sel.index, x,
-                                      filtered)
+    sensitivity = _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, sel.index, x)
 
     fraction = float(reached.mean())
     agreement = competing_agreement(refined.final_cost, reached)
@@ -352,11 +365,7 @@ def estimate_axis(
             f"when fitted with a {sensitivity['cutoffs_hz'][0]:g} or "
             f"{sensitivity['cutoffs_hz'][1]:g} Hz low-pass"
         )
-    if evidence < MIN_SIGN_EVIDENCE:
-        warnings.append(
-            f"the data barely decides whether j1 and j2 point the same way (evidence ratio "
-            f"{evidence:.2f}); check the relative sign by another means"
-        )
+    warnings += _sign_warnings(decision, applied, pin_j2 is not None)
 
     settings = {
         "restarts": restarts,
@@ -365,6 +374,8 @@ def estimate_axis(
         "filter": f"Butterworth order {FILTER_ORDER} low-pass, zero phase" if cutoff else None,
         "sign_test_cutoff_hz": sign_cutoff,
         "sign_convention": sign,
+        "j2_sign": j2_sign,
+        "sign_tests": sorted(decision.tests),
         "subsample": step,
         "select": select,
         "max_samples": max_samples if select else None,
@@ -385,6 +396,7 @@ def estimate_axis(
         rms_residual=rms,
         relative_residual=relative,
         sign_evidence=evidence,
+        sign_tests={name: t.report(applied) for name, t in decision.tests.items()},
         singular_ratio=singular_ratio,
         singular_values=sv,
         uncertainty_deg=uncertainty,
@@ -407,17 +419,12 @@ def estimate_axis(
     )
 
 
-def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x, filtered) -> dict:
+def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x) -> dict:
     """Refit from the estimate ``x`` with the cut-off halved and doubled (no filter: the
     default cut-off and twice it); the shifts show how much the answer rests on the filter.
-    ``filtered``: {cut-off: (gyr1, gyr2)} already low-passed.
     """
     pair = sensitivity_cutoffs(cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
-    data = []
-    for c in pair:
-        if c not in filtered:
-            filtered[c] = (lowpass(g1, rate, c), lowpass(g2, rate, c))
-        data.append([h[win][::step][index] for h in filtered[c]])
+    data = [[lowpass(h, rate, c)[win][::step][index] for h in (g1, g2)] for c in pair]
     # Both refits as one batch of two restarts, each on its own half of the stacked
     # samples: one pass of the solver's fixed costs instead of two.
     m = data[0][0].shape[0]
@@ -434,62 +441,66 @@ def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x, filtered) -> 
             "max_shift_deg": max(shifts["j1"] + shifts["j2"])}
 
 
-def _check_sign(sign: str) -> int | None:
-    """Index of the component a --sign convention makes positive; None for "auto"."""
+def _check_sign(sign: str, what: str = "sign") -> int | None:
+    """Index of the component a sign convention pins; None for "auto"."""
     if sign == "auto":
         return None
-    if len(sign) == 2 and sign[0] in "+-" and sign[1] in "xyz":
+    if isinstance(sign, str) and len(sign) == 2 and sign[0] in "+-" and sign[1] in "xyz":
         return "xyz".index(sign[1])
-    raise InputError(f"sign must be auto, +x, -x, +y, -y, +z or -z, got '{sign}'")
+    raise InputError(f"{what} must be auto, +x, -x, +y, -y, +z or -z, got '{sign}'")
+
+
+def _pin(v: np.ndarray, k: int | None, convention: str) -> float:
+    """+1 or -1: the factor that makes ``v`` follow ``convention`` (component ``k``
+    positive for "+k", negative for "-k"; "auto": the largest component positive)."""
+    if k is None:
+        k = int(np.argmax(np.abs(v)))
+        convention = "+"
+    positive = 1.0 if v[k] >= 0 else -1.0
+    return positive if convention[0] == "+" else -positive
+
+
+def _orient(j1, j2, data_sign, sign, flip_axis, j2_sign, pin_j2):
+    """(j1, j2, applied): the overall sign from ``sign``, the relative sign from the data
+    (``data_sign`` for j2) or from the user's ``j2_sign`` pin; ``applied`` is the factor
+    finally applied to the solver's j2, in the sign tests' terms."""
+    f1 = _pin(j1, flip_axis, sign)
+    f2 = f1 * data_sign if pin_j2 is None else _pin(j2, pin_j2, j2_sign)
+    # flipping both axes keeps their relative sign: f1 * f2 is what the tests' terms
+    # (j1 as the solver returned it) call the sign applied to j2
+    return f1 * j1, f2 * j2, f1 * f2
+
+
+def _sign_warnings(decision, applied: float, pinned: bool) -> list[str]:
+    """Warnings about the relative sign of j1 and j2 (see :mod:`imucal.sign`)."""
+    evidence = decision.evidence
+    if pinned:
+        if applied != decision.sign and evidence >= MIN_SIGN_EVIDENCE:
+            return [f"the pinned j2 sign contradicts the data's sign tests (evidence "
+                    f"{evidence:.2f} for the other sign); check how the sensors sit"]
+        return []
+    if evidence < MIN_SIGN_EVIDENCE:
+        return [f"the data barely decide whether j1 and j2 point the same way (evidence "
+                f"ratio {evidence:.2f}); check the relative sign by another means, or pin it "
+                "with j2_sign (--j2-sign)"]
+    if decision.contradicting:
+        return [f"the sign tests disagree ({', '.join(decision.contradicting)} favours the "
+                f"other relative sign); the combined evidence is {evidence:.2f}"]
+    return []
 
 
 def align_signs(
     gyr1: np.ndarray, gyr2: np.ndarray, j1: np.ndarray, j2: np.ndarray, rate: float
 ) -> tuple[float, float]:
-    """Decide from the data whether ``j2`` (+1) or ``-j2`` (-1) points the same way as ``j1``.
-
-    Without integration (Sec. III-C; method-notes.md): project both rates into their joint
-    planes and follow each projection's angle alpha_i in a basis (u_i, j_i x u_i) of its
-    plane. With aligned axes the angle between the two bases is the joint angle, so
-    d/dt (alpha1 - alpha2) = j2.g2 - j1.g1 at every sample; with one axis flipped one trace
-    is mirrored and the identity fails. Errors are weighted by the projections' lengths
-    (the angle of a short projection is noise).
-
-    Returns ``(sign, evidence)``: the sign to apply to ``j2`` and the ratio of the wrong
-    hypothesis's error to the right one's (large = clear decision).
-    """
-    dt = 1.0 / rate
-    a1, len1 = _plane_angle(gyr1, j1)
-    errors = []
-    for s in (1.0, -1.0):
-        a2, len2 = _plane_angle(gyr2, s * j2)
-        rel = np.diff(a1 - a2)
-        rel = (rel + np.pi) % (2 * np.pi) - np.pi
-        thetadot = gyr2 @ (s * j2) - gyr1 @ j1
-        predicted = 0.5 * (thetadot[1:] + thetadot[:-1]) * dt
-        mismatch = np.abs((rel - predicted + np.pi) % (2 * np.pi) - np.pi)
-        w = np.minimum(len1, len2)
-        w = 0.5 * (w[1:] + w[:-1])
-        errors.append(float(np.sum(w * mismatch)))
-    right = int(np.argmin(errors))
-    wrong = 1 - right
-    if errors[wrong] <= 0:  # no motion in the joint planes: nothing decides the sign
-        evidence = 1.0
-    else:
-        evidence = min(errors[wrong] / max(errors[right], 1e-300), MAX_SIGN_EVIDENCE)
-    return (1.0, -1.0)[right], float(evidence)
-
-
-def _plane_angle(g: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    u = _perpendicular(j)
-    w = np.cross(j, u)
-    x, y = g @ u, g @ w
-    return np.arctan2(y, x), np.hypot(x, y)
+    """The integration-free sign test alone (:func:`imucal.sign.plane_test`): the sign to
+    apply to ``j2`` and the evidence ratio."""
+    test = plane_test(gyr1, gyr2, j1, j2, rate)
+    return test.sign, test.evidence
 
 
 def joint_plane_projection(g: np.ndarray, j: np.ndarray) -> np.ndarray:
     """(N, 2) coordinates of the rates ``g`` projected into the plane normal to ``j`` (eq. 6)."""
-    u = _perpendicular(j)
+    u = perpendicular(j)
     return np.stack([g @ u, g @ np.cross(j, u)], axis=1)
 
 
@@ -499,6 +510,10 @@ _SYMMETRIC = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
 #: Newton steps only where the Hessian's smallest eigenvalue exceeds this fraction of
 #: the trace of J^T J (else Gauss-Newton): a nearly singular Hessian gives wild steps.
 MIN_HESSIAN_EIGENVALUE = 1e-3
+
+#: Smallest |g x j|^2 / |g|^2 used, per precision: a little above the relative rounding
+#: error of |g|^2 - (g.j)^2 (|g x j| >= 1e-3 |g| in single, 1e-7 |g| in double precision).
+NORM_FLOOR = {np.dtype(np.float32): 1e-6, np.dtype(np.float64): 1e-14}
 
 #: Samples per block in the hinge problem's sums: bounds its work arrays to
 #: restarts x CHUNK (about 10 MB per array kind at 100 restarts), whatever the length.
@@ -531,6 +546,11 @@ class _HingeProblem:
         self.g1, self.g2 = g1, g2
         self.g1t, self.g2t = np.ascontiguousarray(g1.T), np.ascontiguousarray(g2.T)
         self.gg1, self.gg2 = np.sum(g1 * g1, axis=1), np.sum(g2 * g2, axis=1)
+        rel = NORM_FLOOR[np.dtype(dtype)]
+        # (floor of |g x j|^2, |g|^2) per sample; the floor is relative to |g|^2, with an
+        # absolute minimum so that g = 0 gives no 0 / 0.
+        self.floor1 = ((rel * self.gg1 + 1e-24).astype(dtype), self.gg1)
+        self.floor2 = ((rel * self.gg2 + 1e-24).astype(dtype), self.gg2)
         self.mask = mask
         self.count = float(n) if mask is None else mask.sum(axis=1, dtype=np.float64)
         # Tables of g g^T products: the normal equations' blocks are weighted sums of them.
@@ -562,12 +582,14 @@ class _HingeProblem:
         x = x.astype(self.dtype, copy=False)
         np.matmul(x[:, :3], self.g1t[:, sl], out=d1)  # g1.j1, every restart and sample
         np.matmul(x[:, 3:], self.g2t[:, sl], out=d2)
-        for d, nrm, gg in ((d1, n1, self.gg1), (d2, n2, self.gg2)):
+        for d, nrm, floor in ((d1, n1, self.floor1), (d2, n2, self.floor2)):
             np.multiply(d, d, out=nrm)
-            np.subtract(gg[sl], nrm, out=nrm)
-            # |g x j| >= 1e-12 rad/s: rounding can make it negative, and the Jacobian
-            # divides by it (a rate parallel to the axis has no joint-plane part).
-            np.maximum(nrm, 1e-24, out=nrm)
+            np.subtract(floor[1][sl], nrm, out=nrm)
+            # |g x j|^2 = |g|^2 - (g.j)^2 cancels when g is nearly parallel to j, and
+            # the derivatives divide by |g x j| (the Hessian by its cube): below the
+            # rounding floor of the precision in use the value is noise, and letting it
+            # reach 0 overflowed single precision on real impacts (issue 10).
+            np.maximum(nrm, floor[0][sl], out=nrm)
             np.sqrt(nrm, out=nrm)
         np.subtract(n1, n2, out=e)
         w = None
@@ -665,7 +687,11 @@ class _HingeProblem:
         # Far from a minimum the Hessian can be indefinite: there Gauss-Newton's J^T J
         # (always positive semi-definite) gives a descent direction instead.
         scale = np.trace(jtj, axis1=1, axis2=2)
-        safe = np.linalg.eigvalsh(hess)[:, 0] > MIN_HESSIAN_EIGENVALUE * scale
+        finite = np.isfinite(hess).all(axis=(1, 2))
+        # eigvalsh fails for the whole batch on one non-finite matrix; such a row keeps
+        # Gauss-Newton (the solver drops it if J^T J is not finite either).
+        lowest = np.linalg.eigvalsh(np.where(finite[:, None, None], hess, np.eye(4)))[:, 0]
+        safe = finite & (lowest > MIN_HESSIAN_EIGENVALUE * scale)
         return cost, np.where(safe[:, None, None], hess, jtj), jte
 
 
@@ -771,15 +797,6 @@ def _tangent_basis(j: np.ndarray) -> np.ndarray:
     basis[:, 1, 1] = sign + y * y * a
     basis[:, 2, 1] = -y
     return basis
-
-
-def _perpendicular(j: np.ndarray) -> np.ndarray:
-    """A unit vector perpendicular to each unit ``j`` (..., 3), smooth away from axes:
-    Gram-Schmidt of the coordinate axis least aligned with ``j``."""
-    j = np.asarray(j, dtype=np.float64)
-    helper = (np.abs(j).argmin(axis=-1)[..., None] == np.arange(3)).astype(np.float64)
-    u = helper - np.sum(helper * j, axis=-1, keepdims=True) * j
-    return u / np.sqrt(np.sum(u * u, axis=-1, keepdims=True))
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -123,6 +123,11 @@ def axis(
         help="Overall sign of the axis: auto (j1's largest component positive) or +x, -x, "
         "+y, -y, +z, -z (that component of j1 is positive). j2 always points the same "
         "physical way as j1.")] = "auto",
+    j2_sign: Annotated[str, typer.Option(
+        "--j2-sign", help="Relative sign: auto (decided from the data by three tests, "
+        "reported in quality.sign) or +x, -x, +y, -y, +z, -z to pin that component of j2 "
+        "positive/negative, e.g. --sign +x --j2-sign +x when both sensors' x axes point "
+        "laterally.")] = "auto",
     force: Force = False,
     jobs: Jobs = 1,
     quiet: Quiet = False,
@@ -141,6 +146,7 @@ def axis(
         def estimate(s1, s2, sample_rate, **window):
             return estimate_axis(s1.gyr, s2.gyr, rate=sample_rate, restarts=restarts, seed=seed,
                                  cutoff=cutoff, subsample=subsample, sign=sign,
+                                 j2_sign=j2_sign, acc1=s1.acc, acc2=s2.acc,
                                  select=select, max_samples=_max_samples(max_samples),
                                  **window)
 

@@ -44,6 +44,10 @@ class BatchResult:
         iteration; NaN after a restart stopped. K is the largest iteration count.
     path : (K + 1, R, s) state at the start and after each iteration; after a restart
         stopped its last state is repeated.
+    degenerate : (R,) True where a restart was dropped because its cost or normal
+        equations stopped being finite (overflow on extreme data); it keeps its last
+        finite state, is not converged, and never counts as an estimate if its cost is
+        not finite.
     """
 
     x: np.ndarray
@@ -51,6 +55,11 @@ class BatchResult:
     converged: np.ndarray
     cost: np.ndarray
     path: np.ndarray
+    degenerate: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.degenerate is None:
+            self.degenerate = np.zeros(self.x.shape[0], dtype=bool)
 
     @property
     def final_cost(self) -> np.ndarray:
@@ -109,9 +118,11 @@ def gauss_newton(
     path = [x.copy()]
     last_taken = np.full(n_restarts, np.nan)
 
+    degenerate = np.zeros(n_restarts, dtype=bool)
     c0, jtj, jte = normal(x, active)
     costs[0] = c0.copy()
     current = c0.copy()
+    jtj, jte, active = _drop_degenerate(c0, jtj, jte, active, degenerate)
 
     for it in range(1, max_iterations + 1):
         if active.size == 0:
@@ -157,6 +168,7 @@ def gauss_newton(
         if halved.any():
             where = np.flatnonzero(halved[keep])
             _, jtj[where], jte[where] = normal(x[active[where]], active[where])
+        jtj, jte, active = _drop_degenerate(current[active], jtj, jte, active, degenerate)
 
     n_rows = sum(c is not None for c in costs)
     cost_table = np.stack(costs[:n_rows], axis=1)
@@ -165,8 +177,20 @@ def gauss_newton(
     for_col = np.arange(n_rows)[None, :]
     cost_table = np.where(for_col <= iterations[:, None], cost_table, np.nan)
     return BatchResult(
-        x=x, iterations=iterations, converged=converged, cost=cost_table, path=np.stack(path)
+        x=x, iterations=iterations, converged=converged, cost=cost_table, path=np.stack(path),
+        degenerate=degenerate,
     )
+
+
+def _drop_degenerate(cost, jtj, jte, active, degenerate):
+    """Stop the active restarts whose cost or normal equations are not finite (marking
+    them in ``degenerate``): one such row would otherwise poison the stacked solve."""
+    finite = (np.isfinite(cost) & np.isfinite(jtj).all(axis=(1, 2))
+              & np.isfinite(jte).all(axis=1))
+    if finite.all():
+        return jtj, jte, active
+    degenerate[active[~finite]] = True
+    return jtj[finite], jte[finite], active[finite]
 
 
 def _gauss_newton_step(jtj: np.ndarray, jte: np.ndarray) -> np.ndarray:
@@ -174,7 +198,13 @@ def _gauss_newton_step(jtj: np.ndarray, jte: np.ndarray) -> np.ndarray:
     scale = np.trace(jtj, axis1=1, axis2=2) / k
     damping = RELATIVE_DAMPING * scale + 1e-300
     jtj = jtj + damping[:, None, None] * np.eye(k)
-    step = -np.linalg.solve(jtj, jte[..., None])[..., 0]
+    try:
+        step = -np.linalg.solve(jtj, jte[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        # One exactly singular matrix fails the whole stacked solve (damping below the
+        # rounding of huge entries): every row then takes a scaled gradient step, which
+        # the step cap and the halving keep safe.
+        step = -jte / np.maximum(scale, 1e-300)[:, None]
     return np.where(np.isfinite(step), step, 0.0)
 
 
@@ -245,4 +275,7 @@ def chain(first: BatchResult, second: BatchResult, rows: np.ndarray | None = Non
     x[rows] = second.x
     converged = first.converged.copy()
     converged[rows] = second.converged
-    return BatchResult(x=x, iterations=iterations, converged=converged, cost=cost, path=path)
+    degenerate = first.degenerate.copy()
+    degenerate[rows] |= second.degenerate
+    return BatchResult(x=x, iterations=iterations, converged=converged, cost=cost, path=path,
+                       degenerate=degenerate)

@@ -231,7 +231,7 @@ def estimate_position(
             axis_result = estimate_axis(
                 g1, g2, rate=rate, restarts=restarts, seed=seed, subset=subset,
                 start=start, end=end, max_iterations=max_iterations, select=select,
-                max_samples=max_samples,
+                max_samples=max_samples, acc1=a1, acc2=a2,
             )
             line = np.concatenate([axis_result.j1, axis_result.j2])
         elif isinstance(axis, AxisResult):

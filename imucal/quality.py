@@ -70,6 +70,8 @@ def robust_covariance(e: np.ndarray, jac: np.ndarray, lags: int | None = None) -
     ``lags`` None: :func:`newey_west_lags`. Infinite where J^T J is singular.
     """
     m, k = jac.shape
+    if not (np.isfinite(e).all() and np.isfinite(jac).all()):
+        return np.full((k, k), np.inf)
     lags = newey_west_lags(m) if lags is None else int(lags)
     bread = jac.T @ jac
     u = jac * e[:, None]
@@ -81,9 +83,9 @@ def robust_covariance(e: np.ndarray, jac: np.ndarray, lags: int | None = None) -
     meat *= m / max(m - k, 1)
     try:
         inv = np.linalg.inv(bread)
+        if not np.isfinite(inv).all() or np.linalg.cond(bread) > 1e14:
+            return np.full((k, k), np.inf)
     except np.linalg.LinAlgError:
-        return np.full((k, k), np.inf)
-    if not np.isfinite(inv).all() or np.linalg.cond(bread) > 1e14:
         return np.full((k, k), np.inf)
     return inv @ meat @ inv
 
@@ -92,4 +94,9 @@ def singular_values(jac: np.ndarray) -> np.ndarray:
     """Singular values of the Jacobian (M, k) over sqrt(M), largest first: the RMS
     sensitivity of the residual to a unit step along each principal direction."""
     m = max(jac.shape[0], 1)
-    return np.linalg.svd(jac, compute_uv=False) / np.sqrt(m)
+    if not np.isfinite(jac).all():
+        return np.zeros(min(jac.shape))
+    try:
+        return np.linalg.svd(jac, compute_uv=False) / np.sqrt(m)
+    except np.linalg.LinAlgError:
+        return np.zeros(min(jac.shape))

@@ -40,9 +40,13 @@ def axis_report(result: AxisResult, *, input_info: dict) -> dict:
         result, input_info, "deg", result.uncertainty_deg, result.spread_deg,
         {
             "sign": {
-                "method": "joint-plane projection angles vs. j2.g2 - j1.g1 (no integration)",
+                "method": "combined tests (imucal.sign): joint-plane angles vs. j2.g2 - j1.g1, "
+                          "integrated flexion within a knee's range, and (with acc) the joint "
+                          "centre's acceleration along the axis",
                 "evidence": result.sign_evidence,
+                "tests": result.sign_tests,
                 "convention": result.settings["sign_convention"],
+                "j2_sign": result.settings["j2_sign"],
             },
         },
     )
