@@ -34,21 +34,38 @@ from .preprocess import (
     lowpass,
     resolve_subsample,
     stillness_warning,
+    unit_doubts,
     window_slice,
 )
-from .quality import Verdict, robust_covariance, sensitivity_cutoffs, singular_values
+from .quality import (
+    Verdict,
+    block_masks,
+    jackknife_sigma,
+    robust_covariance,
+    sensitivity_cutoffs,
+    singular_values,
+    total_sigma,
+    uncertainty_warning,
+)
 from .restarts import (
     agreeing,
     best_restart,
     check_restarts,
     competing_agreement,
+    equal_minima,
     resolve_seed,
     settled,
     subset_mask,
 )
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
-from .sign import decide_relative_sign, perpendicular, plane_test
+from .sign import (
+    MAX_KNEE_SPAN_DEG,
+    RANGE_BLOCK_S,
+    decide_relative_sign,
+    perpendicular,
+    plane_test,
+)
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -79,11 +96,18 @@ MAX_STEP = 1.0
 SUBSET_FRACTION = 0.5
 #: Below this many samples (after subsampling) the 4-parameter fit is meaningless.
 MIN_SAMPLES = 20
-#: A restart fraction below this, or a relative residual above the next, is not confident.
+#: Fewer restarts than this fraction reaching the estimate is not confident.
 MIN_AGREEING_FRACTION = 0.8
-#: (relative residual: against the angular-rate magnitude; simulated hinges at SNR 30-300
-#: stay below 0.03, simulated spheroidal ankles fitted as a hinge above 0.15.)
-MAX_RELATIVE_RESIDUAL = 0.1
+#: Relative residual (against the angular-rate magnitude) above which restarts that
+#: disagree mean "not a hinge": simulated hinges at SNR 30-300 stay below 0.03, simulated
+#: spheroidal ankles fitted as a hinge lie above 0.15.
+POOR_FIT_RESIDUAL = 0.1
+#: Relative residual that alone earns a warning: real knees leave 0.35-0.45 (soft tissue,
+#: a knee that is not a perfect hinge), so a lower threshold would flag every real knee
+#: and separate nothing; what real data leave uncertain shows in the uncertainty.
+MAX_RELATIVE_RESIDUAL = 0.5
+#: A 1-sigma axis uncertainty above this is not good enough for joint angles, deg.
+MAX_UNCERTAINTY_DEG = 5.0
 #: Iteration limit of the cut-off refits: they start at the estimate, and a shift is
 #: only reported to a fraction of a degree.
 SENSITIVITY_ITERATIONS = 10
@@ -93,8 +117,6 @@ MIN_FLEXION_RATE_DEG_S = 5.0
 #: Below this smallest/largest singular value of the Jacobian one direction of (j1, j2)
 #: is not determined (a rigid knee gives about 0.02, knee motion 0.1-0.9).
 MIN_SINGULAR_RATIO = 0.04
-#: Refits with the cut-off halved and doubled may move the axis by this much, deg.
-MAX_CUTOFF_SHIFT_DEG = 2.0
 #: The sign tests together must favour one hypothesis by at least this ratio of errors.
 MIN_SIGN_EVIDENCE = 1.5
 
@@ -120,8 +142,14 @@ class AxisResult(Verdict):
         estimate (near 0: some direction of (j1, j2) is not determined by the data, e.g.
         a joint that did not move).
     singular_values : singular values of that Jacobian over sqrt(samples), rad/s per rad.
-    uncertainty_deg : {"j1", "j2"} 1-sigma angle uncertainty from the curvature of the
-        cost, robust to correlated residuals (:func:`imucal.quality.robust_covariance`).
+    uncertainty_deg : {"j1", "j2"} 1-sigma angle uncertainty, deg: the larger of the
+        curvature's and the time blocks' with half the cut-off shift added in quadrature
+        (:func:`imucal.quality.total_sigma`).
+    uncertainty_components : the parts of it, each {"j1", "j2"} in deg: "curvature" (the
+        cost's curvature, robust to correlated residuals,
+        :func:`imucal.quality.robust_covariance`), "time_blocks" (delete-one-block
+        jackknife over contiguous time blocks, :func:`imucal.quality.block_masks`),
+        "cutoff_half_shift" (half the largest shift of the cut-off refits).
     excitation : RMS flexion rate j2.g2 - j1.g1 and RMS joint-plane rate |g_i x j_i| of
         each segment over the samples used, deg/s.
     sensitivity : cut-offs of two refits (halved and doubled; without a filter: 1 and 2
@@ -158,6 +186,7 @@ class AxisResult(Verdict):
     singular_ratio: float
     singular_values: np.ndarray
     uncertainty_deg: dict
+    uncertainty_components: dict
     excitation: dict
     sensitivity: dict
     convergence_fraction: float
@@ -302,7 +331,7 @@ def estimate_axis(
     relative = rms / scale if scale > 0 else float("inf")
 
     cov = robust_covariance(e, jac)
-    uncertainty = {
+    curvature = {
         "j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),
         "j2": float(np.degrees(np.sqrt(cov[2, 2] + cov[3, 3]))),
     }
@@ -316,6 +345,12 @@ def estimate_axis(
     }
 
     sensitivity = _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, sel.index, x)
+    blocks = _block_jackknife(d1, d2, x)
+    components = {"curvature": curvature, "time_blocks": blocks,
+                  "cutoff_half_shift": {k: max(sensitivity[f"{k}_shift_deg"]) / 2
+                                        for k in ("j1", "j2")}}
+    uncertainty = {k: total_sigma(curvature[k], blocks[k], 2 * components["cutoff_half_shift"][k])
+                   for k in ("j1", "j2")}
 
     fraction = float(reached.mean())
     agreement = competing_agreement(refined.final_cost, reached)
@@ -325,46 +360,11 @@ def estimate_axis(
         ang = _angle_deg(batch.x[keep, sl], (j1 if name == "j1" else j2))
         spread[name] = float(np.sqrt(np.mean(ang**2))) if ang.size else float("nan")
 
-    blocking = stillness_warning(d1, d2)
-    warnings = []
-    flex = excitation["flexion_rate_rms_deg_s"]
-    if not blocking and flex < MIN_FLEXION_RATE_DEG_S:
-        blocking.append(
-            f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
-            f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this recording; "
-            "record the joint flexing and extending"
-        )
-    elif not blocking and singular_ratio < MIN_SINGULAR_RATIO:
-        blocking.append(
-            f"the data leave one direction of the axes undetermined (singular ratio "
-            f"{singular_ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not "
-            "identifiable from this recording; record more varied motion"
-        )
-    poor = relative > MAX_RELATIVE_RESIDUAL
-    if not blocking and fraction < MIN_AGREEING_FRACTION and poor:
-        blocking.append(
-            f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge model "
-            f"fits poorly (residual {relative:.0%} of the signal): the joint does not move "
-            "like a hinge (a spheroidal joint such as the ankle?), so no axis is identifiable"
-        )
-    elif agreement < MIN_AGREEING_FRACTION:
-        warnings.append(
-            f"restarts disagree: of the restarts that fit almost as well as the best, only "
-            f"{agreement:.0%} reached the estimate: the answer depends on the starting point; "
-            "the joint may have moved too little or not as a hinge"
-        )
-    elif poor:
-        warnings.append(
-            f"the hinge model fits poorly (residual {relative:.0%} of the signal): the joint "
-            "may not be a hinge, or the sensors moved on the skin"
-        )
-    shift = sensitivity["max_shift_deg"]
-    if shift > MAX_CUTOFF_SHIFT_DEG:
-        warnings.append(
-            f"the estimate depends strongly on the filter cut-off: it moves by {shift:.1f} deg "
-            f"when fitted with a {sensitivity['cutoffs_hz'][0]:g} or "
-            f"{sensitivity['cutoffs_hz'][1]:g} Hz low-pass"
-        )
+    minima = equal_minima(refined.x, refined.final_cost, best, reached, _axis_distance)
+    warnings, blocking = _diagnose(
+        d1, d2, excitation["flexion_rate_rms_deg_s"], singular_ratio, relative, fraction,
+        agreement, minima, uncertainty, components, decision,
+    )
     warnings += _sign_warnings(decision, applied, pin_j2 is not None)
 
     settings = {
@@ -400,6 +400,7 @@ def estimate_axis(
         singular_ratio=singular_ratio,
         singular_values=sv,
         uncertainty_deg=uncertainty,
+        uncertainty_components=components,
         excitation=excitation,
         sensitivity=sensitivity,
         convergence_fraction=fraction,
@@ -439,6 +440,73 @@ def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x) -> dict:
     return {"cutoffs_hz": list(pair), "j1_shift_deg": shifts["j1"],
             "j2_shift_deg": shifts["j2"],
             "max_shift_deg": max(shifts["j1"] + shifts["j2"])}
+
+
+def _diagnose(d1, d2, flex, singular_ratio, relative, fraction, agreement, minima,
+              uncertainty, components, decision) -> tuple[list[str], list[str]]:
+    """(warnings, blocking) of an axis estimate; thresholds and their reasons in
+    docs/quality.md."""
+    blocking = stillness_warning(d1, d2)
+    warnings = unit_doubts((d1, d2))
+    if not blocking and flex < MIN_FLEXION_RATE_DEG_S:
+        blocking.append(
+            f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
+            f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this recording; "
+            "record the joint flexing and extending"
+        )
+    elif not blocking and singular_ratio < MIN_SINGULAR_RATIO:
+        blocking.append(
+            f"the data leave one direction of the axes undetermined (singular ratio "
+            f"{singular_ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not "
+            "identifiable from this recording; record more varied motion"
+        )
+    if not blocking and fraction < MIN_AGREEING_FRACTION and relative > POOR_FIT_RESIDUAL:
+        blocking.append(
+            f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge model "
+            f"fits poorly (residual {relative:.0%} of the signal): the joint does not move "
+            "like a hinge (a spheroidal joint such as the ankle?), so no axis is identifiable"
+        )
+    count, far, ratio = minima
+    sigma = max(uncertainty.values())
+    if not blocking and count and far > max(3 * sigma, 2 * AGREEMENT_DEG):
+        blocking.append(
+            f"two different axes fit equally well ({count} restarts ended {far:.0f} deg from "
+            f"the estimate at {ratio:.2f} x its RMS residual): the data do not single out "
+            "one axis"
+        )
+    span = decision.tests["range"].detail["span_deg"]
+    if not blocking and min(span) > MAX_KNEE_SPAN_DEG:
+        blocking.append(
+            f"the angle about this axis, integrated from j2.g2 - j1.g1, spans {min(span):.0f} "
+            f"deg within {RANGE_BLOCK_S:g} s (more than the {MAX_KNEE_SPAN_DEG:g} deg a joint "
+            "can flex) with either relative sign: the segments do not move as a hinge here "
+            "(soft tissue, impacts, or a joint that is not a hinge)"
+        )
+    if not blocking and agreement < MIN_AGREEING_FRACTION:
+        warnings.append(
+            f"restarts disagree: of the restarts that fit almost as well as the best, only "
+            f"{agreement:.0%} reached the estimate: the answer depends on the starting point; "
+            "the joint may have moved too little or not as a hinge"
+        )
+    if relative > MAX_RELATIVE_RESIDUAL:
+        warnings.append(
+            f"the hinge model fits poorly (residual {relative:.0%} of the signal; real knees "
+            "leave 35-45 %): the joint may not be a hinge, or the sensors moved on the skin"
+        )
+    if sigma > MAX_UNCERTAINTY_DEG:
+        warnings.append(uncertainty_warning(uncertainty, components, "deg"))
+    return warnings, blocking
+
+
+def _block_jackknife(d1, d2, x) -> dict:
+    """{"j1", "j2"}: delete-one-block jackknife 1-sigma, deg; every refit starts at the
+    estimate ``x`` and leaves out one contiguous time block of the samples used."""
+    masks = block_masks(d1.shape[0])
+    problem = _HingeProblem(d1, d2, masks, RESTART_DTYPE, newton=True)
+    y = _solve(problem, np.repeat(x[None, :], masks.shape[0], axis=0), MAX_ITERATIONS,
+               RESTART_STEP_TOLERANCE).x
+    return {"j1": jackknife_sigma(_angle_deg(y[:, :3], x[:3])),
+            "j2": jackknife_sigma(_angle_deg(y[:, 3:], x[3:]))}
 
 
 def _check_sign(sign: str, what: str = "sign") -> int | None:

@@ -38,13 +38,24 @@ from .preprocess import (
     resolve_subsample,
     rms_rate_deg_s,
     stillness_warning,
+    unit_doubts,
     window_slice,
 )
-from .quality import Verdict, robust_covariance, sensitivity_cutoffs, singular_values
+from .quality import (
+    Verdict,
+    block_masks,
+    jackknife_sigma,
+    robust_covariance,
+    sensitivity_cutoffs,
+    singular_values,
+    total_sigma,
+    uncertainty_warning,
+)
 from .restarts import (
     best_restart,
     check_restarts,
     competing_agreement,
+    equal_minima,
     resolve_seed,
     settled,
     subset_mask,
@@ -75,9 +86,6 @@ MAX_RELATIVE_RESIDUAL = 0.25
 MIN_SINGULAR_RATIO = 0.04
 #: A 1-sigma position uncertainty above this is not good enough for kinematics, mm.
 MAX_UNCERTAINTY_MM = 10.0
-#: Refits with the cut-off halved and doubled may move the point by this much, mm (5-10 %
-#: of a typical sensor-to-joint distance).
-MAX_CUTOFF_SHIFT_MM = 15.0
 #: A sensor strapped to a thigh, shank or foot is never this far from the joint, m.
 MAX_PLAUSIBLE_OFFSET_M = 1.0
 
@@ -97,8 +105,11 @@ class PositionResult(Verdict):
         (near 0: the position is only known along a line); for a hinge, of the directions
         across the axis.
     singular_values : singular values of that Jacobian over sqrt(samples), 1/s^2.
-    uncertainty_mm : {"o1", "o2"} 1-sigma from the curvature of the cost (for a hinge:
-        across the axis line), mm.
+    uncertainty_mm : {"o1", "o2"} 1-sigma, mm (for a hinge: across the axis line): the
+        larger of the curvature's and the time blocks' with half the cut-off shift added
+        in quadrature (:func:`imucal.quality.total_sigma`).
+    uncertainty_components : its parts, each {"o1", "o2"} in mm, as in
+        :class:`imucal.axis.AxisResult`.
     excitation : RMS angular rate of each sensor, deg/s, and the Jacobian's singular
         values over sqrt(samples), 1/s^2.
     sensitivity : cut-offs of two refits (halved and doubled) and the shifts, mm.
@@ -126,6 +137,7 @@ class PositionResult(Verdict):
     singular_ratio: float
     singular_values: np.ndarray
     uncertainty_mm: dict
+    uncertainty_components: dict
     excitation: dict
     sensitivity: dict
     convergence_fraction: float
@@ -272,8 +284,8 @@ def estimate_position(
     sv = singular_values(jac @ free)
     singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
     cov = free @ robust_covariance(e, jac @ free) @ free.T
-    uncertainty = {"o1": float(1000 * np.sqrt(np.trace(cov[:3, :3]))),
-                   "o2": float(1000 * np.sqrt(np.trace(cov[3:, 3:])))}
+    curvature = {"o1": float(1000 * np.sqrt(np.trace(cov[:3, :3]))),
+                 "o2": float(1000 * np.sqrt(np.trace(cov[3:, 3:])))}
     excitation = {
         "rate_rms_deg_s": [rms_rate_deg_s(sensors[0][0]), rms_rate_deg_s(sensors[1][0])],
         "singular_values_1_s2": sv,
@@ -281,6 +293,12 @@ def estimate_position(
     sensitivity = _cutoff_sensitivity(
         (g1, a1, g2, a2), rate, cutoff, win, step, sel.index, x, line, max_iterations
     )
+    blocks = _block_jackknife(sensors, x, line, max_iterations)
+    components = {"curvature": curvature, "time_blocks": blocks,
+                  "cutoff_half_shift": {k: max(sensitivity[f"{k}_shift_mm"]) / 2
+                                        for k in ("o1", "o2")}}
+    uncertainty = {k: total_sigma(curvature[k], blocks[k], 2 * components["cutoff_half_shift"][k])
+                   for k in ("o1", "o2")}
 
     fraction = float(reached.mean())
     agreement = competing_agreement(refined.final_cost, reached)
@@ -291,6 +309,9 @@ def estimate_position(
         spread[name] = float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
 
     blocking = stillness_warning(sensors[0][0], sensors[1][0])
+    if not blocking:
+        # both scales enter eq. (3): wrong units give a confident-looking wrong point
+        blocking += unit_doubts((sensors[0][0], sensors[1][0]), (sensors[0][2], sensors[1][2]))
     warnings = []
     far = max(np.linalg.norm(x[:3]), np.linalg.norm(x[3:]))
     # Each singular value far below the largest is a direction of (o1, o2) the data
@@ -319,6 +340,15 @@ def estimate_position(
     elif not blocking and weak:
         warnings.append(f"{weak} directions of the point across the hinge axis are barely "
                         "determined")
+    count, apart, ratio = equal_minima(finals, refined.final_cost, best, reached,
+                                       _position_distance)
+    worst = max(uncertainty.values())
+    if not blocking and count and 1000 * apart > max(3 * worst, 2000 * AGREEMENT_M):
+        blocking.append(
+            f"two joint positions fit equally well ({count} restarts ended "
+            f"{1000 * apart:.0f} mm from the estimate at {ratio:.2f} x its RMS residual): the "
+            "data do not single out one joint centre"
+        )
     if agreement < MIN_AGREEING_FRACTION:
         warnings.append(
             f"restarts disagree: of the restarts that fit almost as well as the best, only "
@@ -328,19 +358,8 @@ def estimate_position(
         warnings.append(
             f"the {joint} joint model fits poorly (residual {relative:.0%} of the signal)"
         )
-    worst = max(uncertainty.values())
     if worst > MAX_UNCERTAINTY_MM:
-        warnings.append(
-            f"the joint position is uncertain: 1-sigma {worst:.0f} mm; record more varied "
-            "motion of the joint"
-        )
-    shift = sensitivity["max_shift_mm"]
-    if shift > MAX_CUTOFF_SHIFT_MM:
-        warnings.append(
-            f"the estimate depends strongly on the filter cut-off: it moves by {shift:.0f} mm "
-            f"when fitted with a {sensitivity['cutoffs_hz'][0]:g} or "
-            f"{sensitivity['cutoffs_hz'][1]:g} Hz low-pass"
-        )
+        warnings.append(uncertainty_warning(uncertainty, components, "mm"))
     if axis_result is not None:
         blocking.extend(f"axis: {w}" for w in axis_result.blocking)
         warnings.extend(f"axis: {w}" for w in axis_result.warnings)
@@ -371,6 +390,7 @@ def estimate_position(
         singular_ratio=singular_ratio,
         singular_values=sv,
         uncertainty_mm=uncertainty,
+        uncertainty_components=components,
         excitation=excitation,
         sensitivity=sensitivity,
         convergence_fraction=fraction,
@@ -556,6 +576,18 @@ def _solve(problem: _SpheroidalProblem, x0: np.ndarray, max_iterations: int) -> 
         cost_tolerance=COST_TOLERANCE,
         max_step=MAX_STEP,
     )
+
+
+def _block_jackknife(sensors, x, line, max_iterations) -> dict:
+    """{"o1", "o2"}: delete-one-block jackknife 1-sigma, mm; every refit starts at the
+    estimate ``x`` and leaves out one contiguous time block of the samples used."""
+    masks = block_masks(sensors[0][0].shape[0])
+    problem = _SpheroidalProblem(*sensors[0], *sensors[1], masks)
+    y = _solve(problem, np.repeat(x[None, :], masks.shape[0], axis=0), max_iterations).x
+    if line is not None:
+        y = closest_point_on_axis(y, line)
+    return {k: jackknife_sigma(1000 * np.linalg.norm(y[:, sl] - x[sl], axis=1))
+            for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ import numpy as np
 from scipy import signal
 
 from .errors import InputError
-from .recording import MAX_RATE_HZ, MIN_RATE_HZ
+from .recording import ACC_LOOKS_LIKE_G, MAX_LIMB_RATE, MAX_RATE_HZ, MIN_RATE_HZ
 
 #: Default low-pass cut-off in Hz. Voluntary leg motion (circling, gait) has almost all
 #: its energy below 6 Hz; 10 Hz keeps it and removes sensor noise and soft-tissue ringing.
@@ -134,3 +134,27 @@ def window_slice(
     if e > duration + 0.5 / rate:
         raise InputError(f"window end {origin + e:g} s lies beyond the recording ({span})")
     return slice(int(round(s * rate)), min(n, int(round(e * rate))))
+
+
+def unit_doubts(gyr: tuple, acc: tuple = ()) -> list[str]:
+    """Reasons to believe the rates are not rad/s or the specific forces not m/s^2.
+
+    A limb does not turn at more than :data:`imucal.recording.MAX_LIMB_RATE` rad/s for 1 %
+    of the time (deg/s read as rad/s: 57 times faster), and at rest or in gait the median
+    specific force is about 1 g = 9.81 m/s^2, not 1 (g read as m/s^2). The rates' scale does
+    not change a hinge axis, but both scales enter the joint position.
+    """
+    doubts = []
+    for k, g in enumerate(gyr, start=1):
+        fast = float(np.percentile(np.sqrt(np.sum(g * g, axis=1)), 99))
+        if fast > MAX_LIMB_RATE:
+            doubts.append(f"sensor {k}'s angular rate exceeds {fast:.0f} rad/s 1 % of the "
+                          f"time, faster than a limb turns (< {MAX_LIMB_RATE:g} rad/s): the "
+                          "gyroscope data look like deg/s read as rad/s")
+    for k, a in enumerate(acc, start=1):
+        median = float(np.median(np.sqrt(np.sum(a * a, axis=1))))
+        if ACC_LOOKS_LIKE_G[0] <= median <= ACC_LOOKS_LIKE_G[1]:
+            doubts.append(f"sensor {k}'s specific force has a median norm of {median:.2f} "
+                          "m/s^2, about 1 g in g units: the accelerometer data look like g "
+                          "read as m/s^2")
+    return doubts

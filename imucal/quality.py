@@ -100,3 +100,57 @@ def singular_values(jac: np.ndarray) -> np.ndarray:
         return np.linalg.svd(jac, compute_uv=False) / np.sqrt(m)
     except np.linalg.LinAlgError:
         return np.zeros(min(jac.shape))
+
+
+#: Contiguous time blocks of the delete-one-block jackknife (Kuensch 1989). Ten blocks of
+#: a 55 s recording are 5.5 s each: longer than soft-tissue wobble and most of a
+#: movement burst, so the blocks are close to independent, which random half-subsets of
+#: interleaved samples are not.
+JACKKNIFE_BLOCKS = 10
+
+
+def block_masks(n: int, blocks: int = JACKKNIFE_BLOCKS) -> np.ndarray:
+    """(K, n) 0/1 weights: row k leaves out the k-th of K contiguous, equally long runs of
+    the ``n`` time-ordered samples (K = min(blocks, n // 2))."""
+    k = max(2, min(blocks, n // 2))
+    which = np.minimum((np.arange(n) * k) // max(n, 1), k - 1)
+    return (which[None, :] != np.arange(k)[:, None]).astype(np.float64)
+
+
+def jackknife_sigma(deviation: np.ndarray) -> float:
+    """1-sigma from the delete-one-block estimates' distances ``deviation`` (K,) to the
+    estimate: sqrt((K - 1) / K * sum d^2). Distances to the full estimate rather than to
+    the estimates' mean: slightly larger, never smaller. NaN distances (a refit that
+    failed) make the answer infinite."""
+    deviation = np.asarray(deviation, dtype=np.float64)
+    k = deviation.size
+    if k < 2 or not np.isfinite(deviation).all():
+        return float("inf")
+    return float(np.sqrt((k - 1) / k * np.sum(deviation**2)))
+
+
+def total_sigma(curvature: float, blocks: float, cutoff_shift: float) -> float:
+    """The reported 1-sigma: the larger of the curvature's and the time blocks' (both
+    measure the same sampling error; the blocks also see correlated and non-stationary
+    errors the curvature misses), with half the cut-off refits' largest shift added in
+    quadrature (a processing choice that moves the answer by that much is a +-2 sigma
+    effect, not a certainty)."""
+    sampling = max(curvature, blocks)
+    return float(np.sqrt(sampling**2 + (cutoff_shift / 2) ** 2))
+
+
+def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
+    """The warning for a large reported 1-sigma, naming the component that dominates it
+    (``components`` as in the results' ``uncertainty_components``)."""
+    name = max(total, key=total.get)
+    parts = {kind: values[name] for kind, values in components.items()}
+    main = max(parts, key=parts.get)
+    why = {
+        "curvature": "the data barely constrain it",
+        "time_blocks": "fits on different stretches of the recording disagree",
+        "cutoff_half_shift": "it moves with the low-pass cut-off of the refits",
+    }[main]
+    return (f"the estimate is uncertain: 1-sigma {total[name]:.1f} {unit} for {name}, mostly "
+            f"because {why} (curvature {parts['curvature']:.1f}, time blocks "
+            f"{parts['time_blocks']:.1f}, half the cut-off shift "
+            f"{parts['cutoff_half_shift']:.1f} {unit})")

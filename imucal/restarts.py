@@ -113,3 +113,29 @@ def settled(subset_costs: np.ndarray, reached: np.ndarray) -> np.ndarray:
 def _rms(costs: np.ndarray) -> np.ndarray:
     """RMS residuals from mean-square costs; non-finite costs become infinite."""
     return np.sqrt(np.where(np.isfinite(costs), costs, np.inf))
+
+
+#: Two minima whose RMS residuals differ by less than this factor fit equally well: the
+#: real hip (pelvis - thigh, 55-100 s of the shared recording) has two minima 30 cm apart
+#: at 1.01 x, each reached by about half the restarts.
+EQUAL_RMS_FACTOR = 1.05
+
+
+def equal_minima(
+    finals: np.ndarray,
+    costs: np.ndarray,
+    best: int,
+    reached: np.ndarray,
+    distance: Callable[[np.ndarray, np.ndarray], np.ndarray],
+) -> tuple[int, float, float]:
+    """Restarts that ended away from the estimate at an equally low cost.
+
+    Returns their count, the largest distance of one of them from the estimate (units of
+    ``distance``; 0 when none) and the largest RMS ratio to the best among them.
+    """
+    rms = _rms(costs)
+    equal = ~reached & np.isfinite(finals).all(axis=1) & (rms <= EQUAL_RMS_FACTOR * rms[best])
+    if not equal.any():
+        return 0, 0.0, 1.0
+    far = distance(finals[equal], finals[best])
+    return int(equal.sum()), float(far.max()), float((rms[equal] / rms[best]).max())
