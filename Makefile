@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR := demo_output
 
-.PHONY: demo test lint bench sample-data clean
+.PHONY: demo test lint bench sweep sample-data clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -24,10 +24,17 @@ demo: $(STAMP)
 	@echo "demo: results written to $(DEMO_DIR)/ (knee_axis.json/.png, ankle_position.json/.png);"
 	@echo "      the true values are in sample_data/circling.truth.json"
 
-## test: lint and the whole test suite
+## test: lint and the whole test suite (on every core; one BLAS thread per worker, as
+## the command line runs)
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest
+
+## sweep: the real-data crash sweep with 100 restarts for every estimator (the suite
+## runs the position estimators with 25)
+sweep: $(STAMP)
+	IMUCAL_SWEEP_FULL=1 OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 \
+		$(BIN)/python -m pytest tests/test_crash_sweep.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -287,6 +287,9 @@ def info(
         ]
         for name, s in doc["sensors"].items():
             units = f"{s['units']['gyr']}, {s['units']['acc']}"
+            if s["gyr_rms_deg_s"] is None:
+                lines.append(f"{name:<16}{units:<18}{'-':>12}{'-':>12}{'-':>14}  {s['motion']}")
+                continue
             lines.append(
                 f"{name:<16}{units:<18}{s['gyr_rms_deg_s']:>8.1f} d/s{s['gyr_peak_deg_s']:>8.1f}"
                 f" d/s{s['acc_dynamic_rms_m_s2']:>9.2f} m/s2  {s['motion']}"
@@ -308,13 +311,14 @@ def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units
 
     _check_outputs(out, plot, rec)
     recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
-    s1, s2 = (recording.sensor(n) for n in names)
-    window = _window(recording, start, end)
+    used, window = _window(recording, names, start, end)
+    s1, s2 = (used.sensor(n) for n in names)
     try:
         result = estimate(s1, s2, recording.rate, **window)
     except InputError as err:
         raise InputError(f"{recording.source}: {err}") from None
-    doc = getattr(report, f"{command}_report")(result, input_info=_input_info(recording, names))
+    input_info = _input_info(recording, names, used)
+    doc = getattr(report, f"{command}_report")(result, input_info=input_info)
     what = f"{command} ({doc['joint']})" if "joint" in doc else command
     _progress(quiet, recording, names, what)
     if doc["quality"]["verdict"] == "not identifiable" and not force:
@@ -355,9 +359,17 @@ def _describe(recording) -> dict:
 
     sensors = {}
     for name, s in recording.sensors.items():
-        rate_norm = np.degrees(np.linalg.norm(s.gyr, axis=1))
-        acc_dyn = np.linalg.norm(s.acc, axis=1) - 9.81
-        rms = rms_rate_deg_s(s.gyr)
+        # Gaps are reported as warnings; the figures describe the samples there are.
+        fine = np.isfinite(s.gyr).all(axis=1) & np.isfinite(s.acc).all(axis=1)
+        if not fine.any():
+            sensors[name] = {"units": recording.units.get(name, {}), "gyr_rms_deg_s": None,
+                             "gyr_peak_deg_s": None, "acc_dynamic_rms_m_s2": None,
+                             "motion": "no data"}
+            continue
+        gyr, acc = s.gyr[fine], s.acc[fine]
+        rate_norm = np.degrees(np.linalg.norm(gyr, axis=1))
+        acc_dyn = np.linalg.norm(acc, axis=1) - 9.81
+        rms = rms_rate_deg_s(gyr)
         sensors[name] = {
             "units": recording.units.get(name, {}),
             "gyr_rms_deg_s": rms,
@@ -413,27 +425,32 @@ def _load(rec, sensors, rate, gyr_units, acc_units):
                          f"got '{sensors}'")
     recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
     for n in names:
-        recording.sensor(n)  # raises with the list of sensors that exist
-    for w in recording.warnings:
-        _err(f"imucal: warning: {recording.source}: {w}")
+        if n not in recording.sensors:
+            recording.sensor(n)  # raises with the list of sensors that exist
+    # No warnings yet: which of the file's problems matter depends on the sensors and
+    # window used (_window).
     return recording, names
 
 
-def _window(recording, start, end) -> dict:
-    """--start/--end are on the recording's time axis; estimators count from sample 0."""
-    from .preprocess import window_slice
+def _window(recording, names, start, end):
+    """The sensors ``names`` in the window --start/--end (s on the recording's time axis),
+    checked and repaired (Recording.select), and the window for the estimators, which
+    count from the first sample they are given. Warnings about the data used go to stderr
+    here; problems elsewhere in the file are not theirs.
+    """
+    used = recording.select(names, start, end, context=True)
+    for w in used.warnings:
+        _err(f"imucal: warning: {used.source}: {w}")
+    i0, i1 = used.window
+    # Whole samples, so the estimators cut exactly the samples select checked; the finite
+    # context around them keeps filter transients off the window's edges.
+    rel = {"start": None if start is None and i0 == 0 else i0 / used.rate,
+           "end": None if end is None and i1 == used.n_samples else i1 / used.rate}
+    return used, rel
 
-    t0 = float(recording.time[0])
-    rel = {"start": None if start is None else start - t0,
-           "end": None if end is None else end - t0}
-    try:
-        window_slice(recording.n_samples, recording.rate, **rel, origin=t0)
-    except InputError as err:
-        raise InputError(f"{recording.source}: {err}") from None
-    return rel
 
-
-def _input_info(recording, names) -> dict:
+def _input_info(recording, names, used=None) -> dict:
+    used = recording if used is None else used
     return {
         "path": recording.source,
         "sensors": names,
@@ -441,8 +458,8 @@ def _input_info(recording, names) -> dict:
         "samples_total": recording.n_samples,
         "duration_s": recording.duration,
         "units_in_file": {n: recording.units.get(n, {}) for n in names},
-        "time_origin": float(recording.time[0]),
-        "load_warnings": list(recording.warnings),
+        "time_origin": float(used.time[0]),
+        "load_warnings": list(used.warnings),
     }
 
 

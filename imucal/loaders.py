@@ -15,6 +15,9 @@ CSV (``.csv``, ``.txt``, or ``-`` for standard input)
     the caller (``gyr_units``/``acc_units``), the same for all sensors. Other columns
     are ignored (and listed in ``Recording.warnings``).
 
+Non-finite samples are kept and described (``Recording.gaps``); only the sensors and the
+window an estimate uses are checked and repaired (:meth:`Recording.select`).
+
 Any other suffix is recognised by content (the HDF5 signature, else CSV). This module only
 parses; checking and unit conversion happen in :func:`imucal.recording.make_recording`.
 Every problem is reported as one :class:`~imucal.errors.InputError` naming the file.
@@ -137,8 +140,8 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
         time=time,
         units=units,
         source=source,
+        notes=warnings,
     )
-    recording.warnings.extend(warnings)
     return recording
 
 

@@ -1,9 +1,14 @@
 """The validated recording object every estimator receives.
 
 Loaders (``imucal.loaders``) parse files; :func:`make_recording` is the one place where
-their output is checked and converted to SI units. Everything downstream may assume:
-finite ``float64`` arrays of shape (N, 3), gyroscope in rad/s, accelerometer (specific
-force) in m/s^2, one common sample rate in Hz.
+their output is checked and converted to SI units: ``float64`` arrays of shape (N, 3),
+gyroscope in rad/s, accelerometer (specific force) in m/s^2, one common sample rate in Hz.
+
+Non-finite samples (NaN or Inf: dropped packets, a sensor that started late) are kept as
+they are and described in ``Recording.gaps``: whether they matter depends on which
+sensors and which time an estimate uses. :meth:`Recording.select` validates and repairs
+exactly that part; what it returns (and what :meth:`Recording.sensor` returns) is finite,
+which is what every estimator may assume.
 """
 
 from __future__ import annotations
@@ -38,10 +43,10 @@ TIME_JITTER_TOLERANCE = 0.1
 #: Longest run of non-finite samples (NaN or Inf: a dropped packet) inside a recording that
 #: is filled by linear interpolation, s. Human limb motion has almost no energy above
 #: 6 Hz; over 0.05 s (under a third of such a period) a straight line stays close to it.
-#: A longer gap stops loading.
+#: A longer gap in the data an estimate uses stops it.
 MAX_INTERPOLATED_GAP_S = 0.05
-#: Largest share of one signal's samples that may be interpolated; beyond it the signal
-#: is more repair than measurement and loading stops.
+#: Largest share of one signal's samples in the window used that may be interpolated;
+#: beyond it the signal is more repair than measurement and the estimate stops.
 MAX_INTERPOLATED_FRACTION = 0.05
 
 #: Common spellings of the accepted units, used only to suggest the right name.
@@ -62,8 +67,23 @@ class SensorData:
 
 
 @dataclass(frozen=True)
+class Gap:
+    """One run of non-finite samples (NaN or Inf in any axis) in one signal.
+
+    ``start`` and ``length`` count samples; ``time`` is the first bad sample's time, s on
+    the recording's time axis.
+    """
+
+    sensor: str
+    kind: str
+    start: int
+    length: int
+    time: float
+
+
+@dataclass(frozen=True)
 class Recording:
-    """A validated multi-sensor recording.
+    """A checked multi-sensor recording.
 
     Attributes
     ----------
@@ -80,6 +100,15 @@ class Recording:
         before conversion to SI.
     warnings : list[str]
         Notes from loading that did not stop it (plain-language, one line each).
+    gaps : tuple[Gap, ...]
+        Runs of non-finite samples left in ``sensors``, by sensor, signal and time; empty
+        for a recording returned by :meth:`select`.
+    notes : tuple[str, ...]
+        The warnings about the file as a whole (not about one sensor), which every
+        :meth:`select` passes on.
+    window : tuple[int, int] | None
+        For a recording returned by :meth:`select`: the samples ``[i0, i1)`` that form
+        the window it checked; samples outside it are finite context (see ``context``).
     """
 
     rate: float
@@ -88,6 +117,9 @@ class Recording:
     source: str = "<memory>"
     units: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    gaps: tuple[Gap, ...] = ()
+    notes: tuple[str, ...] = ()
+    window: tuple[int, int] | None = None
 
     @property
     def n_samples(self) -> int:
@@ -99,7 +131,151 @@ class Recording:
         return self.n_samples / self.rate
 
     def sensor(self, name: str) -> SensorData:
-        """The sensor called ``name``; an :class:`InputError` lists the ones that exist."""
+        """The sensor called ``name``, finite over the whole recording.
+
+        Short gaps are interpolated as :meth:`select` does; an :class:`InputError` names a
+        sensor that does not exist (listing the ones that do), the first gap too long to
+        repair, or non-finite samples at the recording's start or end, which only
+        :meth:`select` can drop (from all the sensors an estimate uses alike).
+        """
+        data = self._lookup(name)
+        if not any(g.sensor == name for g in self.gaps):
+            return data
+        used = self.select([name])
+        if used.n_samples != self.n_samples:
+            raise InputError(
+                f"{self.source}: sensor '{name}' has non-finite samples (NaN or Inf) at the "
+                "start or end of the recording; Recording.select([...], start, end) drops "
+                "them from all the sensors an estimate uses"
+            )
+        return used.sensors[name]
+
+    def select(
+        self,
+        names,
+        start: float | None = None,
+        end: float | None = None,
+        *,
+        context: bool = False,
+    ) -> Recording:
+        """The sensors ``names`` over the window ``[start, end)``, checked and repaired.
+
+        This is what an estimate uses, and only this can stop it: gaps in other sensors,
+        or outside the window, do not matter. Inside the window, for the named sensors:
+
+        * non-finite samples where the recording starts or ends (a sensor that started
+          late or stopped early) are dropped from all of them, with a warning;
+        * gaps of at most :data:`MAX_INTERPOLATED_GAP_S` are filled by linear
+          interpolation, with a warning, as long as they make up at most
+          :data:`MAX_INTERPOLATED_FRACTION` of a signal's samples in the window;
+        * anything more raises an :class:`InputError` naming the first offending gap,
+          its signal and its time.
+
+        Parameters
+        ----------
+        names
+            Sensor names; a missing one raises, listing the sensors that exist.
+        start, end
+            Window, s on the recording's time axis (None: its start / end).
+        context
+            Also keep the samples around the window as far as the named sensors are
+            finite there: an estimator that low-passes before cutting out its window
+            (its ``start``/``end``) then has no filter transients at the window's edges.
+            ``window`` of the result says which samples form the window.
+
+        Returns
+        -------
+        Recording
+            Finite data of the named sensors only, its ``warnings`` those that concern
+            them (the file's ``notes``, repairs, units, stuck signals in the window).
+        """
+        from .preprocess import window_slice
+
+        names = list(dict.fromkeys(names))
+        data = {name: self._lookup(name) for name in names}
+        n, rate, source = self.n_samples, self.rate, self.source
+        t0 = float(self.time[0])
+        if start is None and end is None:
+            w0, w1 = 0, n
+        else:
+            try:
+                win = window_slice(n, rate, None if start is None else start - t0,
+                                   None if end is None else end - t0, origin=t0)
+            except InputError as err:
+                raise InputError(f"{source}: {err}") from None
+            w0, w1 = win.start, win.stop
+        arrays = {(name, kind): getattr(data[name], kind) for name in names
+                  for kind in ("gyr", "acc")}
+        gaps = {key: [g for g in self.gaps if (g.sensor, g.kind) == key] for key in arrays}
+        span = self._span(w0, w1)
+
+        for (name, kind), runs in gaps.items():
+            if sum(g.length for g in runs) == n:
+                raise InputError(
+                    f"{source}: sensor '{name}' {kind} has no finite sample (all NaN or Inf)"
+                )
+        # Runs touching the recording's first or last sample are a sensor that started
+        # late or stopped early: nothing lies beyond them to interpolate from.
+        lead = max((g.length for r in gaps.values() for g in r if g.start == 0), default=0)
+        trail = max((g.length for r in gaps.values() for g in r if g.start + g.length == n),
+                    default=0)
+        a0, a1 = max(w0, lead), min(w1, n - trail)
+        if a1 - a0 < 2:
+            raise InputError(
+                f"{source}: fewer than 2 samples are finite (not NaN or Inf) in every sensor "
+                f"used ({', '.join(names)}) at once in {span}"
+            )
+        inner = {key: [g for g in runs if 0 < g.start and g.start + g.length < n
+                       and g.start < a1 and g.start + g.length > a0]
+                 for key, runs in gaps.items()}
+        self._refuse_first_offence(inner, a0, a1, span)
+
+        notes = list(self.notes)
+        if a0 > w0 or a1 < w1:
+            culprits = [f"'{g.sensor}' {g.kind}" for runs in gaps.values() for g in runs[:1]
+                        + runs[-1:] if (g.start == 0 and g.length > w0)
+                        or (g.start + g.length == n and g.start < w1)]
+            notes.append(
+                f"dropped {a0 - w0} sample(s) at the start and {w1 - a1} at the end of "
+                f"{span}, where sensor {', '.join(dict.fromkeys(culprits))} has non-finite "
+                "values (NaN or Inf) up to the recording's start or end; the data used run "
+                f"from t={self.time[a0]:g} to {self.time[a1 - 1]:g} s"
+            )
+        repaired = {key: arr.copy() for key, arr in arrays.items()}
+        bad = np.zeros(n, dtype=bool)  # what is left non-finite in any signal used
+        for key, runs in gaps.items():
+            for g in runs:
+                if g in inner[key]:
+                    _interpolate(repaired[key], g.start, g.length)
+                else:
+                    bad[g.start:g.start + g.length] = True
+            if inner[key]:
+                longest = max(inner[key], key=lambda g: g.length)
+                count = sum(min(g.start + g.length, a1) - max(g.start, a0) for g in inner[key])
+                notes.append(
+                    f"sensor '{key[0]}' {key[1]}: {count} non-finite sample(s) (NaN or Inf) "
+                    f"in {len(inner[key])} gap(s), the first at t={inner[key][0].time:g} s, "
+                    f"the longest {longest.length} sample(s) ({longest.length / rate:g} s), "
+                    "filled by linear interpolation"
+                )
+        c0, c1 = a0, a1
+        if context:
+            before, after = np.flatnonzero(bad[:a0]), np.flatnonzero(bad[a1:])
+            c0 = int(before[-1]) + 1 if before.size else 0
+            c1 = a1 + int(after[0]) if after.size else n
+        sensors = {name: SensorData(gyr=repaired[name, "gyr"][c0:c1],
+                                    acc=repaired[name, "acc"][c0:c1]) for name in names}
+        checked = {name: SensorData(gyr=s.gyr[a0 - c0:a1 - c0], acc=s.acc[a0 - c0:a1 - c0])
+                   for name, s in sensors.items()}
+        units = {name: dict(self.units.get(name, {})) for name in names}
+        return Recording(
+            rate=rate, sensors=sensors, time=self.time[c0:c1].copy(), source=source,
+            units=units,
+            warnings=notes + _unit_warnings(checked, units) + _stuck_warnings(checked),
+            notes=self.notes, window=(a0 - c0, a1 - c0),
+        )
+
+    def _lookup(self, name: str) -> SensorData:
         try:
             return self.sensors[name]
         except KeyError:
@@ -110,6 +286,38 @@ class Recording:
                 f"sensors in this file: {', '.join(self.sensors) or 'none'}"
             ) from None
 
+    def _span(self, i0: int, i1: int) -> str:
+        if i0 == 0 and i1 == self.n_samples:
+            return "the recording"
+        return f"the window t={self.time[i0]:g} to {self.time[i1 - 1] + 1 / self.rate:g} s"
+
+    def _refuse_first_offence(self, inner, a0: int, a1: int, span: str) -> None:
+        """Raise for the earliest gap that cannot be repaired, if any (see :meth:`select`)."""
+        rate, max_gap = self.rate, max_gap_samples(self.rate)
+        offences = []  # (time order, rank, message)
+        for (name, kind), runs in inner.items():
+            what = f"{self.source}: sensor '{name}' {kind}"
+            long = [g for g in runs if g.length > max_gap]
+            for g in long[:1]:
+                more = f" (the first of {len(long)} such gaps)" if len(long) > 1 else ""
+                offences.append((g.start, 0, (
+                    f"{what} has a gap of {g.length} non-finite samples (NaN or Inf, "
+                    f"{g.length / rate:g} s) from t={g.time:g} s in {span}{more}; imucal "
+                    f"interpolates gaps of at most {MAX_INTERPOLATED_GAP_S:g} s ({max_gap} "
+                    "samples); repair the data, or choose a window (--start/--end) before "
+                    "or after the gap"
+                )))
+            count = sum(min(g.start + g.length, a1) - max(g.start, a0) for g in runs)
+            if runs and count > MAX_INTERPOLATED_FRACTION * (a1 - a0):
+                offences.append((runs[0].start, 1, (
+                    f"{what} has {count} non-finite samples (NaN or Inf), "
+                    f"{count / (a1 - a0):.1%} of {a1 - a0} in {span}, the first at "
+                    f"t={runs[0].time:g} s; imucal interpolates at most "
+                    f"{MAX_INTERPOLATED_FRACTION:.0%}"
+                )))
+        if offences:
+            raise InputError(min(offences, key=lambda o: o[:2])[2])
+
 
 def make_recording(
     sensors: Mapping[str, Mapping[str, np.ndarray]],
@@ -118,6 +326,7 @@ def make_recording(
     time: np.ndarray | None = None,
     units: Mapping[str, Mapping[str, str]] | None = None,
     source: str = "<memory>",
+    notes: list[str] | tuple[str, ...] = (),
 ) -> Recording:
     """Check raw arrays and build a :class:`Recording` in SI units.
 
@@ -136,12 +345,13 @@ def make_recording(
         default to rad/s and m/s^2.
     source
         Name of the file, used in every message.
+    notes
+        Warnings about the file as a whole (ignored CSV columns), kept by every
+        :meth:`Recording.select`.
 
-    Non-finite samples (NaN or Inf, e.g. dropped packets): runs at the start or end of
-    the recording are dropped from every sensor and from ``time``; runs inside it of at
-    most :data:`MAX_INTERPOLATED_GAP_S` seconds are filled by linear interpolation, as
-    long as they make up at most :data:`MAX_INTERPOLATED_FRACTION` of the signal. Both
-    repairs are listed in ``Recording.warnings``; anything more stops loading.
+    Non-finite samples (NaN or Inf, e.g. dropped packets) are kept: they are listed in
+    ``Recording.gaps`` and, one line per signal, in ``Recording.warnings``. Only the
+    sensors and the window an estimate uses can stop it (:meth:`Recording.select`).
 
     Raises
     ------
@@ -191,12 +401,15 @@ def make_recording(
         )
 
     rate_out, time_out = _check_timing(rate, time, n, source)
-    kept, notes = _repair_non_finite(raw, rate_out, time_out, source)
-    converted = {name: SensorData(gyr=a["gyr"][kept], acc=a["acc"][kept]) for name, a in
-                 raw.items()}
+    gaps = _find_gaps(raw, time_out)
+    converted = {name: SensorData(gyr=a["gyr"], acc=a["acc"]) for name, a in raw.items()}
+    finite = {name: SensorData(gyr=s.gyr[_finite_rows(s)], acc=s.acc[_finite_rows(s)])
+              for name, s in converted.items()}
     return Recording(
-        rate=rate_out, sensors=converted, time=time_out[kept], source=source, units=units,
-        warnings=notes + _unit_warnings(converted, units) + _stuck_warnings(converted),
+        rate=rate_out, sensors=converted, time=time_out, source=source, units=units,
+        warnings=(list(notes) + _gap_warnings(gaps, raw, rate_out, n)
+                  + _unit_warnings(finite, units) + _stuck_warnings(finite)),
+        gaps=gaps, notes=tuple(notes),
     )
 
 
@@ -224,70 +437,58 @@ def check_units(kind: str, unit, what: str) -> None:
     raise InputError(f"{what}: unknown units {text[:40]!r}{hint}; use one of {', '.join(table)}")
 
 
-def _repair_non_finite(raw, rate: float, time: np.ndarray, source: str):
-    """Drop non-finite samples at the ends, interpolate short gaps inside; see make_recording.
+def max_gap_samples(rate: float) -> int:
+    """Longest gap, in samples at ``rate`` Hz, that is filled by interpolation."""
+    return int(np.floor(MAX_INTERPOLATED_GAP_S * rate + 1e-9))
 
-    Returns the slice of samples kept and the warnings describing what was done. The
-    arrays in ``raw`` are interpolated in place.
-    """
-    bad = {(name, kind): ~np.isfinite(arr).all(axis=1)
-           for name, arrays in raw.items() for kind, arr in arrays.items()}
-    any_bad = np.logical_or.reduce(list(bad.values()))
-    if not any_bad.any():
-        return slice(None), []
-    n = any_bad.shape[0]
-    for (name, kind), rows in bad.items():
-        if rows.all():
-            raise InputError(
-                f"{source}: sensor '{name}' {kind} has no finite sample (all NaN or Inf)"
-            )
-    good = np.flatnonzero(~any_bad)
-    if good.size < 2:
-        raise InputError(
-            f"{source}: fewer than 2 samples are finite (not NaN or Inf) in every sensor at once"
-        )
-    first, last = int(good[0]), int(good[-1])
-    max_gap = int(np.floor(MAX_INTERPOLATED_GAP_S * rate + 1e-9))
+
+def _find_gaps(raw, time: np.ndarray) -> tuple[Gap, ...]:
+    gaps = []
+    for name, arrays in raw.items():
+        for kind, arr in arrays.items():
+            starts, lengths = _runs(~np.isfinite(arr).all(axis=1))
+            gaps += [Gap(name, kind, int(i), int(k), float(time[i]))
+                     for i, k in zip(starts, lengths, strict=True)]
+    return tuple(gaps)
+
+
+def _finite_rows(sd: SensorData) -> np.ndarray:
+    return np.isfinite(sd.gyr).all(axis=1) & np.isfinite(sd.acc).all(axis=1)
+
+
+def _gap_warnings(gaps, raw, rate: float, n: int) -> list[str]:
+    """One line per signal with gaps: where they are and what an estimate using it will do."""
     notes = []
-    for (name, kind), rows in bad.items():
-        inner = rows[first:last + 1]
-        if not inner.any():
-            continue
-        starts, lengths = _runs(inner)
-        what = f"{source}: sensor '{name}' {kind}"
-        longest = int(np.argmax(lengths))
-        if lengths[longest] > max_gap:
-            i = first + int(starts[longest])
-            raise InputError(
-                f"{what} has a gap of {lengths[longest]} non-finite samples (NaN or Inf, "
-                f"{lengths[longest] / rate:g} s) from t={time[i]:g} s; imucal interpolates "
-                f"gaps of at most {MAX_INTERPOLATED_GAP_S:g} s ({max_gap} samples); repair "
-                "the data, or cut the file before or after the gap"
+    max_gap = max_gap_samples(rate)
+    for name, arrays in raw.items():
+        for kind in arrays:
+            runs = [g for g in gaps if (g.sensor, g.kind) == (name, kind)]
+            if not runs:
+                continue
+            count = sum(g.length for g in runs)
+            if count == n:
+                notes.append(f"sensor '{name}' {kind} has no finite sample (all NaN or Inf): "
+                             "estimates that use it cannot run")
+                continue
+            longest = max(runs, key=lambda g: g.length)
+            long = sum(g.length > max_gap for g in runs)
+            fate = (f"{long} longer than {MAX_INTERPOLATED_GAP_S:g} s stop estimates whose "
+                    "window they touch, shorter ones are interpolated" if long else
+                    "estimates that use them interpolate them")
+            notes.append(
+                f"sensor '{name}' {kind}: {count} non-finite sample(s) (NaN or Inf) in "
+                f"{len(runs)} gap(s), the first at t={runs[0].time:g} s, the longest "
+                f"{longest.length} sample(s) ({longest.length / rate:g} s) at "
+                f"t={longest.time:g} s; {fate}"
             )
-        count = int(inner.sum())
-        if count > MAX_INTERPOLATED_FRACTION * n:
-            raise InputError(
-                f"{what} has {count} non-finite samples (NaN or Inf), {count / n:.1%} of "
-                f"{n}; imucal interpolates at most {MAX_INTERPOLATED_FRACTION:.0%}"
-            )
-        arr = raw[name][kind]
-        index = np.arange(first, last + 1)
-        fine = ~inner
-        for c in range(3):
-            column = arr[first:last + 1, c]
-            column[inner] = np.interp(index[inner], index[fine], column[fine])
-        notes.append(
-            f"sensor '{name}' {kind}: {count} non-finite sample(s) (NaN or Inf) in "
-            f"{len(lengths)} gap(s), the longest {lengths[longest]} sample(s) "
-            f"({lengths[longest] / rate:g} s), filled by linear interpolation"
-        )
-    if first > 0 or last < n - 1:
-        notes.insert(0, (
-            f"dropped {first} sample(s) at the start and {n - 1 - last} at the end where some "
-            f"sensor has non-finite values (NaN or Inf); the recording now runs from "
-            f"t={time[first]:g} to {time[last]:g} s"
-        ))
-    return slice(first, last + 1), notes
+    return notes
+
+
+def _interpolate(arr: np.ndarray, start: int, length: int) -> None:
+    """Fill ``arr[start:start + length]`` in place on the line between its finite neighbours."""
+    before, after = arr[start - 1], arr[start + length]
+    weight = (np.arange(1, length + 1) / (length + 1))[:, None]
+    arr[start:start + length] = before + weight * (after - before)
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -301,6 +502,8 @@ def _unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
     """Plain-language doubts about the declared units, with the evidence."""
     notes = []
     for name, sd in sensors.items():
+        if sd.gyr.shape[0] == 0:
+            continue
         with np.errstate(over="ignore"):  # absurd values overflow to Inf, still evidence
             peak = float(np.linalg.norm(sd.gyr, axis=1).max())
             median = float(np.median(np.linalg.norm(sd.acc, axis=1)))
@@ -325,7 +528,7 @@ def _stuck_warnings(sensors: Mapping[str, SensorData]) -> list[str]:
     for name, sd in sensors.items():
         for kind, unit in (("gyr", "rad/s"), ("acc", "m/s^2")):
             arr = getattr(sd, kind)
-            if (arr == arr[0]).all():
+            if arr.shape[0] and (arr == arr[0]).all():
                 value = ", ".join(f"{v:g}" for v in arr[0])
                 notes.append(
                     f"sensor '{name}' {kind} never changes (all {arr.shape[0]} samples are "

@@ -92,4 +92,5 @@ def _write_csv(recording: Recording, tmp: Path, extra_attrs: dict) -> None:
             data = np.asarray(getattr(sensor, kind), dtype=np.float64)
             for axis, values in zip("xyz", data.T, strict=True):
                 columns[f"{name}_{kind}_{axis}"] = values
-    pd.DataFrame(columns).to_csv(tmp, index=False, float_format="%.9g")
+    # A loaded recording keeps its gaps; "nan" reads back as one, an empty cell would not.
+    pd.DataFrame(columns).to_csv(tmp, index=False, float_format="%.9g", na_rep="nan")

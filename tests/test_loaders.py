@@ -57,9 +57,13 @@ def good_rows(n=5):
     return [[i / RATE, 1, 2, 3, 4, 5, 6] for i in range(n)]
 
 
-def expect_error(path, phrase, **kwargs):
+def expect_error(path, phrase, *, use=False, **kwargs):
+    """Loading ``path`` (with ``use``, and selecting all its sensors for an estimate) fails
+    with one line naming the file and containing ``phrase``."""
     with pytest.raises(InputError) as info:
-        load_recording(path, **kwargs)
+        rec = load_recording(path, **kwargs)
+        if use:
+            rec.select(list(rec.sensors))
     message = str(info.value)
     assert phrase in message
     assert ("<stdin>" if path == "-" else str(path)) in message
@@ -474,11 +478,11 @@ def test_csv_nan_text_is_read_as_a_non_finite_number(tmp_path):
     path = tmp_path / "nan.csv"
     path.write_text(csv_text(rows))
     rec = load_recording(path)
-    assert any("1 non-finite sample" in w for w in rec.warnings)
+    assert any("1 non-finite sample" in w for w in rec.select(["t"]).warnings)
     rows = good_rows(5)
     rows[3][4] = "nan"  # one sample in five is too large a share to repair
     path.write_text(csv_text(rows))
-    expect_error(path, "1 non-finite samples (NaN or Inf), 20.0% of 5")
+    expect_error(path, "1 non-finite samples (NaN or Inf), 20.0% of 5", use=True)
 
 
 def test_csv_header_only(tmp_path):
@@ -728,14 +732,21 @@ def test_short_gaps_are_interpolated_with_a_warning(tmp_path):
     gyr[120, :] = np.inf
     expected[50:53] = np.linspace(expected[49], expected[53], 5)[1:-1]
     expected[120] = (expected[119] + expected[121]) / 2
-    rec = load_recording(write_h5(tmp_path / "gaps.h5", data))
+    loaded = load_recording(write_h5(tmp_path / "gaps.h5", data))
+    assert loaded.warnings == [
+        "sensor 'shank' gyr: 4 non-finite sample(s) (NaN or Inf) in 2 gap(s), the first at "
+        "t=0.5 s, the longest 3 sample(s) (0.03 s) at t=0.5 s; estimates that use them "
+        "interpolate them"]
+    rec = loaded.select(["thigh", "shank"])
     assert rec.n_samples == N
     np.testing.assert_allclose(rec.sensors["shank"].gyr, expected, rtol=1e-12, atol=1e-12)
-    note = [w for w in rec.warnings if "non-finite" in w]
-    assert note == ["sensor 'shank' gyr: 4 non-finite sample(s) (NaN or Inf) in 2 gap(s), the "
-                    "longest 3 sample(s) (0.03 s), filled by linear interpolation"]
-    # the caller's arrays are left as they were
-    make_recording(data, rate=RATE)
+    np.testing.assert_array_equal(loaded.sensor("shank").gyr, rec.sensors["shank"].gyr)
+    assert rec.warnings == [
+        "sensor 'shank' gyr: 4 non-finite sample(s) (NaN or Inf) in 2 gap(s), the first at "
+        "t=0.5 s, the longest 3 sample(s) (0.03 s), filled by linear interpolation"]
+    # the loaded data and the caller's arrays are left as they were
+    assert np.isnan(loaded.sensors["shank"].gyr[50:53, 1]).all()
+    make_recording(data, rate=RATE).select(["shank"])
     assert np.isnan(data["shank"]["gyr"][50:53, 1]).all()
 
 
@@ -743,21 +754,28 @@ def test_non_finite_samples_at_the_ends_are_dropped_with_a_warning(tmp_path):
     data = sensor_pair()
     data["thigh"]["acc"][:4] = np.nan  # a sensor that started late
     data["shank"]["gyr"][-2:, 0] = -np.inf
-    rec = load_recording(write_h5(tmp_path / "ends.h5", data))
+    loaded = load_recording(write_h5(tmp_path / "ends.h5", data))
+    assert loaded.n_samples == N  # only an estimate's sensors decide what it drops
+    rec = loaded.select(["thigh", "shank"])
     assert rec.n_samples == N - 6
     np.testing.assert_allclose(rec.time, np.arange(4, N - 2) / RATE)
     np.testing.assert_array_equal(rec.sensors["shank"].gyr, data["shank"]["gyr"][4:-2])
     assert rec.warnings[0] == (
-        "dropped 4 sample(s) at the start and 2 at the end where some sensor has non-finite "
-        "values (NaN or Inf); the recording now runs from t=0.04 to 1.97 s"
+        "dropped 4 sample(s) at the start and 2 at the end of the recording, where sensor "
+        "'thigh' acc, 'shank' gyr has non-finite values (NaN or Inf) up to the recording's "
+        "start or end; the data used run from t=0.04 to 1.97 s"
     )
+    assert loaded.select(["shank"]).n_samples == N - 2
+    with pytest.raises(InputError, match="sensor 'thigh' has non-finite samples .* at the "
+                                         r"start or end of the recording; Recording.select"):
+        loaded.sensor("thigh")
 
 
 def test_long_gap_is_refused(tmp_path):
     data = sensor_pair()
     data["thigh"]["gyr"][100:110] = np.nan  # 0.1 s
     message = expect_error(write_h5(tmp_path / "gap.h5", data),
-                           "sensor 'thigh' gyr has a gap of 10 non-finite samples")
+                           "sensor 'thigh' gyr has a gap of 10 non-finite samples", use=True)
     assert "(NaN or Inf, 0.1 s) from t=1 s" in message
     assert "interpolates gaps of at most 0.05 s (5 samples)" in message
 
@@ -766,21 +784,23 @@ def test_too_many_short_gaps_are_refused(tmp_path):
     data = sensor_pair()
     data["shank"]["acc"][10:190:10, 2] = np.nan  # 18 single samples, 9 % of the signal
     expect_error(write_h5(tmp_path / "holes.h5", data),
-                 "sensor 'shank' acc has 18 non-finite samples (NaN or Inf), 9.0% of 200; "
-                 "imucal interpolates at most 5%")
+                 "sensor 'shank' acc has 18 non-finite samples (NaN or Inf), 9.0% of 200 in "
+                 "the recording, the first at t=0.1 s; imucal interpolates at most 5%",
+                 use=True)
 
 
 def test_sensor_with_no_finite_sample(tmp_path):
     data = sensor_pair()
     data["shank"]["acc"][:] = np.nan
-    expect_error(write_h5(tmp_path / "dead.h5", data), "sensor 'shank' acc has no finite sample")
+    expect_error(write_h5(tmp_path / "dead.h5", data), "sensor 'shank' acc has no finite sample",
+                 use=True)
 
 
 def test_overflow_in_unit_conversion_is_non_finite_not_a_crash(tmp_path):
     data = sensor_pair()
     data["thigh"]["acc"][5:150] = 1e308  # times 9.80665 overflows to Inf
     path = write_h5(tmp_path / "big.h5", data, units={("thigh", "acc"): "g"})
-    expect_error(path, "sensor 'thigh' acc has a gap of 145 non-finite samples")
+    expect_error(path, "sensor 'thigh' acc has a gap of 145 non-finite samples", use=True)
 
 
 # ---------------------------------------------------------- too short, never moves

@@ -44,9 +44,12 @@ SLOW = settings(max_examples=100, deadline=None, database=None, derandomize=True
 
 
 def check_outcome(load, source: str) -> Recording | None:
-    """Run ``load()``: it must return a sound recording or raise a one-line InputError."""
+    """Run ``load()``: it must return a sound recording or raise a one-line InputError, and
+    so must selecting all its sensors for an estimate; returns the selection."""
     try:
         rec = load()
+        assert_sound(rec, finite=False)
+        rec = rec.select(list(rec.sensors))
     except InputError as err:
         message = str(err)
         assert message and "\n" not in message and "\r" not in message
@@ -56,8 +59,9 @@ def check_outcome(load, source: str) -> Recording | None:
     return rec
 
 
-def assert_sound(rec: Recording) -> None:
-    """The guarantees every estimator relies on (imucal.recording's docstring)."""
+def assert_sound(rec: Recording, finite: bool = True) -> None:
+    """The guarantees every estimator relies on (imucal.recording's docstring); a loaded
+    recording may hold non-finite samples, and ``gaps`` says where."""
     assert np.isfinite(rec.rate) and rec.rate > 0
     n = rec.n_samples
     assert n >= 2
@@ -67,7 +71,13 @@ def assert_sound(rec: Recording) -> None:
     for sensor in rec.sensors.values():
         for arr in (sensor.gyr, sensor.acc):
             assert arr.dtype == np.float64 and arr.shape == (n, 3)
-            assert np.isfinite(arr).all()
+            assert np.isfinite(arr).all() or not finite
+    if finite:
+        assert not rec.gaps
+    else:
+        bad = sum(int((~np.isfinite(getattr(s, k)).all(axis=1)).sum())
+                  for s in rec.sensors.values() for k in ("gyr", "acc"))
+        assert bad == sum(g.length for g in rec.gaps)
     assert all(isinstance(w, str) for w in rec.warnings)
 
 
