@@ -71,8 +71,12 @@ Subsample = Annotated[int | None, typer.Option(min=1, help="Use every k-th sampl
                                                "period.", show_default=False)]
 Out = Annotated[Path | None, typer.Option("--out", "-o", help="Write the JSON here instead of "
                                           "stdout.", show_default=False)]
-Plot = Annotated[Path | None, typer.Option(help="Write a convergence figure (PNG).",
-                                           show_default=False)]
+Plot = Annotated[Path | None, typer.Option(help="Write a convergence figure; the file "
+                                           "name's extension picks the format: .png, .pdf or "
+                                           ".svg.", show_default=False)]
+Trace = Annotated[bool, typer.Option(
+    "--trace", help="Also write every restart's cost per iteration into the JSON "
+    "(restarts[].cost_trace, refined_cost_trace); by default each restart is summarised.")]
 Rate = Annotated[float | None, typer.Option(help="Sample rate, Hz (CSV without a time column).",
                                             show_default=False)]
 GyrUnits = Annotated[str | None, typer.Option(help="Gyroscope units of a CSV: rad/s or deg/s.",
@@ -129,6 +133,7 @@ def axis(
         "positive/negative, e.g. --sign +x --j2-sign +x when both sensors' x axes point "
         "laterally.")] = "auto",
     force: Force = False,
+    trace: Trace = False,
     jobs: Jobs = 1,
     quiet: Quiet = False,
     debug: Debug = False,
@@ -151,7 +156,7 @@ def axis(
                                  **window)
 
         _run(estimate, "axis", rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
-             quiet, force)
+             quiet, force, trace=trace)
 
 
 @app.command(
@@ -183,6 +188,7 @@ def position(
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
     force: Force = False,
+    trace: Trace = False,
     jobs: Jobs = 1,
     quiet: Quiet = False,
     debug: Debug = False,
@@ -207,7 +213,7 @@ def position(
                                      max_samples=_max_samples(max_samples), **window)
 
         _run(estimate, "position", rec, sensors, start, end, out, plot, rate, gyr_units,
-             acc_units, quiet, force)
+             acc_units, quiet, force, trace=trace)
 
 
 @app.command(
@@ -300,7 +306,7 @@ def info(
 
 
 def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
-         quiet, force) -> None:
+         quiet, force, trace=False) -> None:
     """What `axis` and `position` share: load, check, estimate, report, plot, summarise.
 
     ``command`` ("axis" or "position") names the report and figure builders to use. When
@@ -318,7 +324,7 @@ def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units
     except InputError as err:
         raise InputError(f"{recording.source}: {err}") from None
     input_info = _input_info(recording, names, used)
-    doc = getattr(report, f"{command}_report")(result, input_info=input_info)
+    doc = getattr(report, f"{command}_report")(result, input_info=input_info, trace=trace)
     what = f"{command} ({doc['joint']})" if "joint" in doc else command
     _progress(quiet, recording, names, what)
     if doc["quality"]["verdict"] == "not identifiable" and not force:
@@ -464,12 +470,17 @@ def _input_info(recording, names, used=None) -> dict:
 
 
 def _check_outputs(out, plot, rec) -> None:
+    if plot is not None:
+        from .plots import FORMATS
+
+        if plot.suffix.lower() not in FORMATS:
+            raise InputError(f"{plot}: unknown figure format '{plot.suffix or plot.name}'; "
+                             f"--plot writes PNG, PDF or SVG by the file name's extension "
+                             f"({', '.join(FORMATS)})")
     check_not_inputs([("--out", out), ("--plot", plot)], [rec])
     for path in (out, plot):
         if path is not None:
             check_writable(path)
-    if plot is not None and plot.suffix.lower() != ".png":
-        raise InputError(f"{plot}: --plot writes PNG; give a file name ending in .png")
 
 
 def _emit(doc: dict, out: Path | None) -> None:
@@ -484,7 +495,9 @@ def _emit(doc: dict, out: Path | None) -> None:
 
 
 def _save_figure(fig, path: Path) -> None:
-    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
+    from .plots import save_figure
+
+    write_atomic(path, lambda tmp: save_figure(fig, tmp, path.suffix))
 
 
 def _progress(quiet, recording, names, what) -> None:

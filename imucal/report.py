@@ -2,7 +2,8 @@
 
 Pure functions: they build plain dicts (lists, floats, str, None; never NaN, which JSON
 lacks) and serialise them deterministically, so the same input and seed give the same
-bytes.
+bytes. Restarts are summarised (start, end, iterations, final costs); their per-iteration
+cost traces, a third of a document's size, are written only with ``trace=True``.
 """
 
 from __future__ import annotations
@@ -34,8 +35,9 @@ POSITION_CONVENTION = (
 )
 
 
-def axis_report(result: AxisResult, *, input_info: dict) -> dict:
-    """JSON document for an axis estimate; ``input_info`` describes the recording."""
+def axis_report(result: AxisResult, *, input_info: dict, trace: bool = False) -> dict:
+    """JSON document for an axis estimate; ``input_info`` describes the recording;
+    ``trace`` adds every restart's cost per iteration (``--trace``)."""
     quality = _quality_block(
         result, input_info, "deg", result.uncertainty_deg, result.spread_deg,
         {
@@ -62,13 +64,13 @@ def axis_report(result: AxisResult, *, input_info: dict) -> dict:
         "j2": result.j2,
         "quality": quality,
         "convergence": _convergence_block(result, "agreement_deg"),
-        "restarts": _restart_entries(result, "j1", "j2"),
+        "restarts": _restart_entries(result, "j1", "j2", trace),
     }
     return clean(doc)
 
 
-def position_report(result: PositionResult, *, input_info: dict) -> dict:
-    """JSON document for a joint-position estimate."""
+def position_report(result: PositionResult, *, input_info: dict, trace: bool = False) -> dict:
+    """JSON document for a joint-position estimate; ``trace`` as in :func:`axis_report`."""
     doc = {
         "imucal_version": __version__,
         "command": "position",
@@ -91,7 +93,7 @@ def position_report(result: PositionResult, *, input_info: dict) -> dict:
     doc["quality"] = _quality_block(result, input_info, "mm", result.uncertainty_mm,
                                     result.spread_mm, {})
     doc["convergence"] = _convergence_block(result, "agreement_mm")
-    doc["restarts"] = _restart_entries(result, "o1", "o2")
+    doc["restarts"] = _restart_entries(result, "o1", "o2", trace)
     return clean(doc)
 
 
@@ -142,8 +144,30 @@ def _quality_block(result, info: dict, unit: str, uncertainty: dict, spread: dic
 
 
 def dumps(doc: dict) -> str:
-    """Serialise a report: deterministic key order as built, two-space indent, newline."""
-    return json.dumps(doc, indent=2, allow_nan=False) + "\n"
+    """Serialise a report: deterministic key order as built, two-space indent, newline.
+
+    Lists of numbers (vectors, costs, time ranges' ends) stay on one line: one number per
+    line made a document of a hundred restarts 5,000 lines long.
+    """
+    return _formatted(doc, 0) + "\n"
+
+
+def _formatted(value, level: int) -> str:
+    if isinstance(value, list) and not any(isinstance(v, (dict, list, str)) for v in value):
+        return json.dumps(value, allow_nan=False)
+    if isinstance(value, (dict, list)):
+        if not value:
+            return json.dumps(value)
+        pad = "  " * (level + 1)
+        if isinstance(value, dict):
+            items = [f"{pad}{json.dumps(k)}: {_formatted(v, level + 1)}"
+                     for k, v in value.items()]
+            brackets = "{}"
+        else:
+            items = [pad + _formatted(v, level + 1) for v in value]
+            brackets = "[]"
+        return brackets[0] + "\n" + ",\n".join(items) + "\n" + "  " * level + brackets[1]
+    return json.dumps(value, allow_nan=False)
 
 
 def clean(value):
@@ -164,30 +188,56 @@ def clean(value):
     return value
 
 
-def _restart_entries(result, first: str, second: str) -> list[dict]:
-    """One JSON entry per restart; ``first``/``second`` name the two state vectors."""
-    batch, refined = result.batch, result.refined.x
+#: Significant digits of the numbers in ``restarts``: the restarts are computed in single
+#: precision (axis) and stop far from machine precision (1e-3 rad, 1e-5 m), so more digits
+#: would be noise; the estimate itself keeps full precision.
+RESTART_DIGITS = 7
+
+
+def _restart_entries(result, first: str, second: str, trace: bool = False) -> list[dict]:
+    """One JSON entry per restart; ``first``/``second`` name the two state vectors.
+
+    Costs are RMS residuals: ``final_cost`` on the restart's subset (as ``final``),
+    ``refined_cost`` on all samples; ``trace`` adds each stage's cost per iteration.
+    """
+    batch, refined = result.batch, result.refined
 
     def pair(x):
-        return {first: x[:3], second: x[3:]}
+        return {first: _rounded(x[:3]), second: _rounded(x[3:])}
 
-    return [
-        {
+    entries = []
+    for r in range(batch.x.shape[0]):
+        entry = {
             "initial": pair(batch.path[0, r]),
             "final": pair(batch.x[r]),
-            "refined": pair(refined[r]),
+            "refined": pair(refined.x[r]),
             "iterations": int(batch.iterations[r]),
             "converged": bool(batch.converged[r]),
             "reached_estimate": bool(result.reached[r]),
-            "cost": _cost_trace(batch.cost[r]),
+            "final_cost": _rounded(_rms(batch.cost[r, batch.iterations[r]])),
+            "refined_cost": _rounded(_rms(refined.cost[r, refined.iterations[r]])),
         }
-        for r in range(batch.x.shape[0])
-    ]
+        if trace:
+            entry["cost_trace"] = _cost_trace(batch.cost[r])
+            entry["refined_cost_trace"] = _cost_trace(refined.cost[r])
+        entries.append(entry)
+    return entries
+
+
+def _rms(mean_square):
+    return np.sqrt(mean_square) if np.isfinite(mean_square) and mean_square >= 0 else np.nan
+
+
+def _rounded(values):
+    """``values`` (a number or an array) to ``RESTART_DIGITS`` significant digits."""
+    a = np.asarray(values, dtype=float)
+    out = [float(f"{v:.{RESTART_DIGITS}g}") if np.isfinite(v) else None for v in a.ravel()]
+    return out[0] if a.ndim == 0 else out
 
 
 def _cost_trace(cost_row: np.ndarray) -> list:
     """RMS residual per iteration (start first), without the NaN padding."""
-    return np.sqrt(cost_row[np.isfinite(cost_row)]).tolist()
+    return _rounded(np.sqrt(cost_row[np.isfinite(cost_row)]))
 
 
 def _input_block(info: dict, result) -> dict:
