@@ -106,8 +106,8 @@ class PositionResult(Verdict):
         across the axis.
     singular_values : singular values of that Jacobian over sqrt(samples), 1/s^2.
     uncertainty_mm : {"o1", "o2"} 1-sigma, mm (for a hinge: across the axis line): the
-        larger of the curvature's and the time blocks' with half the cut-off shift added
-        in quadrature (:func:`imucal.quality.total_sigma`).
+        larger of the curvature's and the time blocks' with the cut-off shift added in
+        quadrature (:func:`imucal.quality.total_sigma`).
     uncertainty_components : its parts, each {"o1", "o2"} in mm, as in
         :class:`imucal.axis.AxisResult`.
     excitation : RMS angular rate of each sensor, deg/s, and the Jacobian's singular
@@ -295,9 +295,9 @@ def estimate_position(
     )
     blocks = _block_jackknife(sensors, x, line, max_iterations)
     components = {"curvature": curvature, "time_blocks": blocks,
-                  "cutoff_half_shift": {k: max(sensitivity[f"{k}_shift_mm"]) / 2
-                                        for k in ("o1", "o2")}}
-    uncertainty = {k: total_sigma(curvature[k], blocks[k], 2 * components["cutoff_half_shift"][k])
+                  "cutoff_shift": {k: max(sensitivity[f"{k}_shift_mm"])
+                                   for k in ("o1", "o2")}}
+    uncertainty = {k: total_sigma(curvature[k], blocks[k], components["cutoff_shift"][k])
                    for k in ("o1", "o2")}
 
     fraction = float(reached.mean())
@@ -343,7 +343,8 @@ def estimate_position(
     count, apart, ratio = equal_minima(finals, refined.final_cost, best, reached,
                                        _position_distance)
     worst = max(uncertainty.values())
-    if not blocking and count and 1000 * apart > max(3 * worst, 2000 * AGREEMENT_M):
+    # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
+    if not blocking and count and 1000 * apart > max(worst, 2000 * AGREEMENT_M):
         blocking.append(
             f"two joint positions fit equally well ({count} restarts ended "
             f"{1000 * apart:.0f} mm from the estimate at {ratio:.2f} x its RMS residual): the "

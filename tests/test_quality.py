@@ -77,18 +77,25 @@ def test_good_recordings_raise_no_warning(random_batch):
     assert verdicts.count("good") >= 0.95 * len(verdicts), verdicts
 
 
-def test_uncertainty_shrinks_as_the_recording_grows():
-    sigmas = []
+def test_sampling_uncertainty_shrinks_as_the_recording_grows():
+    sampling, shift = [], []
     for duration in (8, 30):
         rec, _ = simulate(seed=3, rate=100, duration=duration, snr=50)
         th, sh, ft = rec.sensor("thigh"), rec.sensor("shank"), rec.sensor("foot")
         a = estimate_axis(th.gyr, sh.gyr, rate=100, seed=1, restarts=10)
         p = estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=100, seed=1, restarts=10)
-        sigmas.append([a.uncertainty_deg["j1"], a.uncertainty_deg["j2"],
-                       p.uncertainty_mm["o1"], p.uncertainty_mm["o2"]])
-    short, long = np.array(sigmas)
-    # about 1/sqrt(number of samples): 3000 against 800 samples
+        row, moved = [], []
+        for r, names in ((a, ("j1", "j2")), (p, ("o1", "o2"))):
+            c = r.uncertainty_components
+            row += [max(c["curvature"][k], c["time_blocks"][k]) for k in names]
+            moved += [c["cutoff_shift"][k] for k in names]
+        sampling.append(row)
+        shift.append(moved)
+    short, long = np.array(sampling)
+    # the sampling error goes about as 1/sqrt(number of samples): 3000 against 800
     assert np.all(long < 0.75 * short), (short, long)
+    # the filter's bias does not average out: the reported total keeps it
+    assert np.array(shift)[1, 2] > 0.5 * np.array(shift)[0, 2]
 
 
 @pytest.mark.parametrize(
