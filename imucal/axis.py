@@ -159,6 +159,10 @@ class AxisResult(Verdict):
         is the refined result with the lowest cost.
     competing_agreement : the same fraction among restarts whose RMS residual is within
         1.25 x the best (clearly worse local minima do not count).
+    equal_minima : restarts that ended elsewhere at an RMS residual within
+        :data:`imucal.restarts.EQUAL_RMS_FACTOR` of the best: "count", the largest angle
+        to the estimate "max_distance_deg" and the largest "max_rms_ratio" (a second
+        answer outside the reported 1-sigma blocks the estimate).
     reached : (R,) which restarts did.
     spread_deg : RMS angle between the agreeing restarts' subset results and the
         estimate, per axis, deg: how much the answer depends on the data (subset fits
@@ -191,6 +195,7 @@ class AxisResult(Verdict):
     sensitivity: dict
     convergence_fraction: float
     competing_agreement: float
+    equal_minima: dict
     reached: np.ndarray
     spread_deg: dict
     batch: BatchResult
@@ -361,6 +366,7 @@ def estimate_axis(
         spread[name] = float(np.sqrt(np.mean(ang**2))) if ang.size else float("nan")
 
     minima = equal_minima(refined.x, refined.final_cost, best, reached, _axis_distance)
+    equal = {"count": minima[0], "max_distance_deg": minima[1], "max_rms_ratio": minima[2]}
     warnings, blocking = _diagnose(
         d1, d2, excitation["flexion_rate_rms_deg_s"], singular_ratio, relative, fraction,
         agreement, minima, uncertainty, components, decision,
@@ -405,6 +411,7 @@ def estimate_axis(
         sensitivity=sensitivity,
         convergence_fraction=fraction,
         competing_agreement=agreement,
+        equal_minima=equal,
         reached=reached,
         spread_deg=spread,
         batch=batch,

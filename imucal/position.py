@@ -114,6 +114,8 @@ class PositionResult(Verdict):
         values over sqrt(samples), 1/s^2.
     sensitivity : cut-offs of two refits (halved and doubled) and the shifts, mm.
     competing_agreement : as in :class:`imucal.axis.AxisResult`.
+    equal_minima : as in :class:`imucal.axis.AxisResult`, distance in mm
+        ("max_distance_mm").
     convergence_fraction : fraction of restarts whose final value, refined on all samples,
         lies within ``AGREEMENT_M`` of the estimate, the refined result with the lowest
         cost (for a hinge: after moving each to its closest point on the axis).
@@ -142,6 +144,7 @@ class PositionResult(Verdict):
     sensitivity: dict
     convergence_fraction: float
     competing_agreement: float
+    equal_minima: dict
     reached: np.ndarray
     spread_mm: dict
     batch: BatchResult
@@ -342,6 +345,7 @@ def estimate_position(
                         "determined")
     count, apart, ratio = equal_minima(finals, refined.final_cost, best, reached,
                                        _position_distance)
+    equal = {"count": count, "max_distance_mm": 1000 * apart, "max_rms_ratio": ratio}
     worst = max(uncertainty.values())
     # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
     if not blocking and count and 1000 * apart > max(worst, 2000 * AGREEMENT_M):
@@ -396,6 +400,7 @@ def estimate_position(
         sensitivity=sensitivity,
         convergence_fraction=fraction,
         competing_agreement=agreement,
+        equal_minima=equal,
         reached=reached,
         spread_mm=spread,
         batch=batch,

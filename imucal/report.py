@@ -98,8 +98,10 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
 
 
 UNCERTAINTY_METHOD = (
-    "1-sigma from the curvature of the cost at the estimate, (J^T J)^-1 S (J^T J)^-1 with "
-    "a Newey-West estimate S of the residuals' covariance (robust to correlated residuals)"
+    "sqrt(max(curvature, time_blocks)^2 + cutoff_shift^2): curvature of the cost at the "
+    "estimate ((J^T J)^-1 S (J^T J)^-1, Newey-West S), delete-one-block jackknife over 10 "
+    "contiguous time blocks, and the largest shift of the refits with the cut-off halved "
+    "and doubled (see uncertainty_components and docs/quality.md)"
 )
 SPREAD_METHOD = (
     "RMS distance between the estimate and the results of the restarts that reached it, "
@@ -128,6 +130,7 @@ def _quality_block(result, info: dict, unit: str, uncertainty: dict, spread: dic
         f"{first}_uncertainty_{unit}": uncertainty[first],
         f"{second}_uncertainty_{unit}": uncertainty[second],
         "uncertainty_method": UNCERTAINTY_METHOD,
+        "uncertainty_components": result.uncertainty_components,
         f"{first}_spread_{unit}": spread[first],
         f"{second}_spread_{unit}": spread[second],
         "spread_method": SPREAD_METHOD,
@@ -259,4 +262,8 @@ def _convergence_block(result, tol_key: str) -> dict:
         "iterations_median": float(np.median(it)),
         "iterations_max": int(it.max()),
         "converged_within_limit": float(np.mean(result.batch.converged)),
+        # restarts dropped because their cost or normal equations overflowed (extreme
+        # data); they never become the estimate
+        "degenerate_restarts": int(np.sum(result.batch.degenerate | result.refined.degenerate)),
+        "equal_minima": result.equal_minima,
     }
