@@ -187,6 +187,13 @@ def position(
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
+    sign: Annotated[str, typer.Option(
+        help="With --joint hinge: overall sign of the estimated axis (see imucal axis "
+        "--help).")] = "auto",
+    j2_sign: Annotated[str, typer.Option(
+        "--j2-sign", help="With --joint hinge: pin the relative sign of the estimated axis, "
+        "which decides the line the knee point is taken on (see imucal axis --help).")]
+    = "auto",
     force: Force = False,
     trace: Trace = False,
     jobs: Jobs = 1,
@@ -210,7 +217,8 @@ def position(
             return estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, rate=sample_rate,
                                      restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
                                      subsample=subsample, select=select,
-                                     max_samples=_max_samples(max_samples), **window)
+                                     max_samples=_max_samples(max_samples), sign=sign,
+                                     j2_sign=j2_sign, **window)
 
         _run(estimate, "position", rec, sensors, start, end, out, plot, rate, gyr_units,
              acc_units, quiet, force, trace=trace)

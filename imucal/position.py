@@ -182,6 +182,8 @@ def estimate_position(
     max_iterations: int = MAX_ITERATIONS,
     select: bool = True,
     max_samples: int | None = MAX_SAMPLES,
+    sign: str = "auto",
+    j2_sign: str = "auto",
 ) -> PositionResult:
     """Estimate the joint centre seen by two IMUs.
 
@@ -207,8 +209,14 @@ def estimate_position(
         hinge the point of the axis closest to both sensors is reported.
     axis
         For ``joint="hinge"``: the axis, as an :class:`AxisResult` or ``(j1, j2)``
-        pointing the same physical way; None estimates it from ``gyr1``, ``gyr2`` with
-        :func:`imucal.estimate_axis`'s defaults (the same axis ``imucal axis`` reports).
+        pointing the same physical way; None estimates it from ``gyr1``, ``gyr2`` (and
+        the accelerometers, for the relative sign) with :func:`imucal.estimate_axis`'s
+        defaults (the same axis ``imucal axis`` reports).
+    sign, j2_sign
+        For ``joint="hinge"`` with an estimated axis: the sign conventions passed to
+        :func:`imucal.estimate_axis`. The point closest to both sensors depends on
+        j1 and j2 pointing the same physical way, so pinning ``j2_sign`` (with ``sign``)
+        pins the line the point is taken on.
     """
     if joint not in JOINTS:
         raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{joint}'")
@@ -246,7 +254,7 @@ def estimate_position(
             axis_result = estimate_axis(
                 g1, g2, rate=rate, restarts=restarts, seed=seed, subset=subset,
                 start=start, end=end, max_iterations=max_iterations, select=select,
-                max_samples=max_samples, acc1=a1, acc2=a2,
+                max_samples=max_samples, acc1=a1, acc2=a2, sign=sign, j2_sign=j2_sign,
             )
             line = np.concatenate([axis_result.j1, axis_result.j2])
         elif isinstance(axis, AxisResult):

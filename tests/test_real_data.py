@@ -191,3 +191,16 @@ def test_hip_with_two_equally_good_centres_is_not_identifiable(real_recording):
     r = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=rec.rate, seed=1, start=55.0)
     assert r.verdict == "not identifiable"
     assert "fit equally well" in r.blocking[0]
+
+
+def test_hinge_position_follows_the_pinned_relative_sign(real_recording):
+    # The knee point is the point of the axis line closest to both sensors: the line
+    # depends on the relative sign, so a pin must reach it.
+    rec = real_recording
+    t, s = rec.sensor("left_thigh"), rec.sensor("left_shank")
+    kw = {"rate": rec.rate, "seed": 1, "end": 55.0, "joint": "hinge", "restarts": 20}
+    auto = estimate_position(t.gyr, t.acc, s.gyr, s.acc, **kw)
+    pinned = estimate_position(t.gyr, t.acc, s.gyr, s.acc, sign="+x", j2_sign="-x", **kw)
+    assert auto.line[0] > 0 and auto.line[3] > 0 or auto.line[0] < 0 and auto.line[3] < 0
+    assert np.sign(pinned.line[0]) != np.sign(pinned.line[3])
+    assert any("pinned j2 sign contradicts" in w for w in pinned.warnings)
