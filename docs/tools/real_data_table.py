@@ -1,8 +1,13 @@
-"""Write docs/real-data.md: imucal against qmt's estimator on the shared real recording.
+"""Write docs/real-data.md: imucal on the shared real recording, next to qmt's estimator.
 
-Run from the repository root with ../shared beside it (qmt is a dev dependency):
+Run from the repository root with ../shared beside it (qmt is a dev dependency), with one
+BLAS thread as the command line runs (a few minutes):
 
-    .venv/bin/python docs/tools/real_data_table.py
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python docs/tools/real_data_table.py
+
+Every estimate is called as the command line calls it: the axis gets both sensors'
+accelerometers (``acc1``, ``acc2``), which add the accelerometer test of the relative sign
+(the fit itself uses only the rates).
 """
 
 from __future__ import annotations
@@ -19,17 +24,56 @@ from imucal import estimate_axis, estimate_position, load_recording
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data" / "walk_and_leg_motions_100hz.h5"
-JOINTS = {"knee": ("thigh", "shank"), "ankle": ("shank", "foot")}
+SEED = 1
 WINDOWS = ((0.0, 55.0), (55.0, 100.0))
-SHORT = {  # first words of each warning, enough to recognise it in a table
+#: Hinge fits: the knees, and the ankles to show what the report says about a joint that
+#: is not a hinge.
+AXES = {"knee": ("thigh", "shank"), "ankle": ("shank", "foot")}
+#: Joint-centre fits: (name, model, first sensor, second sensor) per side.
+POSITIONS = (("knee", "hinge", "{side}_thigh", "{side}_shank"),
+             ("ankle", "spheroidal", "{side}_shank", "{side}_foot"),
+             ("hip", "spheroidal", "pelvis", "{side}_thigh"))
+#: Two halves of independent data each: split-half consistency.
+SPLITS = (((0.0, 27.5), (27.5, 55.0)), ((55.0, 77.5), (77.5, 100.0)),
+          ((0.0, 50.0), (50.0, 100.0)))
+#: The data README's rough lateral (flexion) axis of each segment in its sensor's frame,
+#: tuned by eye to about 15 deg. Both sensors' x axes point laterally, so the two
+#: references point the same physical way: with the right relative sign j1 and j2 are
+#: both near them or both near their negatives.
+ROUGH_LATERAL = {
+    "left_thigh": [0.961, -0.067, -0.270],
+    "left_shank": [0.996, -0.061, -0.062],
+    "right_thigh": [0.947, -0.007, -0.322],
+    "right_shank": [0.996, -0.062, -0.061],
+}
+#: The first words of each warning (imucal/axis.py, position.py, preprocess.py,
+#: quality.py), enough to recognise it in a table. Keep in sync with the warning texts:
+#: an unknown warning shows as its first 30 characters.
+SHORT = {
+    "the sensors barely rotate": "no motion",
+    "the joint barely bent": "rigid",
+    "the joint barely moved": "rigid",
+    "the data leave one direction": "undetermined",
+    "restarts disagree (": "no hinge",
+    "restarts disagree:": "restarts",
+    "two different axes fit equally well": "two minima",
+    "two joint positions fit equally well": "two minima",
+    "the angle about this axis, integrated": "span > 170 deg",
+    "the estimate puts the joint": "implausible",
     "the hinge model fits poorly": "poor fit",
     "the hinge joint model fits poorly": "poor fit",
     "the spheroidal joint model fits poorly": "poor fit",
-    "the estimate depends strongly": "cut-off",
-    "the data barely decides": "sign",
-    "restarts disagree": "restarts",
-    "the joint position is uncertain": "uncertain",
+    "the data barely decide whether": "sign undecided",
+    "the sign tests disagree": "sign tests disagree",
+    "the pinned j2 sign contradicts": "pin contradicted",
     "motion stays": "line",
+    "directions of the point across": "across-axis weak",
+}
+#: "the estimate is uncertain: ..., mostly because WHY": which component dominates.
+UNCERTAIN = {
+    "the data barely constrain it": "uncertain (curvature)",
+    "fits on different stretches": "uncertain (time blocks)",
+    "it moves with the low-pass cut-off": "uncertain (cut-off)",
 }
 
 
@@ -43,123 +87,308 @@ def qmt_axis(rec, first, second, window, settings):
 
 
 def angle(a, b) -> float:
+    """Sign-free angle between axes, deg."""
     return float(np.degrees(np.arccos(min(1.0, abs(a @ b) / np.linalg.norm(b)))))
+
+
+def signed_angles(r, s1, s2) -> str:
+    """Signed angles of j1, j2 to the README's lateral references, deg: the references'
+    common sign is the one that makes j1 agree, so j2 near 180 means a wrong relative
+    sign. "-" where the README gives no reference."""
+    if s1 not in ROUGH_LATERAL or s2 not in ROUGH_LATERAL:
+        return "-"
+    ref1, ref2 = (np.asarray(ROUGH_LATERAL[s]) / np.linalg.norm(ROUGH_LATERAL[s])
+                  for s in (s1, s2))
+    k = 1.0 if r.j1 @ ref1 >= 0 else -1.0
+    a1, a2 = (float(np.degrees(np.arccos(np.clip(k * j @ ref, -1, 1))))
+              for j, ref in ((r.j1, ref1), (r.j2, ref2)))
+    return f"{a1:.0f} / {a2:.0f}"
+
+
+def evidence(test: dict) -> str:
+    """One sign test's evidence ratio: "-" when it abstains (1), "against" when it favours
+    the other relative sign than the one reported."""
+    if test["evidence"] <= 1.0:
+        return "-"
+    return f"{test['evidence']:.2f}" + ("" if test["favours_reported"] else " against")
 
 
 def short(warnings) -> str:
     out = []
     for w in warnings:
-        prefix = "axis " if w.startswith("axis: ") else ""
+        prefix = "axis: " if w.startswith("axis: ") else ""
         w = w.removeprefix("axis: ")
-        out.append(prefix + next((v for k, v in SHORT.items() if w.startswith(k)), w[:30]))
+        if w.startswith("the estimate is uncertain"):
+            name = next(v for k, v in UNCERTAIN.items() if k in w)
+        elif "'s angular rate exceeds" in w:
+            name = "units (deg/s?)"
+        elif "'s specific force has a median" in w:
+            name = "units (g?)"
+        else:
+            name = next((v for k, v in SHORT.items() if k in w), w[:30])
+        out.append(prefix + name)
     return ", ".join(out) or "-"
+
+
+def pair(values: dict, fmt: str) -> str:
+    return " / ".join(format(v, fmt) for v in values.values())
+
+
+def fit_axis(rec, s1, s2, window):
+    a, b = rec.sensor(s1), rec.sensor(s2)
+    return estimate_axis(a.gyr, b.gyr, rate=rec.rate, seed=SEED, start=window[0],
+                         end=window[1], acc1=a.acc, acc2=b.acc)
+
+
+def fit_position(rec, model, s1, s2, window):
+    a, b = rec.sensor(s1), rec.sensor(s2)
+    return estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=rec.rate, seed=SEED,
+                             joint=model, start=window[0], end=window[1])
+
+
+def axis_rows(rec):
+    est, qual = [], []
+    for joint, (seg1, seg2) in AXES.items():
+        for side in ("left", "right"):
+            s1, s2 = f"{side}_{seg1}", f"{side}_{seg2}"
+            for window in WINDOWS:
+                r = fit_axis(rec, s1, s2, window)
+                g1, g2 = qmt_axis(rec, s1, s2, window, {"wa": 0.0, "wg": 1.0})
+                d1, d2 = qmt_axis(rec, s1, s2, window, None)
+                t = r.sign_tests
+                row = f"| {joint} | {side} | {window[0]:g}-{window[1]:g} | "
+                est.append(
+                    row + f"{angle(r.j1, g1):.2f} / {angle(r.j2, g2):.2f} | "
+                    f"{angle(r.j1, d1):.2f} / {angle(r.j2, d2):.2f} | "
+                    f"{signed_angles(r, s1, s2)} | {r.sign_evidence:.2f} | "
+                    f"{evidence(t['plane'])} | {evidence(t['range'])} | "
+                    f"{t['range']['span_deg_reported']:.0f} / "
+                    f"{t['range']['span_deg_flipped']:.0f} | {evidence(t['acc'])} |"
+                )
+                c = r.uncertainty_components
+                qual.append(
+                    row + f"{r.relative_residual:.2f} | {pair(r.uncertainty_deg, '.1f')} | "
+                    f"{pair(c['curvature'], '.1f')} | {pair(c['time_blocks'], '.1f')} | "
+                    f"{pair(c['cutoff_shift'], '.1f')} | {pair(r.spread_deg, '.1f')} | "
+                    f"{r.verdict} | {short(r.blocking + r.warnings)} |"
+                )
+    return est, qual
+
+
+def position_rows(rec):
+    rows = []
+    for joint, model, first, second in POSITIONS:
+        for side in ("left", "right"):
+            s1, s2 = first.format(side=side), second.format(side=side)
+            for window in WINDOWS:
+                p = fit_position(rec, model, s1, s2, window)
+                c = p.uncertainty_components
+                eq = p.equal_minima
+                minima = (f"{eq['count']} at {eq['max_distance_mm']:.0f} mm"
+                          if eq["count"] else "-")
+                rows.append(
+                    f"| {joint} ({model}) | {s1}, {s2} | {window[0]:g}-{window[1]:g} | "
+                    f"{np.round(1000 * p.o1).astype(int).tolist()} | "
+                    f"{np.round(1000 * p.o2).astype(int).tolist()} | "
+                    f"{p.relative_residual:.2f} | {pair(p.uncertainty_mm, '.0f')} | "
+                    f"{pair(c['curvature'], '.0f')} | {pair(c['time_blocks'], '.0f')} | "
+                    f"{pair(c['cutoff_shift'], '.0f')} | {pair(p.spread_mm, '.0f')} | "
+                    f"{minima} | {p.verdict} | {short(p.blocking + p.warnings)} |"
+                )
+    return rows
+
+
+def split_rows(rec):
+    """Distance between the two halves' estimates over their combined 1-sigma
+    (sqrt(sigma_a^2 + sigma_b^2)): the halves are independent data, so a reported sigma
+    that is honest keeps this below about 3."""
+    cases = [("knee axis", lambda side, w: fit_axis(rec, f"{side}_thigh", f"{side}_shank", w),
+              ("j1", "j2"), "deg")]
+    for joint, model, first, second in POSITIONS:
+        cases.append((f"{joint} ({model})",
+                      lambda side, w, m=model, f=first, s=second:
+                      fit_position(rec, m, f.format(side=side), s.format(side=side), w),
+                      ("o1", "o2"), "mm"))
+    rows, worst = [], 0.0
+    for name, fit, keys, unit in cases:
+        for side in ("left", "right"):
+            for halves in SPLITS:
+                a, b = (fit(side, w) for w in halves)
+                cells = []
+                for k in keys:
+                    if unit == "deg":
+                        d = angle(getattr(a, k), getattr(b, k))
+                        sa, sb = a.uncertainty_deg[k], b.uncertainty_deg[k]
+                    else:
+                        d = 1000 * float(np.linalg.norm(getattr(a, k) - getattr(b, k)))
+                        sa, sb = a.uncertainty_mm[k], b.uncertainty_mm[k]
+                    cells.append((d, float(np.hypot(sa, sb))))
+                refused = [h for h, r in zip("AB", (a, b), strict=True)
+                           if r.verdict == "not identifiable"]
+                ratio = max(d / s for d, s in cells)
+                if not refused:
+                    worst = max(worst, ratio)
+                rows.append(
+                    f"| {name} | {side} | {halves[0][0]:g}-{halves[0][1]:g} / "
+                    f"{halves[1][0]:g}-{halves[1][1]:g} | "
+                    + " | ".join(f"{d:.1f} / {s:.1f}" for d, s in cells)
+                    + f" {unit} | {ratio:.1f} | "
+                    + (f"refused: {', '.join(refused)}" if refused else "both")
+                    + f" | {a.verdict} / {b.verdict} |"
+                )
+    return rows, worst
 
 
 def main() -> None:
     if not DATA.exists():
         sys.exit(f"{DATA} not found: this page needs ../shared/data")
     rec = load_recording(DATA)
-    axis_rows, pos_rows = [], []
-    for joint, (seg1, seg2) in JOINTS.items():
-        for side in ("left", "right"):
-            s1, s2 = f"{side}_{seg1}", f"{side}_{seg2}"
-            for window in WINDOWS:
-                r = estimate_axis(rec.sensor(s1).gyr, rec.sensor(s2).gyr, rate=rec.rate,
-                                  seed=1, start=window[0], end=window[1])
-                g1, g2 = qmt_axis(rec, s1, s2, window, {"wa": 0.0, "wg": 1.0})
-                d1, d2 = qmt_axis(rec, s1, s2, window, None)
-                axis_rows.append(
-                    f"| {joint} | {side} | {window[0]:g}-{window[1]:g} | "
-                    f"{angle(r.j1, g1):.2f} / {angle(r.j2, g2):.2f} | "
-                    f"{angle(r.j1, d1):.2f} / {angle(r.j2, d2):.2f} | "
-                    f"{r.relative_residual:.2f} | "
-                    f"{r.uncertainty_deg['j1']:.1f} / {r.uncertainty_deg['j2']:.1f} | "
-                    f"{r.spread_deg['j1']:.1f} / {r.spread_deg['j2']:.1f} | "
-                    f"{r.sensitivity['max_shift_deg']:.1f} | {r.verdict} | "
-                    f"{short(r.blocking + r.warnings)} |"
-                )
-                kind = "hinge" if joint == "knee" else "spheroidal"
-                a, b = rec.sensor(s1), rec.sensor(s2)
-                p = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=rec.rate, seed=1,
-                                      joint=kind, start=window[0], end=window[1])
-                pos_rows.append(
-                    f"| {joint} ({kind}) | {side} | {window[0]:g}-{window[1]:g} | "
-                    f"{np.round(1000 * p.o1).astype(int).tolist()} | "
-                    f"{np.round(1000 * p.o2).astype(int).tolist()} | "
-                    f"{p.relative_residual:.2f} | "
-                    f"{p.uncertainty_mm['o1']:.0f} / {p.uncertainty_mm['o2']:.0f} | "
-                    f"{p.spread_mm['o1']:.0f} / {p.spread_mm['o2']:.0f} | "
-                    f"{p.sensitivity['max_shift_mm']:.0f} | {p.verdict} | "
-                    f"{short(p.blocking + p.warnings)} |"
-                )
-    page = HEADER + "\n".join(AXIS_HEAD + axis_rows) + "\n" + POS_TEXT + "\n".join(
-        POS_HEAD + pos_rows) + "\n" + FOOTER
+    est, qual = axis_rows(rec)
+    pos = position_rows(rec)
+    split, worst = split_rows(rec)
+    page = (HEADER + "\n".join(AXIS_EST_HEAD + est) + "\n" + AXIS_QUAL_TEXT
+            + "\n".join(AXIS_QUAL_HEAD + qual) + "\n" + POS_TEXT + "\n".join(POS_HEAD + pos)
+            + "\n" + SPLIT_TEXT + "\n".join(SPLIT_HEAD + split) + "\n\n"
+            + f"Worst ratio where neither half is refused: {worst:.1f}.\n" + FOOTER)
     (ROOT / "docs" / "real-data.md").write_text(page)
     print(page)
 
 
 HEADER = """# imucal on the shared real recording
 
-Generated by `docs/tools/real_data_table.py` (seed 1, default settings) from
+Generated by `docs/tools/real_data_table.py` (seed 1, default settings, accelerometers
+passed to the axis as the command line does) from
 `../shared/data/walk_and_leg_motions_100hz.h5` (100 Hz, one person; 0-55 s standing with
-short bursts of leg motion, 55-100 s vigorous gait-like motion). There is no optical
-ground truth. The independent reference is `qmt.jointAxisEstHingeOlsson` (Olsson et al.
-2020), one start per call: "gyro" is its gyroscope-only variant (`wa=0, wg=1`, the same
-residual as imucal's), "default" adds its accelerometer residual.
+short bursts of leg motion, 55-100 s vigorous gait-like motion with large impacts). There
+is no optical ground truth. The references are `qmt.jointAxisEstHingeOlsson` (Olsson et
+al. 2020), one start per call ("gyro" is its gyroscope-only variant, `wa=0, wg=1`, the
+same residual as imucal's; "default" adds its accelerometer residual), and the data
+README's rough lateral axes of thigh and shank, tuned by eye to about 15 deg.
 
-## Hinge axis (`imucal axis`)
+## Hinge axis (`imucal axis`): estimate and relative sign
 
-Angles in degrees, sign-free (qmt's signs are arbitrary); sigma is imucal's 1-sigma
-uncertainty, spread the RMS over restarts on random half subsets, cut-off the largest
-shift when the fit is repeated with a 10 or 20 Hz low-pass. The ankle rows fit a hinge
-to a joint that is not one: they show what the quality report says about that.
+Angles in degrees. "vs qmt" angles are sign-free (qmt's signs are arbitrary). "vs README
+lateral" is signed: both sensors' x axes point laterally, so the reference's sign is the
+one that makes j1 agree, and j2 must then agree too; j2 near 180 deg would be the wrong
+relative sign (the README gives no reference for the foot, hence "-" for the ankles).
+Sign evidence is the combined ratio (wrong over right hypothesis' error, >= 1) and per
+test (docs/method.md, "Relative sign"): "-" = the test abstains, "against" = it favours
+the other relative sign than the one reported. Range spans: the flexion angle integrated
+from j2.g2 - j1.g1 (largest span within 60 s, deg) with the reported / the flipped j2.
+The ankle rows fit a hinge to a joint that is not one: they show what the quality
+report says about that.
 
 """
-AXIS_HEAD = [
+AXIS_EST_HEAD = [
     "| joint | side | window s | vs qmt gyro j1 / j2 | vs qmt default j1 / j2 | "
-    "relative residual | sigma j1 / j2 | spread j1 / j2 | cut-off shift | verdict | "
-    "warnings |",
+    "vs README lateral j1 / j2 (signed) | sign evidence | plane | range | "
+    "range span deg reported / flipped | acc |",
+    "|---|---|---|---|---|---|---|---|---|---|---|",
+]
+AXIS_QUAL_TEXT = """
+## Hinge axis: uncertainty and verdict
+
+The 1-sigma (deg) is sqrt(max(curvature, time blocks)^2 + cut-off shift^2)
+(docs/quality.md); its components follow, then the spread over restarts on random half
+subsets (not part of the sigma). Cut-off shift: the largest move when the fit is repeated
+with a 10 or 20 Hz low-pass.
+
+"""
+AXIS_QUAL_HEAD = [
+    "| joint | side | window s | relative residual | sigma j1 / j2 | curvature j1 / j2 | "
+    "time blocks j1 / j2 | cut-off shift j1 / j2 | spread j1 / j2 | verdict | warnings |",
     "|---|---|---|---|---|---|---|---|---|---|---|",
 ]
 POS_TEXT = """
 ## Joint position (`imucal position`)
 
-Knee: `--joint hinge` (the point of the axis closest to both sensors); ankle: spheroidal.
-o1, o2 in mm (from the joint centre to each sensor, own frame); sigma, spread and cut-off
-shift (5 or 20 Hz low-pass) in mm. qmt has no joint-position estimator to compare with.
+Knee: `--joint hinge` (the point of the axis closest to both sensors; the axis is
+estimated from the same window, and its warnings are prefixed "axis:"); ankle and hip:
+spheroidal. o1, o2 in mm (from the joint centre to each sensor, own frame); sigma, its
+components, and spread in mm (cut-off shift: refits with a 5 or 20 Hz low-pass). Equal
+minima: restarts that ended elsewhere at an RMS residual within 1.05 x the best, and the
+farthest one's distance. qmt has no joint-position estimator to compare with.
 
 """
 POS_HEAD = [
-    "| joint | side | window s | o1 mm | o2 mm | relative residual | sigma o1 / o2 | "
-    "spread o1 / o2 | cut-off shift | verdict | warnings |",
-    "|---|---|---|---|---|---|---|---|---|---|---|",
+    "| joint (model) | sensors | window s | o1 mm | o2 mm | relative residual | "
+    "sigma o1 / o2 | curvature o1 / o2 | time blocks o1 / o2 | cut-off shift o1 / o2 | "
+    "spread o1 / o2 | equal minima | verdict | warnings |",
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+]
+SPLIT_TEXT = """
+## Split halves: does the reported 1-sigma cover independent data?
+
+Each estimate fitted separately on two halves of a window. The halves are independent
+data, so if the reported 1-sigma is honest the distance between the two estimates is
+within about 3 combined sigma, sqrt(sigma_A^2 + sigma_B^2). Per vector: distance /
+combined sigma (deg for the axis, sign-free; mm for positions); ratio: the larger of the
+two vectors' distance over combined sigma. A half the tool refuses ("not identifiable")
+makes no claim, so its ratio does not count.
+
+"""
+SPLIT_HEAD = [
+    "| estimate | side | halves s | j1 or o1: distance / combined sigma | "
+    "j2 or o2: distance / combined sigma | ratio | halves answered | verdicts A / B |",
+    "|---|---|---|---|---|---|---|---|",
 ]
 FOOTER = """
 ## Reading the tables
 
-- The knees in 0-55 s agree with qmt's gyro-only estimator to within a few hundredths of
-  a degree (the test suite requires 3 deg: `tests/test_real_data.py`). Both estimators
-  minimise the same residual and land in the same minimum; qmt's default, which adds an
-  accelerometer residual, moves the axes by up to a few degrees.
-- The knee's hinge residual is large in both windows (0.37-0.43 of the angular-rate
-  magnitude, against below 0.03 for simulated hinges): a human knee on soft tissue is not
-  an ideal hinge, so every knee row warns of a poor fit, as the data README says for
-  55-100 s. The 0-55 s part is no better a hinge by this measure.
-- The knee estimate moves by many degrees when the rates are low-passed first.
-- Relative sign: the gyroscope sign test cannot decide it here (evidence 1.0-1.2, so every
-  row warns "check the relative sign"). For the knees in 0-55 s imucal reports j2 pointing
-  opposite to the rough lateral reference of the data README, while qmt's default
-  estimator (with its accelerometer residual) agrees with that reference; a separate
-  accelerometer check (which of (j1, j2) and (j1, -j2) is the direction a hinge leaves
-  free in the joint-position fit) sides with imucal, by a ratio of only 1.4-1.6 against
-  30-50 on simulated knees. The data do not settle the sign, and that is what the warning
-  says. The angles in the table are sign-free.
-- The ankle-as-hinge rows fit worse than a hinge should (0.26-0.38) but, unlike simulated
-  full 3-D ankle motion, the restarts agree (this ankle moves mostly in one plane), so
-  imucal warns instead of refusing.
-- The ankle position in 0-55 s has a 1-sigma uncertainty near 20 mm: the short bursts of
-  motion barely excite it. The vigorous part pins it to a few mm, but the estimate moves
-  by several centimetres with the filter cut-off, which the report flags.
+- **Same minimum as qmt.** The knees in 0-55 s agree with qmt's gyro-only estimator to
+  within 0.03 deg (the test suite requires 3 deg: `tests/test_real_data.py`): both
+  minimise the same residual and land in the same minimum. qmt's default, which adds an
+  accelerometer residual, moves the axes by up to 3.4 deg. In 55-100 s the two still
+  agree within 0.6-3.7 deg: what imucal refuses there is the data, not its solver.
+- **Relative sign.** In 0-55 s both knees' j1 and j2 lie within 4-22 deg of the data
+  README's lateral axes with the same sign, as they must with both sensors' x axes
+  lateral: imucal now agrees with that reference (until issue 10 it reported j2 165-176
+  deg from it). The decision rests on the range test (the integrated flexion spans 49 and
+  65 deg with the reported j2, 189 and 177 deg with the flipped one, which no knee does)
+  and the accelerometer test (ratio 2.1); the integration-free plane test cannot tell on
+  this gait (1.01-1.11, slightly for the other sign, below the 1.5 at which a test counts
+  as contradicting). Combined evidence 7.1 (left) and 5.6 (right): no sign warning.
+- **The vigorous part is not a hinge.** In 55-100 s the flexion angle about the fitted
+  axis spans more than 170 deg within 60 s with either relative sign (207 / 266 deg left,
+  192 / 308 deg right), so both knees are refused (`not identifiable`), and j2 lies 64 and
+  86 deg from the lateral reference, as the data README describes. The relative residual
+  alone would not show it: 0.41-0.43 there against 0.37-0.39 in 0-55 s, all below the
+  0.5 at which imucal warns of a poor fit (real knees leave 0.35-0.45).
+- **Uncertainty.** The 1-sigma is dominated by the cut-off shift almost everywhere: the
+  knees in 0-55 s move 10.2 deg (left j1) and 30.0 deg (right j2) when the rates are
+  low-passed first, against 2.4-5.2 deg of curvature and 4.8-10.5 deg of time-block
+  jackknife; the joint centres move 28-178 mm, against 4-25 mm of curvature and 3-29 mm
+  of time blocks. So every answered knee-axis and joint-centre row warns that the
+  estimate is uncertain, "mostly because it moves with the low-pass cut-off", with
+  1-sigma 5.7-31.8 deg for the knee axes and 37-119 mm for the centres. The split-half
+  table shows these sigmas are what the data support.
+- **Ankles fitted as a hinge.** They leave 0.26-0.38 of the signal, below the real knees,
+  and their restarts agree (this ankle moves mostly in one plane), so imucal does not
+  refuse them; the left ankle in 55-100 s even comes out `good` (1-sigma 3.6 / 4.9 deg).
+  No check here tells a real ankle from a hinge: choose the joint model from anatomy.
+  The right ankle in 55-100 s is the one row whose relative sign the data barely decide
+  (1.31; plane and acc lean the other way).
+- **Joint centres.** The knee centres (`--joint hinge`, 0-55 s) lie about 105 mm from
+  each sensor, with 1-sigma 60-80 mm; they differ from earlier versions of this page
+  because the axis' relative sign changed, and with it the hinge line
+  `o2 + lambda j2` and its point closest to both sensors. In 55-100 s they inherit the
+  axis' refusal. The ankle centres lie 165-210 mm from the shank sensor and 95-105 mm
+  from the foot sensor in both windows, with 1-sigma 53-90 mm. The hip (pelvis - thigh)
+  fits the spheroidal model well (relative residual 0.07-0.20), but in 55-100 s the right
+  hip has two centres 306 mm apart at 1.01 x the best RMS residual, each reached by about
+  half the restarts: refused. The left hip in 55-100 s shows no such second minimum with
+  this seed and is answered with a 1-sigma of 119 mm.
+- **Split halves.** Wherever neither half is refused, the halves agree within 2.5
+  combined sigma (worst: the left hip, 0-50 / 50-100 s, whose o1 moves 330 mm between the
+  halves against a combined sigma of 130 mm). Before issue 10, with the curvature alone,
+  the same splits disagreed by up to 15.3 combined sigma (left knee), 13.4 (right
+  knee), 14.5 and 13.6 (left and right hip):
+  [quality.md](quality.md#how-the-uncertainty-is-computed-and-why). The knee axis has
+  only one split with both halves answered (right knee, 0-55 s: 0.9): the left knee's
+  0-27.5 s half is refused (restarts disagree, 58 % reached the lowest cost, and the
+  residual is 38 %), and every half that contains most of 55-100 s spans more than a
+  knee can. A refused half makes no claim, so the left knee's 3.7 (0-50 / 50-100 s) does
+  not count.
 
 See [quality.md](quality.md) for what every field means.
 """
