@@ -11,7 +11,9 @@ eq. (2), projected onto the tangent plane of each unit vector (no spherical-coor
 poles), from many random starts on random data subsets at once.
 
 Eq. (1) cannot see the signs of j1 and j2. Which of the pairs (j1, j2), (j1, -j2) points
-the same physical way is decided from the data without integration: see :func:`align_signs`.
+the same physical way is decided from the data by three combined tests (joint-plane
+angles, the integrated flexion's span, the joint centre's acceleration along the axis):
+see :mod:`imucal.sign`; ``j2_sign`` pins it instead.
 
 Assumptions: the joint is a hinge, the sensors sit rigidly on their segments, and the
 joint angle changes during the recording (with a rigid joint every pair j1 = R j2 fits).
@@ -454,7 +456,8 @@ def _diagnose(d1, d2, flex, singular_ratio, relative, fraction, agreement, minim
     """(warnings, blocking) of an axis estimate; thresholds and their reasons in
     docs/quality.md."""
     blocking = stillness_warning(d1, d2)
-    warnings = unit_doubts((d1, d2))
+    doubts = unit_doubts((d1, d2))
+    warnings = list(doubts)
     if not blocking and flex < MIN_FLEXION_RATE_DEG_S:
         blocking.append(
             f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
@@ -483,7 +486,8 @@ def _diagnose(d1, d2, flex, singular_ratio, relative, fraction, agreement, minim
             "one axis"
         )
     span = decision.tests["range"].detail["span_deg"]
-    if not blocking and min(span) > MAX_KNEE_SPAN_DEG:
+    # rates in the wrong units scale the span, too: then the unit warning is the finding
+    if not blocking and not doubts and min(span) > MAX_KNEE_SPAN_DEG:
         blocking.append(
             f"the angle about this axis, integrated from j2.g2 - j1.g1, spans {min(span):.0f} "
             f"deg within {RANGE_BLOCK_S:g} s (more than the {MAX_KNEE_SPAN_DEG:g} deg a joint "

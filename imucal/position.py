@@ -389,6 +389,8 @@ def estimate_position(
         "max_samples": max_samples if select else None,
         "subset_fraction": subset,
         "max_iterations": max_iterations,
+        "axis_sign_convention": sign if joint == "hinge" else None,
+        "j2_sign": j2_sign if joint == "hinge" else None,
         "step_tolerance_m": STEP_TOLERANCE,
         "cost_tolerance": COST_TOLERANCE,
         "agreement_mm": AGREEMENT_M * 1000,
