@@ -227,7 +227,11 @@ def position(
 @app.command(
     epilog=_examples(
         "imucal simulate rec.h5 --seed 1",
-        "imucal simulate rec.csv --rate 40 --snr 30 --motion walking",
+        "imucal simulate rec.csv --rate 40 --snr 30 --motion gait",
+        "imucal simulate rec.h5 --motion protocol --rate 40 --duration 30 --gyr-noise 0.01 "
+        "--acc-noise 0.05",
+        "imucal simulate rec.h5 --motion gait --soft-tissue-deg 2 --soft-tissue-mm 3 "
+        "--clock-offset shank=0.02 --gyr-bias 0.02",
     )
 )
 def simulate(
@@ -238,32 +242,67 @@ def simulate(
     seed: Seed = None,
     rate: Annotated[float, typer.Option(min=1.0, help="Sample rate, Hz.")] = 100.0,
     duration: Annotated[float, typer.Option(min=0.1, help="Duration, s.")] = 20.0,
-    snr: Annotated[float, typer.Option(help="Signal-to-noise ratio (RMS amplitude ratio per "
-                                       "signal, > 0); inf: no noise.")] = 100.0,
-    motion: Annotated[str, typer.Option(help="circling, walking, rigid-knee or static.")]
+    snr: Annotated[float | None, typer.Option(
+        help="Signal-to-noise ratio (RMS amplitude ratio per signal, > 0); inf: no noise. "
+        "Default 100, or none when --gyr-noise or --acc-noise is given.", show_default=False,
+    )] = None,
+    motion: Annotated[str, typer.Option(
+        help="circling, gait (walking with stride-to-stride variation), protocol (5 s "
+        "circling, then gait), walking (legacy periodic gait), rigid-knee or static.")]
     = "circling",
+    gyr_noise: Annotated[float | None, typer.Option(
+        metavar="RAD/S", show_default=False,
+        help="White gyroscope noise instead of --snr: std per component and sample, rad/s.",
+    )] = None,
+    acc_noise: Annotated[float | None, typer.Option(
+        metavar="M/S^2", show_default=False,
+        help="White accelerometer noise instead of --snr: std per component and sample, "
+        "m/s^2.",
+    )] = None,
+    soft_tissue_deg: Annotated[float, typer.Option(
+        metavar="DEG", help="Soft-tissue artefact: each sensor turns on its segment by up "
+        "to this angle, deg (stride-locked, plus a 10-15 Hz wobble after heel strike); the "
+        "joints stay exact.")] = 0.0,
+    soft_tissue_mm: Annotated[float, typer.Option(
+        metavar="MM", help="Soft-tissue artefact: each sensor shifts on its segment by up "
+        "to this distance, mm.")] = 0.0,
+    clock_offset: Annotated[list[str] | None, typer.Option(
+        metavar="SENSOR=S", show_default=False,
+        help="Clock offset of one sensor, s (repeatable, e.g. shank=0.02): positive = its "
+        "clock is late, its samples show the motion later (its sample at t shows true time "
+        "t - S).")] = None,
+    gyr_bias: Annotated[list[str] | None, typer.Option(
+        metavar="RAD/S|SENSOR=RAD/S|SENSOR=X,Y,Z", show_default=False,
+        help="Constant gyroscope bias, rad/s, sensor frame: one magnitude for every sensor "
+        "(random directions), or per sensor a magnitude or a vector (repeatable).")] = None,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
     """Simulate thigh-knee-shank-ankle-foot with sensors at random poses (paper Sec. III-A)."""
     with _errors(debug):
         from .report import clean
-        from .simulate import MOTIONS
+        from .simulate import MOTIONS, parse_clock_offsets, parse_gyr_bias
         from .simulate import simulate as run_simulation
         from .writers import save_recording
 
         if motion not in MOTIONS:
             raise InputError(f"--motion must be one of {', '.join(MOTIONS)}, got '{motion}'")
-        if not snr > 0:
+        if snr is not None and not snr > 0:
             raise InputError(f"--snr must be positive (inf: no noise), got {snr:g}")
+        if snr is not None and not math.isinf(snr) and (gyr_noise is not None
+                                                        or acc_noise is not None):
+            raise InputError("give --snr or --gyr-noise/--acc-noise (physical units), not both")
+        offsets, bias = parse_clock_offsets(clock_offset), parse_gyr_bias(gyr_bias)
         if out.suffix.lower() not in {".h5", ".hdf5", ".csv"}:
             raise InputError(f"{out}: unknown output format '{out.suffix or out.name}'; use "
                              ".h5, .hdf5 or .csv")
         truth_path = out.with_name(out.stem + ".truth.json")
         check_writable(out)
         recording, truth = run_simulation(
-            seed=seed, rate=rate, duration=duration,
-            snr=None if math.isinf(snr) else snr, motion=motion,
+            seed=seed, rate=rate, duration=duration, motion=motion,
+            snr="auto" if snr is None else None if math.isinf(snr) else snr,
+            gyr_noise=gyr_noise, acc_noise=acc_noise, soft_tissue_deg=soft_tissue_deg,
+            soft_tissue_mm=soft_tissue_mm, clock_offset=offsets, gyr_bias=bias,
         )
         save_recording(recording, out)
         write_text_atomic(truth_path, json.dumps(clean(truth), indent=2) + "\n")

@@ -2,8 +2,10 @@
 
 Thigh -- knee (hinge, 1 DOF) -- shank -- ankle (spheroidal, 3 DOF) -- foot. Each segment
 carries one IMU at a random position and with a uniformly random orientation. All joint
-angles and the hip position are analytic sums of sinusoids, so the sensor signals are
-computed from exact poses by 5-point central differences (no integration, no drift).
+angles and the hip position are analytic functions of time (sums of sinusoids, of a
+smoothly varying stride phase, and smooth blends of both), so the sensor signals are
+computed from exact poses by 5-point central differences (no integration, no drift) and are
+the exact values at the sample instants.
 
 Frames
 ------
@@ -18,20 +20,25 @@ pointing proximally. Thigh origin = hip centre, shank origin = knee centre (thig
 * ``R_foot  = R_shank @ Rx(dorsiflexion) @ Ry(inversion) @ Rz(foot_rotation)``
 
 Sensor ``i`` has a constant rotation ``S_i`` (sensor coordinates -> segment coordinates)
-and a constant position ``r_i`` in segment coordinates. See ``docs/simulator.md``.
+and a constant position ``r_i`` in segment coordinates; with a soft-tissue artefact the
+sensor moves on its segment: ``Exp(dtheta_i(t)) S_i`` and ``r_i + dr_i(t)``. Realism options
+(soft tissue, clock offsets, gyro bias, noise in physical units) are described in
+``docs/simulator.md``.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from functools import cache
 
 import numpy as np
 
 from .errors import InputError
 from .recording import Recording, make_recording
 
-MOTIONS = ("circling", "walking", "rigid-knee", "static")
+MOTIONS = ("circling", "walking", "rigid-knee", "static", "gait", "protocol")
 SENSORS = ("thigh", "shank", "foot")
 
 #: Gravity in the world frame (z up), m/s^2.
@@ -41,6 +48,28 @@ FD_STEP = 1e-3
 #: Gyroscope noise reference level, rad/s: the gyro noise std is max(RMS, this) / snr, so a
 #: sensor at rest (RMS 0) still gets realistic noise (0.002 rad/s at snr=100).
 GYR_NOISE_FLOOR_RMS = 0.2
+#: SNR used when neither ``snr`` nor a physical noise level is given.
+DEFAULT_SNR = 100.0
+#: ``protocol``: seconds of leg and foot circling before the change to walking (the paper).
+PROTOCOL_CIRCLING_S = 5.0
+#: ``protocol``: the change to walking is ``sigma(t) = (1 + tanh((t - centre) / width)) / 2``;
+#: sigma(5 s) = 6e-4 and sigma(6.5 s) = 1 - 6e-4, i.e. 5 s circling, 1.5 s transition.
+PROTOCOL_TRANSITION_CENTRE_S = 5.75
+PROTOCOL_TRANSITION_WIDTH_S = 0.2
+#: Soft tissue: relative weights of the stride- (or circling-) locked harmonics 1, 2, 3 and
+#: of the damped wobble after each heel strike (directions and phases random per sensor);
+#: the sum is then scaled so that its peak over the recording is the requested size.
+SOFT_TISSUE_HARMONIC_SHARE = (0.4, 0.2, 0.1)
+SOFT_TISSUE_HEEL_STRIKE_SHARE = 0.3
+#: Heel-strike wobble: a Gaussian window of the time since heel strike, peak 1 at
+#: ``centre`` = 50 ms, 1-sigma ``width`` 18 ms (2 % at the heel strike itself, 1 % at
+#: 105 ms), oscillating at a per-sensor frequency in HEEL_STRIKE_WOBBLE_HZ (Hz). A smooth
+#: window, not a causal step: a step's kink would put energy at every frequency (aliased
+#: into the samples and beyond what 5-point differences resolve); this one lies below
+#: ~35 Hz.
+HEEL_STRIKE_CENTRE_S = 0.05
+HEEL_STRIKE_WIDTH_S = 0.018
+HEEL_STRIKE_WOBBLE_HZ = (10.0, 15.0)
 
 CONVENTION = (
     "j1: knee hinge axis, unit vector in the thigh sensor frame; j2: the same physical axis "
@@ -51,18 +80,64 @@ CONVENTION = (
     "knee: thigh / shank, with the knee centre on the hinge axis). Gyroscope: angular "
     "velocity of the sensor in its own frame, rad/s. Accelerometer: specific force "
     "R^T (p_ddot - g) in the sensor frame, m/s^2, with g = (0, 0, -9.81) in a z-up world "
-    "(a sensor at rest reads +9.81 along up)."
+    "(a sensor at rest reads +9.81 along up). Clock offset d_i of sensor i, s: its sample "
+    "at time t shows the motion at true time t - d_i (positive: its clock is late, events "
+    "appear later); time_offset_s of a joint = d_second - d_first, so the first sensor at "
+    "t matches the second sensor at t + time_offset_s. Gyro bias: constant, added to the "
+    "gyroscope, sensor frame, rad/s. With soft tissue the sensors move on their segments; "
+    "j, o refer to the nominal (mean) mounting."
 )
 
 _DEG = np.pi / 180.0
 
 # Gait curves over one stride (phase 0 = heel strike), in degrees: mean, then (cos, sin)
 # coefficients of harmonics 1, 2, ... (Fourier fit to textbook sagittal gait curves).
+# Used by the legacy `walking` motion only; `gait` uses the key points below.
 _GAIT = {
     "hip_flexion": (12.67, [(20.6, -4.14), (-2.64, -1.93), (-0.49, 0.52)]),
     "knee_flexion": (23.64, [(-4.67, -20.65), (-13.27, 8.44), (-1.43, 3.13), (0.22, 0.64)]),
     "dorsiflexion": (-1.1, [(-0.02, 3.66), (0.25, -9.63), (-0.88, 3.36), (1.43, -0.54)]),
 }
+
+# `gait`: normative sagittal curves of level walking as (percent of stride from heel strike,
+# degrees) key points, after the textbook curves (Winter; Perry): knee 5 deg at heel strike,
+# ~19 deg loading response at 15 %, ~6 deg in late stance, ~63 deg peak in swing at 73 %;
+# hip +25 deg at heel strike, ~-17 deg at 55 %, ~+27 deg in late swing; ankle -6 deg after
+# heel strike, +10 deg dorsiflexion at 45 %, -15 deg plantarflexion just after toe-off.
+# A periodic cubic spline through them is cut to GAIT_HARMONICS harmonics: smooth, within
+# 0.6 deg of the key-point curve, energy at 1-6 x the stride frequency.
+GAIT_HARMONICS = 6
+_GAIT_KEYPOINTS = {
+    "knee_flexion": [(0, 5), (5, 11), (10, 17), (15, 19), (20, 17), (30, 10), (40, 6),
+                     (45, 7), (50, 12), (55, 21), (60, 36), (65, 52), (70, 61), (73, 63),
+                     (77, 60), (80, 55), (85, 42), (90, 25), (95, 9)],
+    "hip_flexion": [(0, 25), (10, 22), (20, 14), (30, 5), (40, -5), (50, -14), (55, -17),
+                    (60, -12), (65, -2), (70, 9), (75, 18), (80, 24), (85, 27), (90, 27),
+                    (95, 26)],
+    "dorsiflexion": [(0, 0), (5, -5), (8, -6), (12, -3), (20, 2), (30, 6), (40, 9), (45, 10),
+                     (50, 7), (55, -2), (60, -12), (63, -15), (67, -13), (72, -6), (80, 0),
+                     (90, 2)],
+}
+
+
+@cache
+def _gait_fourier(name: str) -> tuple[float, tuple[float, ...], tuple[float, ...]]:
+    """Mean (rad), then amplitudes (rad) and phases of harmonics 1..GAIT_HARMONICS, such
+    that the curve is ``mean + sum_k amp[k] sin(k psi + phase[k])`` (psi = 0: heel strike)."""
+    from scipy.interpolate import CubicSpline
+
+    pts = _GAIT_KEYPOINTS[name]
+    x = np.array([p for p, _ in pts] + [100.0]) / 100.0
+    y = np.array([v for _, v in pts] + [pts[0][1]], dtype=float)
+    n = 1000
+    grid = np.arange(n) / n
+    spectrum = np.fft.rfft(CubicSpline(x, y, bc_type="periodic")(grid)) / n
+    amp, ph = [], []
+    for k in range(1, GAIT_HARMONICS + 1):
+        # c_k e^{i k psi} + conj = 2|c_k| cos(k psi + arg c_k) = 2|c_k| sin(k psi + arg + pi/2)
+        amp.append(2.0 * abs(spectrum[k]) * _DEG)
+        ph.append(float(np.angle(spectrum[k])) + np.pi / 2)
+    return float(spectrum[0].real) * _DEG, tuple(amp), tuple(ph)
 
 
 @dataclass(frozen=True)
@@ -82,16 +157,99 @@ class _Sines:
 
 
 @dataclass(frozen=True)
+class _Phase:
+    """Stride phase ``psi(t) = p0 + 2 pi f0 t + mod(t)``, rad; heel strikes at psi = 2 pi k.
+
+    ``mod`` carries the slow cadence variation: the stride frequency is
+    ``f0 + mod'(t) / (2 pi)``, so stride durations vary from stride to stride.
+    """
+
+    p0: float
+    f0: float
+    mod: _Sines = _Sines()
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        return self.p0 + 2.0 * np.pi * self.f0 * np.asarray(t) + self.mod(t)
+
+
+@dataclass(frozen=True)
+class _PhaseCurve:
+    """``offset(t) + scale(t) * sum_k amp[k] sin(harm[k] psi(t) + phase[k])``: a stride-locked
+    pattern whose level and size drift slowly (stride-to-stride variation)."""
+
+    psi: _Phase
+    harm: tuple[int, ...]
+    amp: tuple[float, ...]
+    phase: tuple[float, ...]
+    offset: _Sines = _Sines()
+    scale: _Sines = _Sines(1.0)
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        psi = self.psi(t)
+        out = np.zeros(np.shape(t))
+        for k, a, p in zip(self.harm, self.amp, self.phase, strict=True):
+            out = out + a * np.sin(k * psi + p)
+        return self.offset(t) + self.scale(t) * out
+
+
+@dataclass(frozen=True)
+class _Step:
+    """Smooth switch ``sigma(t) = (1 + tanh((t - centre) / width)) / 2`` from 0 to 1."""
+
+    centre: float
+    width: float
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        return 0.5 * (1.0 + np.tanh((np.asarray(t) - self.centre) / self.width))
+
+
+@dataclass(frozen=True)
+class _Blend:
+    """``(1 - sigma(t)) a(t) + sigma(t) b(t)``: one motion handing over to another."""
+
+    sigma: _Step
+    a: Callable
+    b: Callable
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        s = self.sigma(t)
+        return (1.0 - s) * self.a(t) + s * self.b(t)
+
+
+@dataclass(frozen=True)
+class _Progression:
+    """Hip progression that starts from rest: velocity ``sigma(t) * velocity``. Only its
+    acceleration ``velocity * sigma'(t)`` enters the signals (added analytically, because
+    tens of metres of travel would spoil the finite differences' round-off)."""
+
+    sigma: _Step
+    velocity: tuple[float, float, float]
+
+    def acc(self, t: np.ndarray) -> np.ndarray:
+        w = self.sigma.width
+        rate = 0.5 / w / np.cosh((np.asarray(t) - self.sigma.centre) / w) ** 2
+        return rate[..., None] * np.asarray(self.velocity)
+
+
+@dataclass(frozen=True)
 class _Motion:
-    hip_flexion: _Sines
-    hip_abduction: _Sines
-    hip_rotation: _Sines
-    knee_flexion: _Sines
-    dorsiflexion: _Sines
-    inversion: _Sines
-    foot_rotation: _Sines
-    hip_offset: tuple[_Sines, _Sines, _Sines]  # oscillating part of the hip position, m
+    hip_flexion: Callable
+    hip_abduction: Callable
+    hip_rotation: Callable
+    knee_flexion: Callable
+    dorsiflexion: Callable
+    inversion: Callable
+    foot_rotation: Callable
+    hip_offset: tuple  # three callables: oscillating part of the hip position, m
     hip_velocity: tuple[float, float, float]  # constant part of the hip velocity, m/s
+    # What drives the soft-tissue artefact: the stride phase and its nominal frequency
+    # (walking), the circling frequency (circling), and the walking share sigma(t) in
+    # [0, 1] (None: 1 if there is a stride phase, else 0).
+    stride_phase: _Phase | None = None
+    cycle_freq: float = 0.0
+    walking_share: _Step | None = None
+    progression: _Progression | None = None
+    info: dict = field(default_factory=dict)  # motion parameters for the truth's model
 
 
 @dataclass(frozen=True)
@@ -102,6 +260,19 @@ class _Geometry:
     pos: dict  # sensor name -> (3,) sensor origin in segment coordinates, m
 
 
+@dataclass(frozen=True)
+class _Wobble:
+    """Unit-amplitude soft-tissue pattern of one sensor, for rotation or translation:
+    directions (unit vectors, segment frame) and phases of the locked harmonics, and the
+    heel-strike wobble's direction, frequency (Hz) and phase."""
+
+    dirs: np.ndarray  # (3, 3): one unit vector per harmonic
+    phases: np.ndarray  # (3,)
+    hs_dir: np.ndarray  # (3,)
+    hs_freq: float
+    hs_phase: float
+
+
 # ----------------------------------------------------------------------------- public API
 
 
@@ -110,35 +281,66 @@ def simulate(
     seed: int | None = None,
     rate: float = 100.0,
     duration: float = 20.0,
-    snr: float | None = 100.0,
+    snr: float | None | str = "auto",
     motion: str = "circling",
+    gyr_noise: float | None = None,
+    acc_noise: float | None = None,
+    soft_tissue_deg: float = 0.0,
+    soft_tissue_mm: float = 0.0,
+    clock_offset: Mapping[str, float] | None = None,
+    gyr_bias: float | Mapping[str, float | tuple[float, float, float]] | None = None,
 ) -> tuple[Recording, dict]:
     """Simulate thigh, shank and foot IMUs on a leg with a knee hinge and a spheroidal ankle.
 
     Parameters
     ----------
     seed
-        Seed of all randomness (sensor placement, motion details, noise). ``None`` draws a
-        fresh seed; it is recorded in ``truth["settings"]["seed"]``. The placement depends
-        only on the seed, the motion only on seed, motion and timing, and the noise stream is
-        separate, so the same seed with ``snr=None`` gives the exact clean signals.
+        Seed of all randomness (sensor placement, motion details, noise, soft tissue, bias
+        directions). ``None`` draws a fresh seed; it is recorded in
+        ``truth["settings"]["seed"]``. The placement depends only on the seed, the motion
+        only on seed, motion and timing, and each kind of randomness has its own stream, so
+        the same seed with ``snr=None`` gives the exact clean signals.
     rate, duration
         Sample rate in Hz and length in seconds (``round(rate * duration)`` samples).
     snr
         Amplitude signal-to-noise ratio: per sensor and per gyr/acc, white Gaussian noise of
         std ``RMS / snr`` per component, ``RMS = sqrt(mean |s|^2 / 3)`` (gyro RMS floored at
-        :data:`GYR_NOISE_FLOOR_RMS`). ``None`` or ``inf``: no noise.
+        :data:`GYR_NOISE_FLOOR_RMS`). ``None`` or ``inf``: no noise. ``"auto"`` (default):
+        :data:`DEFAULT_SNR`, or no SNR noise when ``gyr_noise`` or ``acc_noise`` is given.
     motion
-        One of :data:`MOTIONS`.
+        One of :data:`MOTIONS`: ``circling``, ``walking`` (legacy gait-like), ``rigid-knee``,
+        ``static``, ``gait`` (realistic walking with stride-to-stride variation),
+        ``protocol`` (5 s of leg and foot circling, then ``gait``).
+    gyr_noise, acc_noise
+        White Gaussian noise in physical units instead of ``snr``: standard deviation per
+        component and sample, gyroscope rad/s, accelerometer m/s^2, the same for every
+        sensor. Not together with a numeric ``snr``; one alone leaves the other signal clean.
+    soft_tissue_deg, soft_tissue_mm
+        Soft-tissue artefact: every sensor moves on its segment by a rotation ``dtheta(t)``
+        (segment frame) whose size ``|dtheta|`` peaks at ``soft_tissue_deg`` degrees over
+        the recording, and a displacement ``dr(t)`` peaking at ``soft_tissue_mm``
+        millimetres; mostly locked to the stride (harmonics 1-3) plus a damped 10-15 Hz
+        wobble after each heel strike; while circling, locked to the circling frequency.
+        The joints stay exact; ``static`` has none. 0: rigid.
+    clock_offset
+        Per-sensor clock offset, s, e.g. ``{"shank": 0.02}`` (others 0): sensor ``i``'s
+        sample at time ``t`` shows the motion at true time ``t - d_i``, so a positive offset
+        (a late clock) makes events appear later in that sensor. ``|d_i| < duration``.
+    gyr_bias
+        Constant gyroscope bias, rad/s, sensor frame: a number gives every sensor a bias of
+        that magnitude in a random direction (seeded); a mapping gives some sensors a
+        magnitude (random direction) or a 3-vector, e.g. ``{"shank": (0.01, 0, -0.02)}``.
 
     Returns
     -------
     (Recording, dict)
         The recording (sensors ``thigh``, ``shank``, ``foot``; source ``"<simulated>"``) and
-        the JSON-serialisable ground truth (see :data:`CONVENTION`).
+        the JSON-serialisable ground truth (see :data:`CONVENTION` and docs/simulator.md).
     """
     rec, truth, _ = _simulate_with_internals(
-        seed=seed, rate=rate, duration=duration, snr=snr, motion=motion
+        seed=seed, rate=rate, duration=duration, snr=snr, motion=motion, gyr_noise=gyr_noise,
+        acc_noise=acc_noise, soft_tissue_deg=soft_tissue_deg, soft_tissue_mm=soft_tissue_mm,
+        clock_offset=clock_offset, gyr_bias=gyr_bias,
     )
     return rec, truth
 
@@ -146,40 +348,93 @@ def simulate(
 # ----------------------------------------------------------------------------- internals
 
 
-def _simulate_with_internals(*, seed, rate, duration, snr, motion):
+def _simulate_with_internals(*, seed, rate, duration, snr="auto", motion="circling",
+                             gyr_noise=None, acc_noise=None, soft_tissue_deg=0.0,
+                             soft_tissue_mm=0.0, clock_offset=None, gyr_bias=None):
     """:func:`simulate` plus internals for tests: clean signals, knee angle, sensor poses."""
-    seed, rate, duration, snr, motion = _check_args(seed, rate, duration, snr, motion)
+    seed, rate, duration, snr, motion = _check_args(seed, rate, duration, snr, motion,
+                                                    gyr_noise, acc_noise)
+    gyr_noise = _check_level("gyr_noise", gyr_noise, "rad/s")
+    acc_noise = _check_level("acc_noise", acc_noise, "m/s^2")
+    soft_tissue_deg = _check_level("soft_tissue_deg", soft_tissue_deg, "deg") or 0.0
+    soft_tissue_mm = _check_level("soft_tissue_mm", soft_tissue_mm, "mm") or 0.0
+    clock = _check_clock_offset(clock_offset, duration)
     n = int(round(rate * duration))
     if n < 2:
         raise InputError(f"simulate: rate * duration gives {n} sample(s); need at least 2")
-    geo_ss, motion_ss, noise_ss = np.random.SeedSequence(seed).spawn(3)
+    # Streams 0-2 as before (placement, motion, noise), so existing seeds keep their data;
+    # soft tissue and bias directions get streams of their own.
+    geo_ss, motion_ss, noise_ss, tissue_ss, bias_ss = np.random.SeedSequence(seed).spawn(5)
     geo = _draw_geometry(np.random.default_rng(geo_ss))
     mot = _draw_motion(np.random.default_rng(motion_ss), motion)
+    bias = _gyr_bias(gyr_bias, np.random.default_rng(bias_ss))
+    wobble = None
+    if soft_tissue_deg > 0 or soft_tissue_mm > 0:
+        wobble = _scale_soft_tissue(_draw_soft_tissue(np.random.default_rng(tissue_ss)), mot,
+                                    duration, clock, soft_tissue_deg * _DEG,
+                                    soft_tissue_mm * 1e-3)
 
     t = np.arange(n) / rate
-    clean, rot_world, knee_angle = _signals(geo, mot, t)
+    clean, rot_world, knee_angle, tissue = _signals(geo, mot, t, clock=clock, wobble=wobble)
 
     noise_rng = np.random.default_rng(noise_ss)
-    data = {}
+    data, noise_std = {}, {}
     for name in SENSORS:
-        data[name] = {}
+        data[name], noise_std[name] = {}, {}
         for kind in ("gyr", "acc"):
             s = clean[name][kind]
-            if snr is None:
-                data[name][kind] = s.copy()
-                continue
-            rms = math.sqrt(float(np.mean(np.sum(s * s, axis=1))) / 3.0)
-            if kind == "gyr":
-                rms = max(rms, GYR_NOISE_FLOOR_RMS)
-            data[name][kind] = s + noise_rng.standard_normal(s.shape) * (rms / snr)
+            if snr is not None:
+                rms = math.sqrt(float(np.mean(np.sum(s * s, axis=1))) / 3.0)
+                if kind == "gyr":
+                    rms = max(rms, GYR_NOISE_FLOOR_RMS)
+                sigma = rms / snr
+            else:
+                sigma = (gyr_noise if kind == "gyr" else acc_noise) or 0.0
+            noise_std[name][kind] = sigma
+            if sigma == 0.0:
+                out = s.copy()
+            else:
+                out = s + noise_rng.standard_normal(s.shape) * sigma
+            if kind == "gyr" and name in bias:
+                out = out + bias[name]
+            data[name][kind] = out
 
     rec = make_recording(data, rate=rate, source="<simulated>")
-    truth = _truth(geo, mot, seed, rate, duration, snr, motion)
-    internals = {"clean": clean, "rot": rot_world, "knee_angle": knee_angle, "time": t}
+    settings = {
+        "seed": seed,
+        "rate": rate,
+        "duration": duration,
+        "snr": snr,
+        "motion": motion,
+        "gyr_noise": gyr_noise,
+        "acc_noise": acc_noise,
+        "soft_tissue_deg": soft_tissue_deg,
+        "soft_tissue_mm": soft_tissue_mm,
+        "clock_offset": {k: clock[k] for k in SENSORS if clock.get(k, 0.0) != 0.0},
+        "gyr_bias": _bias_setting(gyr_bias),
+    }
+    truth = _truth(geo, mot, settings)
+    truth.update(_realism_truth(mot, t, clock, bias, noise_std, tissue, knee_angle,
+                                soft_tissue_deg, soft_tissue_mm))
+    internals = {"clean": clean, "rot": rot_world, "knee_angle": knee_angle, "time": t,
+                 "soft_tissue": tissue, "motion": mot}
     return rec, truth, internals
 
 
-def _check_args(seed, rate, duration, snr, motion):
+def _one_line(value) -> str:
+    return " ".join(repr(value).split())[:80]
+
+
+def _number(label: str, value) -> float:
+    if isinstance(value, bool):
+        raise InputError(f"simulate: {label} {value!r} is not a number")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"simulate: {label} {_one_line(value)} is not a number") from None
+
+
+def _check_args(seed, rate, duration, snr, motion, gyr_noise=None, acc_noise=None):
     if motion not in MOTIONS:
         raise InputError(f"simulate: unknown motion '{motion}'; use one of {', '.join(MOTIONS)}")
     if seed is None:
@@ -195,7 +450,12 @@ def _check_args(seed, rate, duration, snr, motion):
         if not math.isfinite(value) or value <= 0:
             raise InputError(f"simulate: {label} must be a positive number, got {value}")
     rate, duration = float(rate), float(duration)
-    if snr is not None:
+    physical = gyr_noise is not None or acc_noise is not None
+    if isinstance(snr, str):
+        if snr != "auto":
+            raise InputError(f"simulate: snr must be a number, None or 'auto', got '{snr}'")
+        snr = None if physical else DEFAULT_SNR
+    elif snr is not None:
         try:
             snr = float(snr)
         except (TypeError, ValueError):
@@ -204,7 +464,84 @@ def _check_args(seed, rate, duration, snr, motion):
             raise InputError(f"simulate: snr must be positive (or None for no noise), got {snr}")
         if math.isinf(snr):
             snr = None
+        elif physical:
+            raise InputError("simulate: give either snr or gyr_noise/acc_noise (physical "
+                             f"units), not both (snr={snr:g})")
     return seed, rate, duration, snr, motion
+
+
+def _check_level(label: str, value, unit: str) -> float | None:
+    """A non-negative finite amount in ``unit``, or None."""
+    if value is None:
+        return None
+    x = _number(label, value)
+    if not math.isfinite(x) or x < 0:
+        raise InputError(f"simulate: {label} must be a non-negative number of {unit}, got {x:g}")
+    return x
+
+
+def _check_clock_offset(clock_offset, duration: float) -> dict[str, float]:
+    if clock_offset is None:
+        return {}
+    if not isinstance(clock_offset, Mapping):
+        raise InputError("simulate: clock_offset must map sensor names to seconds, e.g. "
+                         f"{{'shank': 0.02}}, got {_one_line(clock_offset)}")
+    out = {}
+    for name, value in clock_offset.items():
+        if name not in SENSORS:
+            raise InputError(f"simulate: clock_offset for unknown sensor '{name}'; sensors "
+                             f"are {', '.join(SENSORS)}")
+        d = _number(f"clock_offset of {name}", value)
+        if not math.isfinite(d) or abs(d) >= duration:
+            raise InputError(f"simulate: clock_offset of {name} must be finite and shorter "
+                             f"than the duration ({duration:g} s), got {d:g} s")
+        out[name] = d
+    return out
+
+
+def _gyr_bias(gyr_bias, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Bias vector per sensor (sensor frame, rad/s); sensors without bias are left out."""
+    # One random direction per sensor, always drawn in sensor order, so a sensor's direction
+    # does not depend on which other sensors get a bias.
+    dirs = {}
+    for name in SENSORS:
+        v = rng.standard_normal(3)
+        dirs[name] = v / np.linalg.norm(v)
+    if gyr_bias is None:
+        return {}
+    if not isinstance(gyr_bias, Mapping):
+        gyr_bias = dict.fromkeys(SENSORS, gyr_bias)
+    out = {}
+    for name, value in gyr_bias.items():
+        if name not in SENSORS:
+            raise InputError(f"simulate: gyr_bias for unknown sensor '{name}'; sensors are "
+                             f"{', '.join(SENSORS)}")
+        if np.ndim(value) == 0:
+            mag = _number(f"gyr_bias of {name}", value)
+            if not math.isfinite(mag) or mag < 0:
+                raise InputError(f"simulate: gyr_bias of {name} must be a non-negative "
+                                 f"magnitude in rad/s or a 3-vector, got {mag:g}")
+            vec = mag * dirs[name]
+        else:
+            try:
+                vec = np.asarray(value, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError(f"simulate: gyr_bias of {name} {_one_line(value)} is not "
+                                 "a number or 3-vector (rad/s)") from None
+            if vec.shape != (3,) or not np.all(np.isfinite(vec)):
+                raise InputError(f"simulate: gyr_bias of {name} must be a magnitude or a "
+                                 f"finite 3-vector (rad/s), got {_one_line(value)}")
+        if np.any(vec != 0.0):
+            out[name] = vec
+    return out
+
+
+def _bias_setting(gyr_bias):
+    """The bias option as given, JSON-ready."""
+    if gyr_bias is None or np.ndim(gyr_bias) == 0 and not isinstance(gyr_bias, Mapping):
+        return None if gyr_bias is None else float(gyr_bias)
+    return {k: (float(v) if np.ndim(v) == 0 else [float(x) for x in v])
+            for k, v in gyr_bias.items()}
 
 
 def _random_rotation(rng: np.random.Generator) -> np.ndarray:
@@ -260,6 +597,29 @@ def _draw_motion(rng: np.random.Generator, motion: str) -> _Motion:
             hip_velocity=(0.0, 0.0, 0.0),
         )
 
+    if motion == "gait":
+        return _draw_gait(rng)
+
+    if motion == "protocol":
+        # The paper's experiment: circling first (the same draws as `circling` with this
+        # seed), then walking; angles and hip position hand over smoothly.
+        circ = _draw_motion(rng, "circling")
+        gait = _draw_gait(rng)
+        sigma = _Step(PROTOCOL_TRANSITION_CENTRE_S, PROTOCOL_TRANSITION_WIDTH_S)
+        names = ("hip_flexion", "hip_abduction", "hip_rotation", "knee_flexion",
+                 "dorsiflexion", "inversion", "foot_rotation")
+        angles = {k: _Blend(sigma, getattr(circ, k), getattr(gait, k)) for k in names}
+        hip = tuple(_Blend(sigma, a, b) for a, b in zip(circ.hip_offset, gait.hip_offset,
+                                                        strict=True))
+        info = {"circling_frequency_hz": circ.cycle_freq, **gait.info,
+                "circling_s": PROTOCOL_CIRCLING_S,
+                "transition_centre_s": PROTOCOL_TRANSITION_CENTRE_S,
+                "transition_width_s": PROTOCOL_TRANSITION_WIDTH_S}
+        return _Motion(**angles, hip_offset=hip, hip_velocity=(0.0, 0.0, 0.0),
+                       stride_phase=gait.stride_phase, cycle_freq=circ.cycle_freq,
+                       walking_share=sigma, progression=_Progression(sigma, gait.hip_velocity),
+                       info=info)
+
     if motion in ("circling", "rigid-knee"):
         # Standing on the other leg, circling thigh and foot (the paper's calibration motion).
         fc, pc = u(0.5, 0.8), phase()
@@ -290,9 +650,11 @@ def _draw_motion(rng: np.random.Generator, motion: str) -> _Motion:
             foot_rotation,
             hip_offset,
             (0.0, 0.0, 0.0),
+            cycle_freq=fc,
+            info={"circling_frequency_hz": fc},
         )
 
-    # walking
+    # walking (legacy: a strictly periodic gait-like pattern, kept for existing seeds)
     f, p0 = u(0.85, 1.1), phase()
 
     def gait(name: str) -> _Sines:
@@ -325,7 +687,172 @@ def _draw_motion(rng: np.random.Generator, motion: str) -> _Motion:
         foot_rotation=small(3.0),
         hip_offset=hip_offset,
         hip_velocity=(0.0, stride * f, 0.0),
+        stride_phase=_Phase(p0, f),
+        info={"stride_frequency_hz": f, "stride_length_m": stride},
     )
+
+
+def _draw_gait(rng: np.random.Generator) -> _Motion:
+    """Level walking with stride-to-stride variation (see docs/simulator.md, `gait`)."""
+    u = rng.uniform
+    deg = _DEG
+
+    def phase() -> float:
+        return u(0.0, 2.0 * np.pi)
+
+    # Cadence: nominal stride frequency f0 with two slow modulations of 1-2 % each (stride
+    # times vary by a few percent, as in healthy walking), so strides are not all alike.
+    f0 = u(0.85, 1.05)
+    mods = [(u(0.01, 0.02), u(lo, hi), phase()) for lo, hi in ((0.04, 0.12), (0.15, 0.35))]
+    # f(t) = f0 (1 + sum a sin(2 pi nu t + ph)) integrates to psi's mod term below.
+    psi = _Phase(u(0.0, 2.0 * np.pi), f0, _Sines(
+        0.0, tuple(f0 * a / nu for a, nu, _ in mods), tuple(nu for _, nu, _ in mods),
+        tuple(ph - np.pi / 2 for _, _, ph in mods)))
+
+    def drift(level: float, wander: float) -> _Sines:
+        # Slowly wandering level: ``level + wander sin(...)`` at 0.05-0.2 Hz.
+        return _Sines(level, (wander,), (u(0.05, 0.2),), (phase(),))
+
+    def size(lo: float, hi: float) -> _Sines:
+        # Stride-to-stride size: a scale in [lo, hi] varying by 2-5 % and 1-3 %.
+        return _Sines(u(lo, hi), (u(0.02, 0.05), u(0.01, 0.03)), (u(0.1, 0.3), u(0.3, 0.6)),
+                      (phase(), phase()))
+
+    def sagittal(name: str, lo: float, hi: float, shift_deg: tuple[float, float],
+                 wander_deg: float) -> _PhaseCurve:
+        mean, amp, ph = _gait_fourier(name)
+        return _PhaseCurve(psi, tuple(range(1, GAIT_HARMONICS + 1)), amp, ph,
+                           drift(mean + u(*shift_deg) * deg, wander_deg * deg), size(lo, hi))
+
+    def small(first: tuple[float, float], second: tuple[float, float]) -> _PhaseCurve:
+        # A few degrees at the stride frequency and its second harmonic, random shape.
+        return _PhaseCurve(psi, (1, 2), (u(*first) * deg, u(*second) * deg),
+                           (phase(), phase()), drift(u(-1.0, 1.0) * deg, 0.5 * deg),
+                           size(0.95, 1.05))
+
+    knee_flexion = sagittal("knee_flexion", 0.93, 1.03, (-0.5, 1.5), 0.7)
+    hip_flexion = sagittal("hip_flexion", 0.9, 1.1, (-3.0, 3.0), 1.0)
+    dorsiflexion = sagittal("dorsiflexion", 0.85, 1.1, (-2.0, 2.0), 1.0)
+    hip_abduction = small((2.0, 4.0), (0.5, 1.5))
+    hip_rotation = small((2.0, 5.0), (0.5, 1.5))
+    inversion = small((1.5, 3.0), (0.5, 1.5))
+    foot_rotation = small((1.5, 3.0), (0.5, 1.0))
+    stride = u(1.2, 1.5)  # m per stride; speed = stride * f(t)
+    # Forward position = stride * psi / (2 pi): the cadence modulation moves the hip too.
+    cadence = _Sines(0.0, tuple(stride / (2 * np.pi) * a for a in psi.mod.amp), psi.mod.freq,
+                     psi.mod.phase)
+    hip_offset = (
+        _PhaseCurve(psi, (1,), (u(0.015, 0.025),), (phase(),)),  # lateral sway
+        _Sum((cadence, _PhaseCurve(psi, (2,), (u(0.01, 0.03),), (phase(),)))),  # speed
+        _PhaseCurve(psi, (2,), (u(0.015, 0.03),), (phase(),)),  # vertical bounce
+    )
+    return _Motion(
+        hip_flexion=hip_flexion,
+        hip_abduction=hip_abduction,
+        hip_rotation=hip_rotation,
+        knee_flexion=knee_flexion,
+        dorsiflexion=dorsiflexion,
+        inversion=inversion,
+        foot_rotation=foot_rotation,
+        hip_offset=hip_offset,
+        hip_velocity=(0.0, stride * f0, 0.0),
+        stride_phase=psi,
+        info={"stride_frequency_hz": f0, "stride_length_m": stride},
+    )
+
+
+@dataclass(frozen=True)
+class _Sum:
+    """Sum of callables of ``t``."""
+
+    parts: tuple
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        return sum(p(t) for p in self.parts)
+
+
+def _draw_soft_tissue(rng: np.random.Generator) -> dict:
+    """Unit-amplitude soft-tissue patterns: sensor -> (rotation _Wobble, translation _Wobble).
+    Drawn for every sensor in a fixed order, so the pattern depends only on the seed."""
+
+    def unit(n: int) -> np.ndarray:
+        v = rng.standard_normal((n, 3))
+        return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+    def one() -> _Wobble:
+        k = len(SOFT_TISSUE_HARMONIC_SHARE)
+        return _Wobble(dirs=unit(k), phases=rng.uniform(0, 2 * np.pi, k), hs_dir=unit(1)[0],
+                       hs_freq=rng.uniform(*HEEL_STRIKE_WOBBLE_HZ),
+                       hs_phase=rng.uniform(0, 2 * np.pi))
+
+    return {name: (one(), one()) for name in SENSORS}
+
+
+def _scale_soft_tissue(patterns: dict, mot: _Motion, duration: float, clock: dict,
+                       rot_peak: float, trans_peak: float) -> dict:
+    """Scale each sensor's unit patterns so that ``|dtheta|`` and ``|dr|`` peak at exactly
+    ``rot_peak`` (rad) and ``trans_peak`` (m) over the recording (on a 1 kHz grid of the
+    sensor's own times, so the scale does not depend on the sample rate)."""
+    out = {}
+    for name in SENSORS:
+        grid = np.arange(0.0, duration, 1e-3) - clock.get(name, 0.0)
+        pair = []
+        for pattern, peak in zip(patterns[name], (rot_peak, trans_peak), strict=True):
+            top = float(np.linalg.norm(_wobble_vector(pattern, mot, grid), axis=1).max())
+            # A motion without stride or circling (static) has no artefact: scale 0.
+            pair.append((pattern, peak / top if top > 0 else 0.0))
+        out[name] = tuple(pair)
+    return out
+
+
+def _heel_strike_envelope(s: np.ndarray) -> np.ndarray:
+    """Gaussian window ``exp(-(s - centre)^2 / (2 width^2))`` of the time ``s`` since heel
+    strike (:data:`HEEL_STRIKE_CENTRE_S`, :data:`HEEL_STRIKE_WIDTH_S`)."""
+    return np.exp(-0.5 * ((s - HEEL_STRIKE_CENTRE_S) / HEEL_STRIKE_WIDTH_S) ** 2)
+
+
+def _wobble_vector(w: _Wobble, mot: _Motion, t: np.ndarray) -> np.ndarray:
+    """Soft-tissue pattern (before scaling) at times ``t`` (any shape), shape ``t.shape + (3,)``:
+    stride-locked harmonics plus heel-strike wobble while walking, circling-locked harmonics
+    while circling, blended by the walking share; zero for a motion without either."""
+    out = np.zeros(np.shape(t) + (3,))
+    share = SOFT_TISSUE_HARMONIC_SHARE
+    if mot.stride_phase is not None:
+        psi = mot.stride_phase(t)
+        walk = np.zeros_like(out)
+        for k, (a, d, p) in enumerate(zip(share, w.dirs, w.phases, strict=True), start=1):
+            walk += (a * np.sin(k * psi + p))[..., None] * d
+        # Time since the nearest heel strike (psi = 2 pi k), from the phase, wrapped half a
+        # stride away where the window is < 1e-100, so the wrap is seamless.
+        since = (np.mod(psi + np.pi, 2.0 * np.pi) - np.pi) / (2.0 * np.pi * mot.stride_phase.f0)
+        hs = SOFT_TISSUE_HEEL_STRIKE_SHARE * _heel_strike_envelope(since) * np.sin(
+            2.0 * np.pi * w.hs_freq * since + w.hs_phase)
+        walk += hs[..., None] * w.hs_dir
+        weight = np.ones(np.shape(t)) if mot.walking_share is None else mot.walking_share(t)
+        out += weight[..., None] * walk
+    else:
+        weight = np.zeros(np.shape(t))
+    if mot.cycle_freq > 0:
+        circ = np.zeros_like(out)
+        for k, (a, d, p) in enumerate(zip(share, w.dirs, w.phases, strict=True), start=1):
+            circ += (a * np.sin(2.0 * np.pi * k * mot.cycle_freq * t + p))[..., None] * d
+        out += (1.0 - weight)[..., None] * circ
+    return out
+
+
+def _expmap(v: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``Exp(v)`` of rotation vectors ``v`` (..., 3), rad (Rodrigues)."""
+    angle = np.linalg.norm(v, axis=-1)
+    small = angle < 1e-8
+    safe = np.where(small, 1.0, angle)
+    k = np.zeros(v.shape + (3,))
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -z, y, -x
+    k[..., 1, 0], k[..., 2, 0], k[..., 2, 1] = z, -y, x
+    # sin(a)/a and (1 - cos a)/a^2, with their series near 0 (no division by ~0)
+    s = np.where(small, 1.0 - angle**2 / 6.0, np.sin(safe) / safe)
+    c = np.where(small, 0.5 - angle**2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
+    return np.eye(3) + s[..., None, None] * k + c[..., None, None] * (k @ k)
 
 
 def _rot(axis: int, angle: np.ndarray) -> np.ndarray:
@@ -359,43 +886,85 @@ def _poses(geo: _Geometry, mot: _Motion, t: np.ndarray):
     return {"thigh": (r_thigh, hip), "shank": (r_shank, knee), "foot": (r_foot, ankle)}
 
 
-def _signals(geo: _Geometry, mot: _Motion, t: np.ndarray):
-    """Exact gyr/acc of every sensor by 5-point central differences of the analytic poses."""
-    h = FD_STEP
+def _vee(w: np.ndarray) -> np.ndarray:
+    """Axial vector of the antisymmetric part of (N, 3, 3) matrices."""
+    return 0.5 * np.stack(
+        [w[:, 2, 1] - w[:, 1, 2], w[:, 0, 2] - w[:, 2, 0], w[:, 1, 0] - w[:, 0, 1]], axis=-1
+    )
+
+
+def _signals(geo: _Geometry, mot: _Motion, t: np.ndarray, clock=None, wobble=None):
+    """Exact gyr/acc of every sensor by 5-point central differences of the analytic poses.
+
+    ``clock``: sensor -> clock offset d (s); that sensor is evaluated at true times
+    ``t - d``. ``wobble``: None, or sensor -> ((rotation pattern, scale rad),
+    (translation pattern, scale m)), see :func:`_scale_soft_tissue`.
+    Returns clean signals, sensor-to-world rotations, the knee angle at ``t`` and the
+    soft-tissue motion per sensor (``dtheta`` rad, ``dr`` m, segment frame, at the sensor's
+    own evaluation times).
+    """
+    clock = clock or {}
+    # The heel-strike wobble reaches ~35 Hz, where 1 ms steps leave ~3e-6 relative error;
+    # a quarter of the step brings it to ~1e-8 (round-off stays below 1e-7 m/s^2).
+    h = FD_STEP if wobble is None else FD_STEP / 4
     offsets = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) * h
-    poses = _poses(geo, mot, t[None, :] + offsets[:, None])  # arrays of shape (5, N, ...)
     d1 = np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / (12.0 * h)
     d2 = np.array([-1.0, 16.0, -30.0, 16.0, -1.0]) / (12.0 * h * h)
-    clean, rot_world = {}, {}
-    for name in SENSORS:
-        r_seg, origin = poses[name]
-        s_rot, s_pos = geo.rot[name], geo.pos[name]
-        # Angular velocity of the segment in segment coordinates: vee(R^T R_dot).
-        r_dot = np.tensordot(d1, r_seg, axes=(0, 0))
-        w = np.swapaxes(r_seg[2], -1, -2) @ r_dot
-        omega_seg = 0.5 * np.stack(
-            [w[:, 2, 1] - w[:, 1, 2], w[:, 0, 2] - w[:, 2, 0], w[:, 1, 0] - w[:, 0, 1]], axis=-1
-        )
-        # Sensor position in the world, its acceleration, and the specific force.
-        p = origin + r_seg @ s_pos
-        p_ddot = np.tensordot(d2, p, axes=(0, 0))
-        f_world = p_ddot - GRAVITY
-        f_seg = np.einsum("nji,nj->ni", r_seg[2], f_world)
-        clean[name] = {"gyr": omega_seg @ s_rot, "acc": f_seg @ s_rot}
-        rot_world[name] = r_seg[2] @ s_rot
+    clean, rot_world, tissue = {}, {}, {}
+    # Sensors sharing a clock share one evaluation of the poses.
+    for d in dict.fromkeys(clock.get(n, 0.0) for n in SENSORS):
+        tt = t - d if d else t
+        stencil = tt[None, :] + offsets[:, None]
+        poses = _poses(geo, mot, stencil)  # arrays of shape (5, N, ...)
+        for name in SENSORS:
+            if clock.get(name, 0.0) != d:
+                continue
+            r_seg, origin = poses[name]
+            s_rot, s_pos = geo.rot[name], geo.pos[name]
+            if wobble is None:
+                # Angular velocity of the segment in segment coordinates: vee(R^T R_dot).
+                r_dot = np.tensordot(d1, r_seg, axes=(0, 0))
+                omega_seg = _vee(np.swapaxes(r_seg[2], -1, -2) @ r_dot)
+                # Sensor position in the world, its acceleration, and the specific force.
+                p = origin + r_seg @ s_pos
+                p_ddot = np.tensordot(d2, p, axes=(0, 0))
+                if mot.progression is not None:
+                    p_ddot = p_ddot + mot.progression.acc(tt)
+                f_world = p_ddot - GRAVITY
+                f_seg = np.einsum("nji,nj->ni", r_seg[2], f_world)
+                clean[name] = {"gyr": omega_seg @ s_rot, "acc": f_seg @ s_rot}
+                rot_world[name] = r_seg[2] @ s_rot
+                continue
+            # Soft tissue: the sensor turns by Exp(dtheta) and shifts by dr on its segment.
+            (w_rot, rot_amp), (w_trans, trans_amp) = wobble[name]
+            dtheta = rot_amp * _wobble_vector(w_rot, mot, stencil)
+            dr = trans_amp * _wobble_vector(w_trans, mot, stencil)
+            r_sensor = r_seg @ _expmap(dtheta) @ s_rot  # sensor -> world, (5, N, 3, 3)
+            r_dot = np.tensordot(d1, r_sensor, axes=(0, 0))
+            gyr = _vee(np.swapaxes(r_sensor[2], -1, -2) @ r_dot)
+            p = origin + np.einsum("snij,snj->sni", r_seg, s_pos + dr)
+            p_ddot = np.tensordot(d2, p, axes=(0, 0))
+            if mot.progression is not None:
+                p_ddot = p_ddot + mot.progression.acc(tt)
+            f_world = p_ddot - GRAVITY
+            clean[name] = {"gyr": gyr, "acc": np.einsum("nji,nj->ni", r_sensor[2], f_world)}
+            rot_world[name] = r_sensor[2]
+            tissue[name] = {"dtheta": dtheta[2], "dr": dr[2]}
     knee_angle = -mot.knee_flexion(t)
-    return clean, rot_world, knee_angle
+    return clean, rot_world, knee_angle, tissue
 
 
-def _truth(geo: _Geometry, mot: _Motion, seed, rate, duration, snr, motion) -> dict:
+def _vec(v) -> list[float]:
+    return [float(x) for x in v]
+
+
+def _truth(geo: _Geometry, mot: _Motion, settings: dict) -> dict:
     ex = np.array([1.0, 0.0, 0.0])
     s_t, s_s, s_f = (geo.rot[n] for n in SENSORS)
     p_t, p_s, p_f = (geo.pos[n] for n in SENSORS)
     knee_in_thigh = np.array([0.0, 0.0, -geo.l_thigh])
     ankle_in_shank = np.array([0.0, 0.0, -geo.l_shank])
-
-    def vec(v: np.ndarray) -> list[float]:
-        return [float(x) for x in v]
+    vec = _vec
 
     knee = {
         "joint": "hinge",
@@ -419,13 +988,7 @@ def _truth(geo: _Geometry, mot: _Motion, seed, rate, duration, snr, motion) -> d
         "j2": knee["j2"],
         "o1": ankle["o1"],
         "o2": ankle["o2"],
-        "settings": {
-            "seed": seed,
-            "rate": rate,
-            "duration": duration,
-            "snr": snr,
-            "motion": motion,
-        },
+        "settings": settings,
         "model": {
             "thigh_length": float(geo.l_thigh),
             "shank_length": float(geo.l_shank),
@@ -433,5 +996,110 @@ def _truth(geo: _Geometry, mot: _Motion, seed, rate, duration, snr, motion) -> d
             "sensor_to_segment_rotation": {n: [vec(row) for row in geo.rot[n]] for n in SENSORS},
             "hip_velocity": [float(v) for v in mot.hip_velocity],
             "gravity": vec(GRAVITY),
+            "motion": {k: float(v) for k, v in mot.info.items()},
         },
     }
+
+
+def _heel_strikes(mot: _Motion, t: np.ndarray) -> list[float]:
+    """True times (s) in the recording at which the stride phase passes 2 pi k while
+    walking (walking share > 0.5)."""
+    if mot.stride_phase is None or len(t) < 2:
+        return []
+    # Dense grid, then Newton steps on psi(t) = 2 pi k (psi is smooth and increasing).
+    grid = np.linspace(t[0], t[-1], max(4 * len(t), 1000))
+    cycles = np.floor(mot.stride_phase(grid) / (2.0 * np.pi))
+    out = []
+    for i in np.nonzero(np.diff(cycles) > 0)[0]:
+        target, x = 2.0 * np.pi * cycles[i + 1], grid[i]
+        for _ in range(5):
+            h = 1e-6
+            slope = (mot.stride_phase(x + h) - mot.stride_phase(x - h)) / (2 * h)
+            x = x - (mot.stride_phase(x) - target) / slope
+        if mot.walking_share is None or mot.walking_share(x) > 0.5:
+            out.append(round(float(x), 9))
+    return out
+
+
+def _realism_truth(mot, t, clock, bias, noise_std, tissue, knee_angle, rot_deg, trans_mm):
+    """True values of the realism options, and the knee flexion over time."""
+    d = {n: float(clock.get(n, 0.0)) for n in SENSORS}
+    out = {
+        "clock_offset_s": d,
+        "time_offset_s": {"knee": d["shank"] - d["thigh"], "ankle": d["foot"] - d["shank"]},
+        "gyr_bias": {n: _vec(bias.get(n, np.zeros(3))) for n in SENSORS},
+        "noise_std": {n: {k: float(v) for k, v in noise_std[n].items()} for n in SENSORS},
+        "soft_tissue": {
+            "rotation_deg": rot_deg,
+            "translation_mm": trans_mm,
+            "sensors": {
+                n: {
+                    "rotation_peak_deg": float(np.degrees(np.linalg.norm(x["dtheta"], axis=1)
+                                                          .max())),
+                    "rotation_rms_deg": float(np.degrees(np.sqrt(np.mean(np.sum(
+                        x["dtheta"] ** 2, axis=1))))),
+                    "translation_peak_mm": float(1e3 * np.linalg.norm(x["dr"], axis=1).max()),
+                    "translation_rms_mm": float(1e3 * np.sqrt(np.mean(np.sum(x["dr"] ** 2,
+                                                                             axis=1)))),
+                }
+                for n, x in tissue.items()
+            },
+        },
+        "heel_strikes_s": _heel_strikes(mot, t),
+        # Knee flexion at the true sample times n / rate, deg (1e-6 deg is plenty).
+        "knee_flexion_deg": [round(float(x), 6) for x in np.degrees(-knee_angle)],
+    }
+    return out
+
+
+# ----------------------------------------------------------------------------- command line
+
+
+def parse_clock_offsets(items: list[str] | None, option: str = "--clock-offset") -> dict:
+    """``["shank=0.02", ...]`` -> ``{"shank": 0.02}`` (seconds); one-line errors."""
+    out = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in SENSORS:
+            raise InputError(f"{option} '{item}': use SENSOR=SECONDS with SENSOR one of "
+                             f"{', '.join(SENSORS)}, e.g. shank=0.02")
+        if name in out:
+            raise InputError(f"{option}: {name} given twice")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise InputError(f"{option} '{item}': '{value}' is not a number of seconds") from None
+    return out
+
+
+def parse_gyr_bias(items: list[str] | None, option: str = "--gyr-bias"):
+    """``["0.02"]`` -> 0.02 (every sensor, random directions); ``["shank=0.02",
+    "foot=0.01,0,0"]`` -> ``{"shank": 0.02, "foot": (0.01, 0.0, 0.0)}`` (rad/s)."""
+    if not items:
+        return None
+    if len(items) == 1 and "=" not in items[0]:
+        try:
+            return float(items[0])
+        except ValueError:
+            raise InputError(f"{option} '{items[0]}': use RAD/S, SENSOR=RAD/S or "
+                             "SENSOR=X,Y,Z (rad/s)") from None
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in SENSORS:
+            raise InputError(f"{option} '{item}': use SENSOR=RAD/S or SENSOR=X,Y,Z with "
+                             f"SENSOR one of {', '.join(SENSORS)} (a bare magnitude only alone)")
+        if name in out:
+            raise InputError(f"{option}: {name} given twice")
+        try:
+            parts = [float(x) for x in value.split(",")]
+        except ValueError:
+            raise InputError(f"{option} '{item}': '{value}' is not a number or X,Y,Z in "
+                             "rad/s") from None
+        if len(parts) not in (1, 3):
+            raise InputError(f"{option} '{item}': give one magnitude or three components "
+                             "X,Y,Z (rad/s)")
+        out[name] = parts[0] if len(parts) == 1 else tuple(parts)
+    return out

@@ -8,7 +8,7 @@ import pytest
 from imucal.errors import InputError
 from imucal.simulate import MOTIONS, _simulate_with_internals, simulate
 
-MOVING = ("circling", "walking", "rigid-knee")
+MOVING = ("circling", "walking", "rigid-knee", "gait", "protocol")
 
 
 def d5(x: np.ndarray, dt: float) -> np.ndarray:
@@ -51,7 +51,19 @@ def test_recording_and_truth_format():
         "duration": 4.0,
         "snr": 100.0,
         "motion": "circling",
+        "gyr_noise": None,
+        "acc_noise": None,
+        "soft_tissue_deg": 0.0,
+        "soft_tissue_mm": 0.0,
+        "clock_offset": {},
+        "gyr_bias": None,
     }
+    # The realism truth is there, and neutral, when no realism option is asked for.
+    assert truth["clock_offset_s"] == {"thigh": 0.0, "shank": 0.0, "foot": 0.0}
+    assert truth["time_offset_s"] == {"knee": 0.0, "ankle": 0.0}
+    assert all(v == [0.0, 0.0, 0.0] for v in truth["gyr_bias"].values())
+    assert truth["soft_tissue"]["sensors"] == {}
+    assert len(truth["knee_flexion_deg"]) == 200
     for key in ("j1", "j2"):
         assert np.linalg.norm(truth[key]) == pytest.approx(1.0, abs=1e-12)
     # Offsets of realistic size: 4-40 cm from the joint centre.
