@@ -29,6 +29,7 @@ import difflib
 import io
 import re
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -111,8 +112,10 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
             raise InputError(f"{source}: invalid file name ({err})") from None
         if not exists:
             raise InputError(f"{source}: no such file")
-        if path.is_dir():
-            raise InputError(f"{source}: is a folder, not a file")
+        vendor = _vendor(path, source)
+        if vendor is not None:
+            return _from_vendor(vendor, path, source, rate=rate, gyr_units=gyr_units,
+                                acc_units=acc_units)
         suffix = path.suffix.lower()
         head = _read_bytes(path, source, limit=len(HDF5_SIGNATURE))
         if not head:
@@ -143,6 +146,74 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
         notes=warnings,
     )
     return recording
+
+
+# ----------------------------------------------------------------------------- vendor files
+
+
+def _vendor(path: Path, source: str):
+    """The vendor format module that reads ``path``, None for imucal's own layouts; a
+    folder no format claims raises, naming the formats and what the folder holds."""
+    from . import formats
+
+    module = formats.detect(path)
+    if module is not None or not path.is_dir():
+        return module
+    try:
+        found = sorted(p.name + ("/" if p.is_dir() else "") for p in path.iterdir())
+    except OSError as err:
+        raise InputError(f"{source}: cannot read folder ({err.strerror or err})") from None
+    raise InputError(
+        f"{source}: is a folder, and not an export imucal reads ({formats.describe_formats()}); "
+        f"it holds: {_short_list(found, limit=8) if found else 'nothing'}"
+    )
+
+
+def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units) -> Recording:
+    """Read a vendor export, put its devices on one time grid, check it as any recording."""
+    from .clock import align
+
+    raw = _guarded(lambda p, src: module.read(p, source=src), path, source,
+                   what=module.NAME)
+    for kind, unit in (("gyr", gyr_units), ("acc", acc_units)):
+        if unit is not None:
+            check_units(kind, unit, f"{source}: --{kind}-units ({kind}_units=)")
+    for s in raw.sensors:
+        if gyr_units is not None:
+            s.gyr_units = gyr_units
+        if acc_units is not None:
+            s.acc_units = acc_units
+        if s.acc_units == "mg":  # milli-g: not one of imucal's units, converted here
+            s.acc, s.acc_units = s.acc * 1e-3, "g"
+            s.notes.append("acc read in mg and converted")
+        finite = np.isfinite(s.gyr).all(axis=1) & np.isfinite(s.acc).all(axis=1)
+        if finite.sum() > 1 and np.array_equal(s.gyr[finite], s.acc[finite]):
+            raise InputError(
+                f"{source}: sensor '{s.name}': the gyroscope columns repeat the "
+                "accelerometer columns (the export mapped the same data twice)"
+            )
+    names = [s.name for s in raw.sensors]
+    dupes = sorted({n for n in names if names.count(n) > 1})
+    if dupes:
+        raise InputError(f"{source}: two sensors are called {dupes[0]!r}; rename one")
+    aligned = align(raw.sensors, source, rate=rate)
+    units_read = {s.name: {"gyr": s.gyr_units, "acc": s.acc_units} for s in raw.sensors}
+    notes = list(raw.notes) + [n for s in raw.sensors for n in s.notes] + aligned.notes
+    recording = make_recording(
+        {n: {"gyr": g, "acc": a} for n, (g, a) in aligned.data.items()},
+        time=aligned.time, units=units_read, source=source, notes=notes,
+    )
+    provenance = {
+        "source_format": raw.format,
+        "source": source,
+        "files": sorted({f for s in raw.sensors for f in s.files}),
+        "serials": {s.name: s.serial for s in raw.sensors},
+        "original_rates_hz": {n: i["rate_hz"] for n, i in aligned.info.items()},
+        "time_origin": aligned.origin,
+        "time_from": {n: i["time_from"] for n, i in aligned.info.items()},
+        "dropped_samples": {n: i["dropped"] for n, i in aligned.info.items()},
+    }
+    return replace(recording, sensor_info=aligned.info, provenance=provenance)
 
 
 # ---------------------------------------------------------------------------------- reading

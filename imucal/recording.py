@@ -14,6 +14,7 @@ which is what every estimator may assume.
 from __future__ import annotations
 
 import difflib
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -109,6 +110,14 @@ class Recording:
     window : tuple[int, int] | None
         For a recording returned by :meth:`select`: the samples ``[i0, i1)`` that form
         the window it checked; samples outside it are finite context (see ``context``).
+    sensor_info : Mapping[str, Mapping]
+        Per sensor, what the file said about it (vendor files, see ``imucal.formats``):
+        ``serial``, ``label``, ``rate_hz`` (from its time stamps), ``start_s``,
+        ``duration_s``, ``samples``, ``units_read``, ``dropped`` (samples missing from
+        its counter or time stamps), ``files``. Empty for imucal's own layouts.
+    provenance : Mapping[str, object]
+        Where the data came from: ``format``, ``files``, ``serials``, original rates and
+        how the clocks were aligned. Empty for imucal's own layouts.
     """
 
     rate: float
@@ -120,6 +129,8 @@ class Recording:
     gaps: tuple[Gap, ...] = ()
     notes: tuple[str, ...] = ()
     window: tuple[int, int] | None = None
+    sensor_info: Mapping[str, Mapping] = field(default_factory=dict)
+    provenance: Mapping[str, object] = field(default_factory=dict)
 
     @property
     def n_samples(self) -> int:
@@ -138,6 +149,7 @@ class Recording:
         repair, or non-finite samples at the recording's start or end, which only
         :meth:`select` can drop (from all the sensors an estimate uses alike).
         """
+        name = self.resolve(name)
         data = self._lookup(name)
         if not any(g.sensor == name for g in self.gaps):
             return data
@@ -191,7 +203,7 @@ class Recording:
         """
         from .preprocess import window_slice
 
-        names = list(dict.fromkeys(names))
+        names = list(dict.fromkeys(self.resolve(name) for name in names))
         data = {name: self._lookup(name) for name in names}
         n, rate, source = self.n_samples, self.rate, self.source
         t0 = float(self.time[0])
@@ -273,18 +285,18 @@ class Recording:
             units=units,
             warnings=notes + _unit_warnings(checked, units) + _stuck_warnings(checked),
             notes=self.notes, window=(a0 - c0, a1 - c0),
+            sensor_info={n: self.sensor_info[n] for n in names if n in self.sensor_info},
+            provenance=self.provenance,
         )
 
+    def resolve(self, name: str) -> str:
+        """The name of the sensor that ``name`` addresses (see :func:`match_sensor`)."""
+        if name in self.sensors:
+            return name
+        return match_sensor(name, list(self.sensors), self.sensor_info, self.source)
+
     def _lookup(self, name: str) -> SensorData:
-        try:
-            return self.sensors[name]
-        except KeyError:
-            close = difflib.get_close_matches(name, list(self.sensors), n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise InputError(
-                f"{self.source}: no sensor '{name}'{hint}; "
-                f"sensors in this file: {', '.join(self.sensors) or 'none'}"
-            ) from None
+        return self.sensors[self.resolve(name)]
 
     def _span(self, i0: int, i1: int) -> str:
         if i0 == 0 and i1 == self.n_samples:
@@ -317,6 +329,78 @@ class Recording:
                 )))
         if offences:
             raise InputError(min(offences, key=lambda o: o[:2])[2])
+
+
+#: Segment synonyms, so that ``--sensors thigh,shank`` finds sensors labelled "Upper Leg"
+#: or "tibia". Keys and values are normalised (:func:`_norm`).
+SEGMENT_SYNONYMS = {
+    "thigh": "thigh", "upperleg": "thigh", "femur": "thigh",
+    "shank": "shank", "lowerleg": "shank", "tibia": "shank", "shin": "shank",
+    "foot": "foot", "calcaneus": "foot",
+}
+_SIDES = {"left": "left", "l": "left", "right": "right", "r": "right"}
+
+
+def _norm(text: str) -> str:
+    """Lower case without spaces, underscores, hyphens or dots: "Left Upper_Leg" ->
+    "leftupperleg"."""
+    return "".join(ch for ch in str(text).lower() if ch not in " _-.\t")
+
+
+def _segment(text: str) -> tuple[str | None, str | None]:
+    """(side, segment) a sensor name denotes, e.g. ("left", "thigh") for "L Upper Leg";
+    (None, None) when it names no known segment."""
+    words = [w for w in re.split(r"[\s_\-.]+", str(text).lower()) if w]
+    side = next((_SIDES[w] for w in words if w in _SIDES), None)
+    rest = "".join(w for w in words if w not in _SIDES)
+    for prefix in ("left", "right"):  # "leftthigh" written as one word
+        if side is None and rest.startswith(prefix) and rest[len(prefix):] in SEGMENT_SYNONYMS:
+            side, rest = prefix, rest[len(prefix):]
+    return side, SEGMENT_SYNONYMS.get(rest)
+
+
+def match_sensor(name: str, names: list[str], info: Mapping[str, Mapping] | None = None,
+                 source: str = "<memory>") -> str:
+    """The one sensor in ``names`` that ``name`` addresses.
+
+    Tried in turn: the exact name; the name or the serial (``info[n]["serial"]``)
+    ignoring case, spaces, underscores and hyphens; the body segment (thigh = upper leg =
+    femur, shank = lower leg = tibia, foot = calcaneus) with the side when one is given.
+    Raises an :class:`InputError` with the sensors there are and a "did you mean" hint
+    when none or several match.
+    """
+    info = info or {}
+    if name in names:
+        return name
+    key = _norm(name)
+    for how in ("name", "serial"):
+        hits = [n for n in names if key and _norm(n if how == "name" else
+                                                info.get(n, {}).get("serial") or "") == key]
+        if len(hits) == 1:
+            return hits[0]
+    side, segment = _segment(name)
+    if segment is not None:
+        hits = [n for n in names if _segment(n)[1] == segment
+                and (side is None or _segment(n)[0] in (side, None))]
+        if side is not None and len(hits) > 1:
+            hits = [n for n in hits if _segment(n)[0] == side]
+        if len(hits) == 1:
+            return hits[0]
+        if len(hits) > 1:
+            raise InputError(
+                f"{source}: sensor '{name}' is ambiguous: {', '.join(map(repr, hits))} are all "
+                f"a {segment}; name one of them (or give the side, e.g. left_{segment})"
+            )
+    keys = {_norm(n): n for n in names}
+    keys.update({_norm(v["serial"]): n for n, v in info.items() if v.get("serial")})
+    close = difflib.get_close_matches(key, list(keys), n=1, cutoff=0.6)
+    hint = f" (did you mean '{keys[close[0]]}'?)" if close else ""
+    serials = [f"{n} ({info[n]['serial']})" if info.get(n, {}).get("serial")
+               and info[n]["serial"] != n else n for n in names]
+    raise InputError(
+        f"{source}: no sensor '{name}'{hint}; sensors in this file: "
+        f"{', '.join(serials) or 'none'}"
+    )
 
 
 def make_recording(

@@ -1,0 +1,288 @@
+"""Device clocks: put sensors that started at different times, run at slightly different
+rates or dropped packets on one common time grid over the span they share.
+
+For every device (:class:`imucal.formats.RawSensor`):
+
+1. **Sample index.** Each sample gets its index ``k`` in the device's own sample
+   sequence. With time stamps (all formats but old Xsens exports) ``k`` is found from the
+   stamps: the local interval ``dt`` is rounded to whole sample periods (a dropped packet
+   is a step of two or more periods), then refined against a straight-line fit of the
+   stamps, so jitter and quantised stamps (Shimmer's repeating milliseconds) do not count
+   as drops as long as they stay below half a sample period. Without usable stamps ``k``
+   is the unwrapped packet counter. Missing ``k`` are the dropped samples.
+2. **Device time.** The stamps are fitted by a straight line ``t = a + T k`` (least
+   squares): ``T`` is the device's true sample period on the shared clock (its rate is
+   ``1/T``, checked against what the header claims), and the jitter of individual stamps
+   is removed. A stamp further than one period from the line (a clock reset) stops
+   loading. With a counter only, ``T`` is one over the header's rate (or ``--rate``).
+3. **Common grid.** The first sensor is the reference: the grid is its sample times,
+   over the span every device covers (from the latest first sample to the earliest last
+   sample). Other devices are **linearly interpolated** onto the grid between their two
+   neighbouring samples. When a device runs at the same rate and phase as the reference
+   (the usual case of synchronised devices), every grid point falls on one of its
+   samples and its data are copied exactly, not interpolated.
+4. **Dropped packets** leave NaN on the grid wherever a grid point's neighbours include a
+   missing sample. :meth:`imucal.recording.Recording.select` then bridges the short gaps
+   by linear interpolation and refuses the long ones (the existing gap rules,
+   ``MAX_INTERPOLATED_GAP_S`` and ``MAX_INTERPOLATED_FRACTION``): a dropped packet is
+   treated exactly like a NaN sample in imucal's own files.
+
+The recording's time axis starts at 0 s at the first grid point; ``Aligned.origin`` keeps
+the shared clock's value there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+from .formats import RawSensor
+from .recording import MAX_RATE_HZ, MIN_RATE_HZ
+
+#: A header's claimed rate that differs from the time stamps' by more than this share
+#: is refused (one of them is wrong); more than RATE_WARN gives a warning.
+RATE_REFUSE = 0.10
+RATE_WARN = 0.01
+#: Grid points this close to a device sample (in sample periods) are taken as that
+#: sample: float rounding of the time stamps must not turn a copy into an interpolation.
+SNAP = 1e-6
+
+
+@dataclass
+class Aligned:
+    """Devices on one grid: ``time`` (N,) s from 0, ``data[name] = (gyr, acc)`` (N, 3)
+    each in the file's units with NaN where samples were dropped, ``info[name]`` what
+    ``Recording.sensor_info`` holds, ``notes`` for the warnings, ``origin`` the shared
+    clock's time (s) at the first grid point."""
+
+    time: np.ndarray
+    rate: float
+    data: dict
+    info: dict
+    notes: list
+    origin: float
+
+
+@dataclass
+class _Clock:
+    k: np.ndarray        # sample index of each row (int)
+    a: float             # device time of k = 0, s
+    period: float        # s per sample
+    dropped: int
+    source_of_time: str  # "time stamps", "packet counter", "sample rate"
+
+
+def unwrap(values: np.ndarray, wrap: float | None) -> np.ndarray:
+    """Undo the wrap-around of a counter or time stamp that restarts at 0 after ``wrap``."""
+    values = np.asarray(values, dtype=np.float64)
+    if wrap is None or values.size < 2:
+        return values
+    steps = np.diff(values)
+    jumps = np.concatenate([[0.0], np.cumsum(np.where(steps < -wrap / 2, wrap, 0.0))])
+    return values + jumps
+
+
+def _from_counter(counter: np.ndarray, what: str) -> np.ndarray:
+    k = counter - counter[0]
+    steps = np.diff(k)
+    if (steps <= 0).any():
+        i = int(np.flatnonzero(steps <= 0)[0])
+        raise InputError(
+            f"{what}: packet counter goes from {counter[i]:.0f} to {counter[i + 1]:.0f} at row "
+            f"{i + 2} of the data (repeated or out of order); remove the duplicated rows"
+        )
+    return np.rint(k).astype(np.int64)
+
+
+def _from_stamps(t: np.ndarray, what: str) -> np.ndarray:
+    """Sample indices from time stamps that may jitter, repeat, or skip dropped samples."""
+    n = t.size
+    m = min(32, n - 1)
+    # Period from spans of m samples: quantised stamps average out over the span; spans
+    # holding a dropped sample are longer by a whole period and left out of the mean.
+    spans = (t[m:] - t[:-m]) / m
+    middle = float(np.median(spans))
+    if not middle > 0:
+        raise InputError(f"{what}: time stamps do not increase")
+    period = float(np.mean(spans[spans < middle * (1 + 0.5 / m)]))
+    dt = np.diff(t)
+    if (dt < -0.5 * period).any():
+        i = int(np.flatnonzero(dt < -0.5 * period)[0])
+        raise InputError(
+            f"{what}: time stamps go backwards at row {i + 2} of the data ({t[i]:.6f} -> "
+            f"{t[i + 1]:.6f} s after the first); rows out of order or a clock reset"
+        )
+    steps = np.maximum(1, np.rint(dt / period)).astype(np.int64)
+    # A long interval followed by a short one is jitter, not a drop: two intervals
+    # together cover as many periods as their joint span says.
+    pair = np.rint((dt[:-1] + dt[1:]) / period).astype(np.int64)
+    excess = steps[:-1] + steps[1:] - np.maximum(pair, 2)
+    fix = (steps[:-1] >= 2) & (excess > 0)
+    steps[:-1][fix] = np.maximum(1, steps[:-1][fix] - excess[fix])
+    k = np.concatenate([[0], np.cumsum(steps)])
+    worst = np.inf
+    for _ in range(3):  # refine against the straight line through all stamps
+        slope, intercept = np.polyfit(k, t, 1)
+        now = float(np.max(np.abs(t - intercept - slope * k)))
+        if now >= worst:
+            break
+        best, worst = k, now
+        est = np.rint((t - intercept) / slope).astype(np.int64)
+        k = np.maximum.accumulate(est - np.arange(n)) + np.arange(n)  # strictly increasing
+    return best - best[0]
+
+
+def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
+    n = s.gyr.shape[0]
+    t = None if s.time is None else unwrap(s.time, s.time_wrap)
+    if t is not None and not np.isfinite(t).all():
+        if s.counter is None:
+            i = int(np.flatnonzero(~np.isfinite(t))[0])
+            raise InputError(f"{what}: time stamp missing or not a number at row {i + 2}")
+        t = None  # fall back to the counter
+    if t is not None and n >= 3:
+        # Relative to the first stamp: a large clock value would cost the fit precision.
+        t0, t = t[0], t - t[0]
+        k = _from_stamps(t, what)
+        period, a = np.polyfit(k, t, 1)
+        residual = np.abs(t - (a + period * k))
+        worst = float(np.max(residual))
+        if worst > period:
+            i = int(np.argmax(residual))
+            raise InputError(
+                f"{what}: time stamp at row {i + 2} of the data lies {worst:g} s off the "
+                "device's regular clock (a clock reset or a pause in logging); cut the file there"
+            )
+        a += t0
+        if rate is not None:
+            period = 1.0 / rate  # --rate: the user knows better than the stamps
+        origin = "time stamps"
+    else:
+        if s.counter is not None:
+            c = unwrap(s.counter, s.counter_wrap)
+            if not np.isfinite(c).all():
+                i = int(np.flatnonzero(~np.isfinite(c))[0])
+                raise InputError(f"{what}: packet counter missing or not a number at row {i + 2}")
+            k = _from_counter(c, what)
+            origin = "packet counter"
+        else:
+            c = np.zeros(1)
+            k = np.arange(n, dtype=np.int64)
+            origin = "sample rate"
+        use = rate or s.claimed_rate
+        if use is None:
+            raise InputError(
+                f"{what}: no time stamps and no sample rate in the file; give --rate "
+                "(the rate the device recorded at, Hz)"
+            )
+        period = 1.0 / float(use)
+        a = float(c[0]) * period  # the counters of one export are shared: align on them
+    return _Clock(k=k, a=float(a), period=float(period), dropped=int(k[-1] + 1 - n),
+                  source_of_time=origin)
+
+
+def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> Aligned:
+    """Put ``sensors`` on the first one's sample grid over the span they share.
+
+    ``rate`` (Hz, optional) replaces the devices' own rate (for files without time
+    stamps or header rate). Raises :class:`InputError` for unusable clocks.
+    """
+    clocks, notes = {}, []
+    for s in sensors:
+        what = f"{source}: sensor '{s.name}'"
+        if s.gyr.shape[0] < 2:
+            raise InputError(f"{what} has {s.gyr.shape[0]} sample(s); a recording needs more")
+        clk = _clock(s, what, rate)
+        dev_rate = 1.0 / clk.period
+        if not MIN_RATE_HZ <= dev_rate <= MAX_RATE_HZ:
+            raise InputError(
+                f"{what}: sample rate {dev_rate:g} Hz from its {clk.source_of_time} is outside "
+                f"{MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz; check the time stamps' units"
+            )
+        if s.claimed_rate and clk.source_of_time == "time stamps" and rate is None:
+            off = abs(dev_rate - s.claimed_rate) / s.claimed_rate
+            if off > RATE_REFUSE:
+                raise InputError(
+                    f"{what}: the header says {s.claimed_rate:g} Hz but the time stamps say "
+                    f"{dev_rate:.4g} Hz; one of them is wrong (give --rate to decide)"
+                )
+            if off > RATE_WARN:
+                notes.append(f"sensor '{s.name}': the header says {s.claimed_rate:g} Hz, the "
+                             f"time stamps {dev_rate:.4g} Hz; the time stamps are used")
+        clocks[s.name] = clk
+
+    ref = clocks[sensors[0].name]
+    firsts = {n: c.a for n, c in clocks.items()}
+    lasts = {n: c.a + c.period * c.k[-1] for n, c in clocks.items()}
+    start, end = max(firsts.values()), min(lasts.values())
+    if end - start < 2 * ref.period:
+        late = max(firsts, key=firsts.get)
+        early = min(lasts, key=lasts.get)
+        raise InputError(
+            f"{source}: the sensors do not record at the same time: '{late}' starts at "
+            f"{firsts[late] - min(firsts.values()):g} s, after '{early}' stopped at "
+            f"{lasts[early] - min(firsts.values()):g} s (on the devices' shared clock)"
+        )
+    j0 = int(np.ceil((start - ref.a) / ref.period - SNAP))
+    j1 = int(np.floor((end - ref.a) / ref.period + SNAP))
+    grid = ref.a + ref.period * np.arange(j0, j1 + 1)
+
+    data, info = {}, {}
+    for s in sensors:
+        clk = clocks[s.name]
+        full = int(clk.k[-1]) + 1
+        pos = (grid - clk.a) / clk.period
+        near = np.rint(pos)
+        pos = np.clip(np.where(np.abs(pos - near) < SNAP, near, pos), 0, full - 1)
+        interpolated = bool(np.any(pos != np.floor(pos)))
+        i = np.minimum(np.floor(pos).astype(np.int64), full - 1)
+        nxt = np.minimum(i + 1, full - 1)
+        frac = (pos - i)[:, None]
+        arrays = []
+        for arr in (s.gyr, s.acc):
+            filled = np.full((full, 3), np.nan)
+            filled[clk.k] = arr
+            # A grid point on a sample is that sample (0 * NaN of a dropped neighbour
+            # would otherwise spoil it); between samples, the straight line.
+            with np.errstate(invalid="ignore"):
+                out = np.where(frac == 0, filled[i], (1 - frac) * filled[i] + frac * filled[nxt])
+            arrays.append(out)
+        data[s.name] = tuple(arrays)
+        times = clk.a + clk.period * clk.k
+        cut0 = int(np.sum(times < grid[0] - SNAP * clk.period))
+        cut1 = int(np.sum(times > grid[-1] + SNAP * clk.period))
+        info[s.name] = {
+            "label": s.name,
+            "serial": s.serial,
+            "rate_hz": 1.0 / clk.period,
+            "claimed_rate_hz": s.claimed_rate,
+            "time_from": clk.source_of_time,
+            "start_s": firsts[s.name] - grid[0],
+            "duration_s": clk.period * full,
+            "samples": int(s.gyr.shape[0]),
+            "units_read": {"gyr": s.gyr_units, "acc": s.acc_units},
+            "dropped": clk.dropped,
+            "cut": [cut0, cut1],
+            "interpolated": interpolated,
+            "files": list(s.files),
+        }
+        if clk.dropped:
+            notes.append(
+                f"sensor '{s.name}': {clk.dropped} sample(s) missing from its "
+                f"{clk.source_of_time} (dropped packets), left as gaps"
+            )
+        if cut0 or cut1:
+            notes.append(
+                f"sensor '{s.name}': {cut0} sample(s) before and {cut1} after the span all "
+                "sensors share are not used"
+            )
+        if interpolated:
+            notes.append(
+                f"sensor '{s.name}' ({1 / clk.period:.6g} Hz) does not sample at the grid's "
+                f"times ({1 / ref.period:.6g} Hz, '{sensors[0].name}'): linearly interpolated "
+                "onto it"
+            )
+    return Aligned(time=grid - grid[0], rate=1.0 / ref.period, data=data, info=info,
+                   notes=notes, origin=float(grid[0]))

@@ -1,0 +1,192 @@
+"""Vendor exports: one module per format, each with ``sniff(path) -> bool`` and
+``read(path, rate=None) -> RawRecording``.
+
+A recording is a file or a folder (an export of one file or folder per sensor). Formats
+are recognised by their content, not only the name; :func:`detect` asks each module in
+:data:`FORMATS` in turn. A reader only parses: it returns every sensor's raw samples in
+the units the file declares, with the device's own time stamps and/or packet counter.
+:mod:`imucal.clock` then puts the devices on one common time grid, and
+:func:`imucal.recording.make_recording` checks and converts to SI units.
+
+The layouts, with where each detail came from, are in ``docs/formats.md``.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["RawSensor", "RawRecording", "FORMATS", "detect", "describe_formats"]
+
+
+@dataclass
+class RawSensor:
+    """One device's samples as the file holds them.
+
+    ``gyr``/``acc`` are (N, 3) in ``gyr_units``/``acc_units`` (any of ``rad/s``,
+    ``deg/s``; ``m/s^2``, ``g``, ``mg``). ``time`` is the device's time stamp per sample,
+    s, on a clock the devices of one export share (or None); ``counter`` its packet
+    counter (integers that wrap at ``counter_wrap``) or None. ``claimed_rate`` is what
+    the header says, Hz.
+    """
+
+    name: str
+    gyr: np.ndarray
+    acc: np.ndarray
+    gyr_units: str
+    acc_units: str
+    serial: str | None = None
+    time: np.ndarray | None = None
+    time_wrap: float | None = None
+    counter: np.ndarray | None = None
+    counter_wrap: int | None = None
+    claimed_rate: float | None = None
+    files: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class RawRecording:
+    """What a format reader found: its name, the sensors and notes about the files."""
+
+    format: str
+    sensors: list[RawSensor]
+    notes: list[str] = field(default_factory=list)
+
+
+def _modules():
+    from . import apdm, bids, dot, shimmer, ximu3, xsens
+
+    # Order matters only where two could claim a file: BIDS and x-IMU3 are recognised by
+    # their file names, the others by content.
+    return [bids, ximu3, apdm, dot, xsens, shimmer]
+
+
+FORMATS = (
+    "imucal HDF5/CSV", "Xsens MT Manager (.txt/.csv)", "Movella DOT (.csv)",
+    "APDM Opal (.h5, v5 and v3/v4)", "BIDS-motion (*_motion.tsv)", "x-IMU3 (logged session)",
+    "Shimmer Consensys (.csv)",
+)
+
+
+def describe_formats() -> str:
+    return ", ".join(FORMATS)
+
+
+def detect(path: Path):
+    """The format module that reads ``path`` (file or folder), or None."""
+    for module in _modules():
+        try:
+            if module.sniff(path):
+                return module
+        except (OSError, UnicodeError, ValueError):
+            continue
+    return None
+
+
+# ------------------------------------------------------------------------- text helpers
+
+
+def read_text(path: Path, source: str | None = None) -> str:
+    """A text file's content: UTF-8 (with or without a byte-order mark), else Latin-1."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError as err:
+        raise InputError(f"{source or path}: cannot read file ({err.strerror or err})") from None
+    if b"\x00" in data[:4096]:
+        raise InputError(f"{source or path}: not a text file (it contains binary data)")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
+def head_text(path: Path, limit: int = 8192) -> str:
+    """The first ``limit`` bytes of a file as text (for sniffing); '' if unreadable."""
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(limit)
+    except OSError:
+        return ""
+    if b"\x00" in data:
+        return ""
+    return data.decode("utf-8-sig", errors="replace")
+
+
+def sep_line(line: str) -> str | None:
+    """The separator an Excel-style first line declares (``sep=,`` or ``"sep=<TAB>"``)."""
+    text = line.strip().strip('"').strip("'")
+    if text.lower().startswith("sep=") and len(line.strip().strip('"')) >= 4:
+        raw = line.strip().strip('"')[4:5]
+        return raw or "\t"
+    return None
+
+
+def parse_table(lines: list[str], sep: str, first_row: int, source: str,
+                names: list[str]) -> tuple[np.ndarray, list[str]]:
+    """Numbers of the data ``lines`` as a float (rows, len(names)) array.
+
+    ``first_row`` is the line number of ``lines[0]`` in the file (1-based), for messages.
+    Empty cells and ``NaN`` read as NaN. A last row with fewer fields than the header
+    (a truncated file) is dropped with a note; a cell holding text stops loading with its
+    row and column.
+    """
+    import pandas as pd
+
+    notes = []
+    while lines and not lines[-1].strip():
+        lines = lines[:-1]
+    if not lines:
+        raise InputError(f"{source}: has a header but no data rows")
+    width = len(names)
+    last = lines[-1].rstrip("\r\n").split(sep)
+    if len(last) < width and len(lines) > 1:
+        lines = lines[:-1]
+        notes.append(f"the last row (row {first_row + len(lines)}) has {len(last)} of {width} "
+                     "fields: the file was cut off; that row is dropped")
+    try:
+        table = pd.read_csv(io.StringIO("\n".join(lines)), sep=sep, header=None, dtype=str,
+                            keep_default_na=False, skip_blank_lines=False, engine="c",
+                            names=range(max(width, len(last))), index_col=False)
+    except (pd.errors.ParserError, ValueError) as err:
+        raise InputError(f"{source}: not a valid table: {' '.join(str(err).split())}") from None
+    table = table.iloc[:, :width]
+    text = table.apply(lambda c: c.str.strip())
+    lowered = text.apply(lambda c: c.str.lower())
+    values = text.apply(pd.to_numeric, errors="coerce")
+    blank = (text == "") | lowered.isin(["nan", "-nan", "+nan", "n/a", "na"])
+    bad = values.isna() & ~blank & text.notna()
+    if bad.to_numpy().any():
+        i, j = np.argwhere(bad.to_numpy())[0]
+        cell = str(text.iat[i, j])[:30]
+        raise InputError(
+            f"{source}: row {first_row + i}, column '{names[j]}': {cell!r} is not a number"
+        )
+    return values.to_numpy(dtype=np.float64), notes
+
+
+UNIT_RE = re.compile(r"\(([^()]*)\)\s*$")
+
+
+def normalise_units(kind: str, text: str | None, default: str) -> str:
+    """A vendor's spelling of a unit as imucal's (``deg/s``, ``rad/s``, ``m/s^2``, ``g``,
+    ``mg``); unknown spellings are returned as they are (make_recording then names them)."""
+    if text is None or not str(text).strip():
+        return default
+    t = str(text).strip().replace(" ", "").replace("²", "^2").replace("°", "deg")
+    low = t.lower()
+    table = {
+        "gyr": {"deg/s": "deg/s", "degrees/s": "deg/s", "dps": "deg/s", "deg/sec": "deg/s",
+                "degs^-1": "deg/s", "rad/s": "rad/s", "rad/sec": "rad/s", "rads^-1": "rad/s"},
+        "acc": {"m/s^2": "m/s^2", "m/(s^2)": "m/s^2", "m/s2": "m/s^2", "ms^-2": "m/s^2",
+                "m/(s2)": "m/s^2", "g": "g", "mg": "mg"},
+    }[kind]
+    if t == "mG" or low == "mg":
+        return "mg"
+    return table.get(low, t)

@@ -1,0 +1,137 @@
+"""APDM Opal / Mobility Lab HDF5 files (all sensors of a session in one file).
+
+Format version 5 (root attribute ``FileFormatVersion`` = 5)::
+
+    /Sensors/<serial>/Accelerometer   (N, 3) m/s^2
+    /Sensors/<serial>/Gyroscope       (N, 3) rad/s
+    /Sensors/<serial>/Time            (N,) microseconds since 1970-01-01 UTC
+    /Sensors/<serial>/Configuration   attributes "Label 0" (the sensor's label), "Sample Rate"
+
+Versions 3 and 4: root attributes ``MonitorLabelList`` and ``CaseIdList`` (same order);
+``/<case id>/Time`` (microseconds), ``/<case id>/Calibrated/Accelerometers`` and
+``Gyroscopes`` (N, 3), the case group's attribute ``SampleRate``.
+
+A dataset attribute ``Units`` is honoured when present. The ``Time`` stamps of one file
+share the access point's clock. Sensors are named by their label; the serial (case ID)
+is the alternative. A sensor whose configuration or data cannot be read is skipped with
+a warning.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from ..errors import InputError
+from . import RawRecording, RawSensor, normalise_units
+
+NAME = "APDM Opal HDF5"
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+US_PER_S = 1e6
+
+
+def sniff(path: Path) -> bool:
+    if not path.is_file():
+        return False
+    with open(path, "rb") as fh:
+        if fh.read(8) != HDF5_SIGNATURE:
+            return False
+    try:
+        with h5py.File(path, "r") as h5:
+            return ("Sensors" in h5 and isinstance(h5["Sensors"], h5py.Group)) or (
+                "MonitorLabelList" in h5.attrs and "CaseIdList" in h5.attrs)
+    except OSError:
+        return False
+
+
+def _text(value) -> str:
+    if isinstance(value, np.ndarray):
+        value = value.reshape(-1)[0] if value.size else ""
+    if isinstance(value, (bytes, np.bytes_)):
+        value = bytes(value).decode("utf-8", errors="replace")
+    return str(value).replace("\x00", "").strip()
+
+
+def _units(ds, kind: str, default: str) -> str:
+    for key in ("Units", "units"):
+        if key in ds.attrs:
+            return normalise_units(kind, _text(ds.attrs[key]), default)
+    return default
+
+
+def read(path: Path, source: str | None = None) -> RawRecording:
+    source = source or str(path)
+    try:
+        with h5py.File(path, "r") as h5:
+            version = h5.attrs.get("FileFormatVersion")
+            version = int(np.asarray(version).reshape(-1)[0]) if version is not None else None
+            if "Sensors" in h5:
+                sensors, notes = _read_v5(h5, source)
+                layout = "v5"
+            else:
+                sensors, notes = _read_v3(h5, source)
+                layout = "v3/v4"
+    except OSError as err:
+        raise InputError(
+            f"{source}: corrupted or truncated HDF5 file ({' '.join(str(err).split())})"
+        ) from None
+    if not sensors:
+        raise InputError(f"{source}: APDM file ({layout} layout) holds no readable sensor; "
+                         + "; ".join(notes))
+    # Stamps are integer microseconds since 1970: subtract the earliest in integers, so
+    # that seconds keep their microsecond precision (1.7e9 s as float64 would not).
+    epoch = min(int(s.time[0]) for s in sensors)
+    for s in sensors:
+        s.time = (s.time - epoch).astype(np.float64) / US_PER_S
+    notes.insert(0, f"APDM file format version {version} ({layout} layout); time 0 of the "
+                    f"clock = {epoch} us since 1970-01-01 UTC")
+    return RawRecording(format=f"{NAME} {layout}", sensors=sensors, notes=notes)
+
+
+def _read_v5(h5, source: str):
+    sensors, notes = [], []
+    group = h5["Sensors"]
+    for serial in group:
+        g = group[serial]
+        try:
+            config = g["Configuration"].attrs
+            label = _text(config["Label 0"]) or serial
+            rate = float(np.asarray(config["Sample Rate"]).reshape(-1)[0])
+            acc_ds, gyr_ds = g["Accelerometer"], g["Gyroscope"]
+            acc, gyr = np.asarray(acc_ds[()], float), np.asarray(gyr_ds[()], float)
+            time = np.asarray(g["Time"][()]).astype(np.int64)
+        except (KeyError, OSError, TypeError, ValueError, IndexError) as err:
+            notes.append(f"sensor {serial} skipped: its configuration or data cannot be read "
+                         f"({' '.join(str(err).split())[:80]})")
+            continue
+        sensors.append(RawSensor(
+            name=label, serial=str(serial), gyr=gyr, acc=acc,
+            gyr_units=_units(gyr_ds, "gyr", "rad/s"), acc_units=_units(acc_ds, "acc", "m/s^2"),
+            time=time, claimed_rate=rate, files=[Path(source).name],
+        ))
+    return sensors, notes
+
+
+def _read_v3(h5, source: str):
+    sensors, notes = [], []
+    labels = [_text(x) for x in np.asarray(h5.attrs["MonitorLabelList"]).reshape(-1)]
+    cases = [_text(x) for x in np.asarray(h5.attrs["CaseIdList"]).reshape(-1)]
+    for label, case in zip(labels, cases, strict=False):
+        try:
+            g = h5[case]
+            rate = float(np.asarray(g.attrs["SampleRate"]).reshape(-1)[0])
+            acc_ds, gyr_ds = g["Calibrated/Accelerometers"], g["Calibrated/Gyroscopes"]
+            acc, gyr = np.asarray(acc_ds[()], float), np.asarray(gyr_ds[()], float)
+            time = np.asarray(g["Time"][()]).astype(np.int64)
+        except (KeyError, OSError, TypeError, ValueError, IndexError) as err:
+            notes.append(f"sensor {case} skipped: its configuration or data cannot be read "
+                         f"({' '.join(str(err).split())[:80]})")
+            continue
+        sensors.append(RawSensor(
+            name=label or case, serial=case, gyr=gyr, acc=acc,
+            gyr_units=_units(gyr_ds, "gyr", "rad/s"), acc_units=_units(acc_ds, "acc", "m/s^2"),
+            time=time, claimed_rate=rate, files=[Path(source).name],
+        ))
+    return sensors, notes

@@ -1,0 +1,102 @@
+"""Movella (Xsens) DOT CSV exports: one file per sensor, a folder of them is one recording.
+
+Layout: first line ``sep=,``; key/value metadata lines ``DeviceTag:,<tag>,,,``,
+``FirmwareVersion:,...``, ``OutputRate:,60Hz,,,``, ``StartTime:,...``; a copyright line
+(UTF-8); a blank line; the header ``PacketCounter,SampleTimeFine,...,Acc_X..Z,Gyr_X..Z``
+and one row per sample. ``SampleTimeFine`` is in microseconds (32-bit, wraps after
+71.6 min) on the clock the DOTs synchronise; ``PacketCounter`` restarts at 1 in every
+file, so files are aligned on ``SampleTimeFine``. Acc is in m/s^2, Gyr in deg/s.
+
+Sensors are named by their ``DeviceTag``; a Bluetooth address in the file name
+(``D4-22-CD-00-12-34``) is the serial.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from ..errors import InputError
+from . import RawRecording, RawSensor, head_text, parse_table, read_text, sep_line
+
+NAME = "Movella DOT"
+US_PER_S = 1e6
+TIME_WRAP = 2**32 / US_PER_S
+COUNTER_WRAP = 2**16
+_MAC = re.compile(r"([0-9A-Fa-f]{2}(?:[-:_]?[0-9A-Fa-f]{2}){5})")
+_RATE = re.compile(r"([0-9.]+)\s*hz", re.IGNORECASE)
+
+
+def _is_file(path: Path) -> bool:
+    if path.suffix.lower() != ".csv":
+        return False
+    lines = [ln for ln in head_text(path).splitlines() if ln.strip()]
+    if not lines:
+        return False
+    meta = any(ln.lower().startswith("devicetag") for ln in lines[:15])
+    header = any(ln.startswith("PacketCounter") and "SampleTimeFine" in ln for ln in lines[:20])
+    return header and (meta or sep_line(lines[0]) == ",")
+
+
+def _files(path: Path) -> list[Path]:
+    if path.is_dir():
+        return sorted(p for p in path.iterdir() if p.is_file() and _is_file(p))
+    return [path] if _is_file(path) else []
+
+
+def sniff(path: Path) -> bool:
+    return bool(_files(path))
+
+
+def read(path: Path, source: str | None = None) -> RawRecording:
+    source = source or str(path)
+    files = _files(path)
+    if not files:
+        raise InputError(f"{source}: no Movella DOT export found")
+    notes = []
+    if path.is_dir():
+        others = [p.name for p in path.iterdir() if p.is_file() and p not in files
+                  and not p.name.startswith(".")]
+        if others:
+            notes.append(f"files not read (not DOT exports): {', '.join(sorted(others))}")
+    return RawRecording(format=NAME, sensors=[_read_file(f, source, len(files) > 1)
+                                              for f in files], notes=notes)
+
+
+def _read_file(file: Path, source: str, many: bool) -> RawSensor:
+    where = f"{source}/{file.name}" if many else source
+    lines = read_text(file, where).splitlines()
+    start = next((i for i, ln in enumerate(lines) if ln.startswith("PacketCounter")), None)
+    if start is None:
+        raise InputError(f"{where}: no 'PacketCounter,SampleTimeFine,...' header row")
+    meta = {}
+    for ln in lines[:start]:
+        fields = ln.split(",")
+        if len(fields) >= 2 and fields[0].strip().endswith(":"):
+            meta[fields[0].strip().rstrip(":").lower()] = fields[1].strip()
+    names = [c.strip() for c in lines[start].split(",")]
+    col = {n: i for i, n in enumerate(names)}
+    need = ("SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z")
+    missing = [c for c in need if c not in col]
+    if missing:
+        raise InputError(
+            f"{where}: no {', '.join(missing)} columns; export Acceleration and Angular "
+            f"velocity (not only orientation or free acceleration); columns found: "
+            f"{', '.join(names[:12])}"
+        )
+    values, notes = parse_table(lines[start + 1:], ",", start + 2, where, names)
+    tag = meta.get("devicetag") or file.stem
+    mac = _MAC.search(file.stem)
+    serial = re.sub(r"[-:_]", ":", mac.group(1)).upper() if mac else None
+    rate = _RATE.search(meta.get("outputrate", ""))
+    counter = values[:, col["PacketCounter"]] if "PacketCounter" in col else None
+    return RawSensor(
+        name=tag, serial=serial,
+        gyr=values[:, [col["Gyr_X"], col["Gyr_Y"], col["Gyr_Z"]]],
+        acc=values[:, [col["Acc_X"], col["Acc_Y"], col["Acc_Z"]]],
+        gyr_units="deg/s", acc_units="m/s^2",
+        time=values[:, col["SampleTimeFine"]] / US_PER_S, time_wrap=TIME_WRAP,
+        counter=counter, counter_wrap=COUNTER_WRAP,
+        claimed_rate=float(rate.group(1)) if rate else None,
+        files=[file.name], notes=[f"{tag}: {n}" for n in notes],
+    )

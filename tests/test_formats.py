@@ -1,0 +1,261 @@
+"""Vendor exports: files written by the tests in the vendors' layouts (docs/formats.md).
+
+Per format: normal, late-starting sensor, dropped packets, wrong units, missing sensor,
+truncated file; and end to end: the knee axis from a vendor file equals the axis from
+imucal's own HDF5 of the same simulated motion.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import vendor_writers as vw
+from conftest import axis_error_deg, simulated
+
+from imucal import estimate_axis, load_recording
+from imucal.errors import InputError
+from imucal.writers import save_recording
+
+SHORT = dict(rate=100.0, duration=5.0)
+
+
+def short():
+    return simulated(3, **SHORT)[0]
+
+
+# name each writer gives imucal's thigh / shank / foot by default
+NAMES = {
+    "xsens": dict(vw.SERIALS),
+    "dot": {"thigh": "Thigh", "shank": "Shank", "foot": "Foot"},
+    "apdm": {"thigh": "Right Thigh", "shank": "Right Lower Leg", "foot": "Right Foot"},
+    "apdm3": {"thigh": "Right Thigh", "shank": "Right Lower Leg", "foot": "Right Foot"},
+}
+
+
+def write(fmt, rec, tmp_path, **kw):
+    if fmt == "xsens":
+        return vw.xsens(rec, tmp_path / "xsens", **kw)
+    if fmt == "dot":
+        return vw.dot(rec, tmp_path / "dot", **kw)
+    if fmt == "apdm":
+        return vw.apdm(rec, tmp_path / "opal.h5", **kw)
+    if fmt == "apdm3":
+        return vw.apdm(rec, tmp_path / "opal3.h5", v3=True, **kw)
+    raise ValueError(fmt)
+
+
+FORMATS = list(NAMES)
+
+
+def same(loaded, rec, names, offset=0, atol=1e-6):
+    for ours, theirs in names.items():
+        got, want = loaded.sensors[theirs], rec.sensors[ours]
+        n = loaded.n_samples
+        for kind in ("gyr", "acc"):
+            a, b = getattr(got, kind), getattr(want, kind)[offset:offset + n]
+            fine = np.isfinite(a).all(axis=1)
+            np.testing.assert_allclose(a[fine], b[fine], atol=atol, rtol=1e-6)
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_normal(fmt, tmp_path):
+    rec = short()
+    loaded = load_recording(write(fmt, rec, tmp_path))
+    assert sorted(loaded.sensors) == sorted(NAMES[fmt].values())
+    assert loaded.n_samples == rec.n_samples
+    assert loaded.rate == pytest.approx(100.0, rel=1e-9)
+    same(loaded, rec, NAMES[fmt])
+    assert not loaded.gaps
+    info = loaded.sensor_info[NAMES[fmt]["thigh"]]
+    assert info["samples"] == rec.n_samples and info["dropped"] == 0
+    assert loaded.provenance["source_format"]
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_late_starting_sensor(fmt, tmp_path):
+    rec = short()
+    loaded = load_recording(write(fmt, rec, tmp_path, late={"shank": 17}))
+    # the common span starts where the late sensor does
+    assert loaded.n_samples == rec.n_samples - 17
+    same(loaded, rec, NAMES[fmt], offset=17)
+    shank = loaded.sensor_info[NAMES[fmt]["shank"]]
+    assert shank["start_s"] == pytest.approx(0.0, abs=1e-9)
+    assert loaded.sensor_info[NAMES[fmt]["thigh"]]["start_s"] == pytest.approx(-0.17, abs=1e-6)
+    assert any("span all sensors share" in w for w in loaded.warnings)
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_dropped_packets_bridged_or_refused(fmt, tmp_path):
+    rec = short()
+    short_gap, long_gap = [100, 101, 102], list(range(300, 312))  # 0.03 s, 0.12 s
+    loaded = load_recording(write(fmt, rec, tmp_path, drops={"thigh": short_gap + long_gap}))
+    thigh, shank = NAMES[fmt]["thigh"], NAMES[fmt]["shank"]
+    assert loaded.n_samples == rec.n_samples
+    assert loaded.sensor_info[thigh]["dropped"] == 15
+    assert [(g.start, g.length) for g in loaded.gaps if g.kind == "gyr"] == [(100, 3), (300, 12)]
+    # a window around the short gap: interpolated, with a warning
+    used = loaded.select([thigh, shank], 0.5, 2.5)
+    assert np.isfinite(used.sensors[thigh].gyr).all()
+    assert any("filled by linear interpolation" in w for w in used.warnings)
+    # the long gap stops an estimate whose window it touches
+    with pytest.raises(InputError, match=r"gap of 12 non-finite samples .* from t=3 s"):
+        loaded.select([thigh, shank], 2.5, 4.0)
+
+
+@pytest.mark.parametrize("fmt", ["xsens", "apdm", "apdm3"])
+def test_wrong_units_warned(fmt, tmp_path):
+    rec = short()
+    # gyroscope written in deg/s where the format says rad/s
+    loaded = load_recording(write(fmt, rec, tmp_path, gyr_scale=vw.RAD2DEG))
+    assert any("is it in deg/s" in w for w in loaded.warnings)
+
+
+def test_dot_wrong_units_warned(tmp_path):
+    loaded = load_recording(vw.dot(short(), tmp_path / "d", gyr_unit_scale=vw.RAD2DEG**2))
+    assert any("is it in deg/s" in w for w in loaded.warnings)
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_missing_sensor(fmt, tmp_path):
+    rec = short()
+    loaded = load_recording(write(fmt, rec, tmp_path))
+    with pytest.raises(InputError, match="no sensor 'hip'.*sensors in this file"):
+        loaded.select(["hip", NAMES[fmt]["thigh"]])
+
+
+@pytest.mark.parametrize("fmt", ["xsens", "dot"])
+def test_truncated_text_file(fmt, tmp_path):
+    rec = short()
+    loaded = load_recording(write(fmt, rec, tmp_path, truncate=True))
+    assert any("cut off" in w for w in loaded.warnings)
+    assert loaded.n_samples == rec.n_samples - 1
+
+
+@pytest.mark.parametrize("fmt", ["apdm", "apdm3"])
+def test_truncated_hdf5(fmt, tmp_path):
+    path = write(fmt, short(), tmp_path)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(InputError, match="corrupted or truncated HDF5"):
+        load_recording(path)
+
+
+def test_apdm_sensor_without_configuration_skipped(tmp_path):
+    loaded = load_recording(vw.apdm(short(), tmp_path / "o.h5", skip_config="foot"))
+    assert sorted(loaded.sensors) == ["Right Lower Leg", "Right Thigh"]
+    assert any("sensor 1236 skipped" in w for w in loaded.warnings)
+
+
+def test_xsens_newer_export_without_update_rate(tmp_path):
+    rec = short()
+    loaded = load_recording(vw.xsens(rec, tmp_path / "x", newer=True))
+    assert loaded.rate == pytest.approx(100.0)
+    same(loaded, rec, NAMES["xsens"])
+
+
+def test_xsens_csv_export(tmp_path):
+    rec = short()
+    loaded = load_recording(vw.xsens(rec, tmp_path / "x", sep=","))
+    same(loaded, rec, NAMES["xsens"])
+
+
+def test_single_file_of_a_folder_export(tmp_path):
+    folder = vw.dot(short(), tmp_path / "d")
+    one = sorted(folder.iterdir())[0]
+    loaded = load_recording(one)
+    assert list(loaded.sensors) == ["Foot"]
+
+
+def test_unknown_folder_names_formats(tmp_path):
+    (tmp_path / "notes.txt").write_text("hello\n")
+    with pytest.raises(InputError, match=r"is a folder.*Movella DOT.*holds: 'notes.txt'"):
+        load_recording(tmp_path)
+
+
+def test_sensor_names_by_serial_synonym_and_case(tmp_path):
+    loaded = load_recording(vw.apdm(short(), tmp_path / "o.h5"))
+    assert loaded.resolve("right_thigh") == "Right Thigh"
+    assert loaded.resolve("RIGHT LOWER LEG") == "Right Lower Leg"
+    assert loaded.resolve("1236") == "Right Foot"  # the serial
+    assert loaded.resolve("shank") == "Right Lower Leg"  # segment synonym
+    assert loaded.resolve("tibia") == "Right Lower Leg"
+    with pytest.raises(InputError, match="no sensor 'left thigh'"):
+        loaded.resolve("left thigh")  # the wrong side is not a match
+    with pytest.raises(InputError, match="did you mean 'Right Thigh'"):
+        loaded.resolve("Rigth Thigh")
+    used = loaded.select(["thigh", "shank"])
+    assert list(used.sensors) == ["Right Thigh", "Right Lower Leg"]
+
+
+def test_clock_drift_and_offset_interpolated(tmp_path):
+    """A device whose clock runs 0.1 % fast and half a sample late is interpolated."""
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+
+    t = np.arange(2000) / 100.0
+    sig = np.column_stack([np.sin(2 * np.pi * 0.5 * t)] * 3)
+    ref = RawSensor("a", sig, sig + 9.0, "rad/s", "m/s^2", time=t)
+    t2 = 0.005 + np.arange(2000) / 100.1
+    sig2 = np.column_stack([np.sin(2 * np.pi * 0.5 * t2)] * 3)
+    other = RawSensor("b", sig2, sig2 + 9.0, "rad/s", "m/s^2", time=t2)
+    out = align([ref, other], "<test>")
+    assert out.info["b"]["rate_hz"] == pytest.approx(100.1)
+    expect = np.sin(2 * np.pi * 0.5 * (out.time + out.origin))
+    assert np.nanmax(np.abs(out.data["b"][0][:, 0] - expect)) < 2e-4
+    assert any("linearly interpolated" in n for n in out.notes)
+
+
+def test_jittery_repeating_stamps_are_not_drops():
+    """Millisecond stamps of a 128 Hz device jitter; no sample is 'dropped'. (Jitter
+    beyond half a sample period cannot be told from drops: docs/formats.md.)"""
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+
+    rng = np.random.default_rng(0)
+    n = 5000
+    true = 1e3 + np.arange(n) / 128.0
+    stamps = np.floor((true + rng.normal(0, 5e-4, n)) * 1000) / 1000  # ms, jitter
+    sig = np.ones((n, 3))
+    out = align([RawSensor("s", sig, sig, "rad/s", "m/s^2", time=stamps)], "<test>")
+    assert out.info["s"]["dropped"] == 0
+    assert out.rate == pytest.approx(128.0, rel=1e-4)
+    keep = np.delete(np.arange(n), [1000, 1001])
+    out = align([RawSensor("s", sig[keep], sig[keep], "rad/s", "m/s^2", time=stamps[keep])],
+                "<test>")
+    assert out.info["s"]["dropped"] == 2
+
+
+def test_header_rate_contradicting_stamps_refused(tmp_path):
+    folder = vw.dot(short(), tmp_path / "d")
+    for f in folder.iterdir():
+        f.write_bytes(f.read_bytes().replace(b"OutputRate:,100Hz", b"OutputRate:,60Hz"))
+    with pytest.raises(InputError, match="header says 60 Hz but the time stamps say 100 Hz"):
+        load_recording(folder)
+
+
+# ------------------------------------------------------------------------------ end to end
+
+
+@pytest.fixture(scope="module")
+def reference_axis(tmp_path_factory):
+    rec, truth = simulated(11, rate=100.0, duration=20.0)
+    path = tmp_path_factory.mktemp("own") / "own.h5"
+    save_recording(rec, path)
+    own = load_recording(path)
+    result = estimate_axis(own.sensor("thigh").gyr, own.sensor("shank").gyr, rate=own.rate,
+                           seed=1, restarts=12)
+    return rec, truth, result
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_axis_from_vendor_file_equals_own_hdf5(fmt, tmp_path, reference_axis):
+    rec, truth, ref = reference_axis
+    loaded = load_recording(write(fmt, rec, tmp_path))
+    names = ["thigh", "shank"] if fmt != "xsens" else [vw.SERIALS["thigh"], vw.SERIALS["shank"]]
+    used = loaded.select(names)  # segment names reach the vendor's labels
+    thigh, shank = used.sensors.values()
+    result = estimate_axis(thigh.gyr, shank.gyr, rate=used.rate, seed=1, restarts=12)
+    e1, e2 = axis_error_deg(result.j1, result.j2, ref.j1, ref.j2)
+    assert max(e1, e2) < 0.01, (e1, e2)
+    t1, t2 = axis_error_deg(result.j1, result.j2, truth["j1"], truth["j2"])
+    assert max(t1, t2) < 2.0
