@@ -29,6 +29,9 @@ NAMES = {
     "dot": {"thigh": "Thigh", "shank": "Shank", "foot": "Foot"},
     "apdm": {"thigh": "Right Thigh", "shank": "Right Lower Leg", "foot": "Right Foot"},
     "apdm3": {"thigh": "Right Thigh", "shank": "Right Lower Leg", "foot": "Right Foot"},
+    "bids": {"thigh": "RightThigh", "shank": "RightShank", "foot": "RightFoot"},
+    "ximu3": {"thigh": "Thigh", "shank": "Shank", "foot": "Foot"},
+    "shimmer": {"thigh": "Shimmer_D0A7", "shank": "Shimmer_D0A8", "foot": "Shimmer_D0A9"},
 }
 
 
@@ -41,6 +44,12 @@ def write(fmt, rec, tmp_path, **kw):
         return vw.apdm(rec, tmp_path / "opal.h5", **kw)
     if fmt == "apdm3":
         return vw.apdm(rec, tmp_path / "opal3.h5", v3=True, **kw)
+    if fmt == "bids":
+        return vw.bids(rec, tmp_path / "motion", **kw)
+    if fmt == "ximu3":
+        return vw.ximu3(rec, tmp_path / "session", **kw)
+    if fmt == "shimmer":
+        return vw.shimmer(rec, tmp_path / "shimmer.csv", **kw)
     raise ValueError(fmt)
 
 
@@ -102,11 +111,12 @@ def test_dropped_packets_bridged_or_refused(fmt, tmp_path):
         loaded.select([thigh, shank], 2.5, 4.0)
 
 
-@pytest.mark.parametrize("fmt", ["xsens", "apdm", "apdm3"])
+@pytest.mark.parametrize("fmt", ["xsens", "apdm", "apdm3", "bids", "ximu3", "shimmer"])
 def test_wrong_units_warned(fmt, tmp_path):
     rec = short()
-    # gyroscope written in deg/s where the format says rad/s
-    loaded = load_recording(write(fmt, rec, tmp_path, gyr_scale=vw.RAD2DEG))
+    # gyroscope values 57 times what the units the file states say
+    scale = vw.RAD2DEG ** (2 if fmt in ("ximu3", "shimmer") else 1)
+    loaded = load_recording(write(fmt, rec, tmp_path, gyr_scale=scale))
     assert any("is it in deg/s" in w for w in loaded.warnings)
 
 
@@ -123,7 +133,7 @@ def test_missing_sensor(fmt, tmp_path):
         loaded.select(["hip", NAMES[fmt]["thigh"]])
 
 
-@pytest.mark.parametrize("fmt", ["xsens", "dot"])
+@pytest.mark.parametrize("fmt", ["xsens", "dot", "bids", "ximu3", "shimmer"])
 def test_truncated_text_file(fmt, tmp_path):
     rec = short()
     loaded = load_recording(write(fmt, rec, tmp_path, truncate=True))
@@ -225,6 +235,51 @@ def test_jittery_repeating_stamps_are_not_drops():
     assert out.info["s"]["dropped"] == 2
 
 
+def test_bids_units_from_channels_and_missing_sidecar(tmp_path):
+    rec = short()
+    folder = vw.bids(rec, tmp_path / "b", gyr_units="deg/s", gyr_scale=vw.RAD2DEG)
+    loaded = load_recording(folder)
+    same(loaded, rec, NAMES["bids"])
+    assert loaded.sensor_info["RightThigh"]["units_read"]["gyr"] == "deg/s"
+    (folder / "sub-01_task-walk_tracksys-imu_channels.tsv").unlink()
+    with pytest.raises(InputError, match="without its .*_channels.tsv"):
+        load_recording(folder)
+
+
+def test_ximu3_device_folder_and_serial(tmp_path):
+    rec = short()
+    session = vw.ximu3(rec, tmp_path / "s")
+    loaded = load_recording(session / "Shank 65577B4A (USB)")
+    assert list(loaded.sensors) == ["Shank"]
+    whole = load_recording(session)
+    assert whole.resolve("65577b4a") == "Shank"
+
+
+def test_shimmer_jittery_stamps(tmp_path):
+    rec = short()
+    loaded = load_recording(vw.shimmer(rec, tmp_path / "s.csv", jitter_ms=1.0))
+    assert all(i["dropped"] == 0 for i in loaded.sensor_info.values())
+    assert loaded.rate == pytest.approx(100.0, rel=1e-3)
+
+
+def test_gyr_columns_repeating_acc_refused(tmp_path):
+    rec = short()
+    path = vw.shimmer(rec, tmp_path / "s.csv")
+    text = path.read_text().replace("_Gyro_", "_Other_").replace("_Accel_LN_", "_Gyro_", 3)
+    lines = text.splitlines()
+    head = lines[1].split("\t")
+    head[4:7] = ["Shimmer_D0A7_Gyro_X_CAL", "Shimmer_D0A7_Gyro_Y_CAL", "Shimmer_D0A7_Gyro_Z_CAL"]
+    head[1:4] = ["Shimmer_D0A7_Accel_LN_X_CAL", "Shimmer_D0A7_Accel_LN_Y_CAL",
+                 "Shimmer_D0A7_Accel_LN_Z_CAL"]
+    rows = [ln.split("\t") for ln in lines[3:]]
+    for r in rows:
+        r[4:7] = r[1:4]
+    path.write_text("\n".join(lines[:1] + ["\t".join(head)] + lines[2:3]
+                              + ["\t".join(r) for r in rows]) + "\n")
+    with pytest.raises(InputError, match="gyroscope columns repeat the accelerometer"):
+        load_recording(path)
+
+
 def test_header_rate_contradicting_stamps_refused(tmp_path):
     folder = vw.dot(short(), tmp_path / "d")
     for f in folder.iterdir():
@@ -251,7 +306,9 @@ def reference_axis(tmp_path_factory):
 def test_axis_from_vendor_file_equals_own_hdf5(fmt, tmp_path, reference_axis):
     rec, truth, ref = reference_axis
     loaded = load_recording(write(fmt, rec, tmp_path))
-    names = ["thigh", "shank"] if fmt != "xsens" else [vw.SERIALS["thigh"], vw.SERIALS["shank"]]
+    # Xsens and Shimmer name devices by ID, the others by a label a segment name finds
+    by_id = fmt in ("xsens", "shimmer")
+    names = [NAMES[fmt]["thigh"], NAMES[fmt]["shank"]] if by_id else ["thigh", "shank"]
     used = loaded.select(names)  # segment names reach the vendor's labels
     thigh, shank = used.sensors.values()
     result = estimate_axis(thigh.gyr, shank.gyr, rate=used.rate, seed=1, restarts=12)

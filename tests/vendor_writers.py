@@ -135,3 +135,89 @@ def apdm(rec, path: Path, *, names=None, late=None, drops=None, v3=False,
         h5.create_group("Processed")
         h5.create_group("Annotations")
     return path
+
+
+def bids(rec, folder: Path, *, late=None, drops=None, truncate=False, gyr_units="rad/s",
+         gyr_scale=1.0, points=None) -> Path:
+    """BIDS-motion: sub-01_task-walk_tracksys-imu_motion.tsv (+ _channels.tsv, _motion.json).
+
+    One table for all tracked points: a late start or a drop is ``n/a`` in that point's
+    columns."""
+    folder.mkdir(parents=True, exist_ok=True)
+    points = points or {"thigh": "RightThigh", "shank": "RightShank", "foot": "RightFoot"}
+    stem = folder / "sub-01_task-walk_tracksys-imu"
+    chans = ["name\tcomponent\ttype\ttracked_point\tunits"]
+    cols = []
+    for name, s in rec.sensors.items():
+        keep = np.zeros(rec.n_samples, dtype=bool)
+        keep[_rows(rec, name, late, drops)] = True
+        for typ, unit, data in (("ACCEL", "m/s^2", s.acc),
+                                ("GYRO", gyr_units, s.gyr * gyr_scale)):
+            for a, column in zip("xyz", data.T, strict=True):
+                chans.append(f"{points[name]}_{typ}_{a}\t{a}\t{typ}\t{points[name]}\t{unit}")
+                cols.append(np.where(keep, column, np.nan))
+    table = np.column_stack(cols)
+    lines = ["\t".join("n/a" if np.isnan(v) else f"{v:.9f}" for v in row) for row in table]
+    (folder / f"{stem.name}_channels.tsv").write_text("\n".join(chans) + "\n")
+    (folder / f"{stem.name}_motion.json").write_text(
+        f'{{"SamplingFrequency": {rec.rate:g}, "TrackingSystemName": "IMU"}}\n')
+    path = folder / f"{stem.name}_motion.tsv"
+    path.write_text("\n".join(lines) + "\n")
+    if truncate:
+        _cut(path)
+    return folder
+
+
+def ximu3(rec, folder: Path, *, late=None, drops=None, truncate=False, gyr_scale=RAD2DEG,
+          names=None) -> Path:
+    """x-IMU3 logged session: ``<name> <serial> (USB)/Inertial.csv`` per device."""
+    names = names or {"thigh": "Thigh", "shank": "Shank", "foot": "Foot"}
+    serials = {"thigh": "65577B49", "shank": "65577B4A", "foot": "65577B4B"}
+    step = int(round(1e6 / rec.rate))
+    for name, s in rec.sensors.items():
+        dev = folder / f"{names[name]} {serials[name]} (USB)"
+        dev.mkdir(parents=True, exist_ok=True)
+        lines = ["Timestamp (us),Gyroscope X (deg/s),Gyroscope Y (deg/s),Gyroscope Z (deg/s),"
+                 "Accelerometer X (g),Accelerometer Y (g),Accelerometer Z (g)"]
+        for i in _rows(rec, name, late, drops):
+            vals = [*(s.gyr[i] * gyr_scale), *(s.acc[i] / G)]
+            lines.append(",".join([str(5_000_000 + i * step)] + [f"{v:.9f}" for v in vals]))
+        path = dev / "Inertial.csv"
+        path.write_text("\n".join(lines) + "\n")
+        (dev / "Battery.csv").write_text("Timestamp (us),Percentage (%)\n0,90\n")
+    if truncate:
+        _cut(path)
+    return folder
+
+
+def shimmer(rec, path: Path, *, late=None, drops=None, truncate=False, gyr_scale=RAD2DEG,
+            jitter_ms=0.0) -> Path:
+    """Shimmer Consensys export: all devices in one tab-separated file, one shared
+    millisecond Unix clock per device column, a units row."""
+    ids = {"thigh": "D0A7", "shank": "D0A8", "foot": "D0A9"}
+    rng = np.random.default_rng(0)
+    heads, units, cols = [], [], []
+    n = rec.n_samples
+    for name, s in rec.sensors.items():
+        p = f"Shimmer_{ids[name]}"
+        keep = np.zeros(n, dtype=bool)
+        keep[_rows(rec, name, late, drops)] = True
+        stamp = 1_709_287_200_000 + np.arange(n) * 1000.0 / rec.rate
+        stamp = np.round(stamp + rng.normal(0, jitter_ms, n) if jitter_ms else stamp, 3)
+        heads += [f"{p}_Timestamp_Unix_CAL"] + [f"{p}_Accel_LN_{a}_CAL" for a in "XYZ"] + [
+            f"{p}_Gyro_{a}_CAL" for a in "XYZ"]
+        units += ["ms"] + ["m/(s^2)"] * 3 + ["deg/s"] * 3
+        cols.append((keep, np.column_stack([stamp, s.acc, s.gyr * gyr_scale])))
+    lines = ['"sep=\t"', "\t".join(heads), "\t".join(units)]
+    for i in range(n):
+        cells = []
+        for keep, data in cols:
+            cells += [f"{v:.3f}" if j == 0 else f"{v:.9f}" for j, v in enumerate(data[i])] \
+                if keep[i] else [""] * 7
+        if all(c == "" for c in cells):
+            continue
+        lines.append("\t".join(cells))
+    path.write_text("\n".join(lines) + "\n")
+    if truncate:
+        _cut(path)
+    return path

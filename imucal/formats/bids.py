@@ -1,13 +1,101 @@
-"""Placeholder: filled in by a later slice."""
+"""BIDS-motion: ``*_motion.tsv`` with its ``*_channels.tsv`` and ``*_motion.json``.
+
+``*_motion.tsv`` has no header: one column per channel, in the order of the rows of
+``*_channels.tsv`` (tab-separated, with a header naming at least ``name``, ``component``
+(x, y, z), ``type`` (ACCEL, GYRO; others ignored), ``tracked_point`` and ``units``).
+``*_motion.json`` gives ``SamplingFrequency`` (Hz). A ``LATENCY`` channel, when present,
+holds each sample's time (s). Each tracked point with ACCEL and GYRO x, y, z is a sensor,
+named by its tracked point. The path may be the ``*_motion.tsv`` file or its folder.
+"""
 
 from __future__ import annotations
 
-NAME = "bids"
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from . import RawRecording, RawSensor, normalise_units, parse_table, read_text
+
+NAME = "BIDS-motion"
 
 
-def sniff(path) -> bool:
-    return False
+def _motion_files(path: Path) -> list[Path]:
+    if path.is_dir():
+        return sorted(path.glob("*_motion.tsv"))
+    return [path] if path.name.endswith("_motion.tsv") else []
 
 
-def read(path, source=None):
-    raise NotImplementedError
+def sniff(path: Path) -> bool:
+    return bool(_motion_files(path))
+
+
+def _sidecar(motion: Path, suffix: str) -> Path:
+    return motion.with_name(motion.name[: -len("_motion.tsv")] + suffix)
+
+
+def read(path: Path, source: str | None = None) -> RawRecording:
+    source = source or str(path)
+    files = _motion_files(path)
+    if len(files) > 1:
+        raise InputError(
+            f"{source}: holds {len(files)} BIDS motion files "
+            f"({', '.join(f.name for f in files[:4])}); give one of them"
+        )
+    motion = files[0]
+    channels_path, json_path = _sidecar(motion, "_channels.tsv"), _sidecar(motion, "_motion.json")
+    for needed in (channels_path, json_path):
+        if not needed.exists():
+            raise InputError(f"{source}: BIDS motion file without its {needed.name}")
+    try:
+        meta = json.loads(read_text(json_path, str(json_path)))
+        rate = float(meta["SamplingFrequency"])
+    except (ValueError, KeyError, TypeError) as err:
+        raise InputError(f"{json_path}: no usable 'SamplingFrequency' ({err})") from None
+    lines = [ln for ln in read_text(channels_path, str(channels_path)).splitlines() if ln.strip()]
+    header = [h.strip().lower() for h in lines[0].split("\t")]
+    missing = [c for c in ("name", "component", "type", "tracked_point") if c not in header]
+    if missing:
+        raise InputError(f"{channels_path}: no column {', '.join(missing)} in the header")
+    rows = [dict(zip(header, (c.strip() for c in ln.split("\t")), strict=False))
+            for ln in lines[1:]]
+    names = [r.get("name", f"column {i + 1}") for i, r in enumerate(rows)]
+    values, notes = parse_table(read_text(motion, source).splitlines(), "\t", 1, source, names)
+    time = None
+    by_point: dict[str, dict] = {}
+    for i, r in enumerate(rows):
+        kind = {"ACCEL": "acc", "GYRO": "gyr"}.get(r.get("type", "").upper())
+        if r.get("type", "").upper() == "LATENCY":
+            time = values[:, i]
+        if kind is None or r.get("component", "").lower() not in ("x", "y", "z"):
+            continue
+        point = by_point.setdefault(r["tracked_point"], {})
+        point[(kind, r["component"].lower())] = i
+        point.setdefault(f"{kind}_units", r.get("units"))
+    sensors = []
+    for point, cols in by_point.items():
+        need = [(k, a) for k in ("gyr", "acc") for a in "xyz"]
+        absent = [f"{'GYRO' if k == 'gyr' else 'ACCEL'} {a}" for k, a in need if (k, a) not in cols]
+        if absent:
+            notes.append(f"tracked point '{point}' skipped: no {', '.join(absent)} channel")
+            continue
+        sensors.append(RawSensor(
+            name=point, gyr=values[:, [cols["gyr", a] for a in "xyz"]],
+            acc=values[:, [cols["acc", a] for a in "xyz"]],
+            gyr_units=normalise_units("gyr", cols.get("gyr_units"), "rad/s"),
+            acc_units=normalise_units("acc", cols.get("acc_units"), "m/s^2"),
+            time=time, claimed_rate=rate,
+            files=[motion.name, channels_path.name, json_path.name],
+        ))
+    if not sensors:
+        raise InputError(f"{source}: no tracked point has ACCEL and GYRO x, y, z channels; "
+                         + "; ".join(notes))
+    if time is None:  # rows are regular at SamplingFrequency
+        time = np.arange(values.shape[0]) / rate
+    for s in sensors:
+        # Rows where a point has no value at all (n/a: not yet started, a dropped packet)
+        # are not its samples; the clock then sees them as a late start or a drop.
+        keep = ~(np.isnan(s.gyr).all(axis=1) & np.isnan(s.acc).all(axis=1))
+        s.gyr, s.acc, s.time = s.gyr[keep], s.acc[keep], time[keep]
+    return RawRecording(format=NAME, sensors=sensors, notes=notes)

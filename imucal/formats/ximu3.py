@@ -1,13 +1,83 @@
-"""Placeholder: filled in by a later slice."""
+"""x-IMU3 logged sessions: one folder per device, ``<device name> <serial> (<interface>)``,
+each holding ``Inertial.csv`` (and other files, ignored).
+
+``Inertial.csv``: comma-separated, a header ``Timestamp (us),Gyroscope X (deg/s),
+Gyroscope Y (deg/s),Gyroscope Z (deg/s),Accelerometer X (g),Accelerometer Y (g),
+Accelerometer Z (g)`` (units read from the parentheses), one row per sample; the
+timestamp is the device's clock in microseconds. The path may be the session folder, one
+device folder, or an ``Inertial.csv``. Sensors are named by the device name; the serial
+is the alternative.
+"""
 
 from __future__ import annotations
 
-NAME = "ximu3"
+import re
+from pathlib import Path
+
+from ..errors import InputError
+from . import UNIT_RE, RawRecording, RawSensor, head_text, normalise_units, parse_table, read_text
+
+NAME = "x-IMU3"
+_FOLDER = re.compile(r"^(?P<name>.+?) (?P<serial>[0-9A-Fa-f]{8}) \((?P<iface>[^)]*)\)$")
 
 
-def sniff(path) -> bool:
-    return False
+def _is_inertial(path: Path) -> bool:
+    return path.name == "Inertial.csv" and head_text(path, 200).startswith("Timestamp (us)")
 
 
-def read(path, source=None):
-    raise NotImplementedError
+def _devices(path: Path) -> list[Path]:
+    if path.is_file():
+        return [path] if _is_inertial(path) else []
+    if (path / "Inertial.csv").is_file() and _is_inertial(path / "Inertial.csv"):
+        return [path / "Inertial.csv"]
+    return sorted(p / "Inertial.csv" for p in path.iterdir()
+                  if p.is_dir() and (p / "Inertial.csv").is_file()
+                  and _is_inertial(p / "Inertial.csv"))
+
+
+def sniff(path: Path) -> bool:
+    return bool(_devices(path))
+
+
+def read(path: Path, source: str | None = None) -> RawRecording:
+    source = source or str(path)
+    files = _devices(path)
+    notes = []
+    if path.is_dir() and len(files) > 0 and files[0].parent != path:
+        others = sorted(p.name for p in path.iterdir()
+                        if p.is_dir() and not (p / "Inertial.csv").is_file())
+        if others:
+            notes.append(f"folders without Inertial.csv, not read: {', '.join(others)}")
+    return RawRecording(format=NAME, sensors=[_read(f, source) for f in files], notes=notes)
+
+
+def _read(file: Path, source: str) -> RawSensor:
+    folder = file.parent.name
+    where = f"{source}/{folder}/Inertial.csv" if Path(source).is_dir() else source
+    m = _FOLDER.match(folder)
+    name, serial = (m["name"], m["serial"].upper()) if m else (folder, None)
+    lines = read_text(file, where).splitlines()
+    cols = [c.strip() for c in lines[0].split(",")]
+    index, units = {}, {}
+    for i, c in enumerate(cols):
+        u = UNIT_RE.search(c)
+        base = UNIT_RE.sub("", c).strip()
+        parts = base.split()
+        if len(parts) == 2 and parts[0] in ("Gyroscope", "Accelerometer") and parts[1] in "XYZ":
+            kind = "gyr" if parts[0] == "Gyroscope" else "acc"
+            index[kind, parts[1].lower()] = i
+            units[kind] = u.group(1) if u else None
+    missing = [f"{'Gyroscope' if k == 'gyr' else 'Accelerometer'} {a.upper()}"
+               for k in ("gyr", "acc") for a in "xyz" if (k, a) not in index]
+    if missing:
+        raise InputError(f"{where}: no {', '.join(missing)} column")
+    values, notes = parse_table(lines[1:], ",", 2, where, cols)
+    return RawSensor(
+        name=name, serial=serial,
+        gyr=values[:, [index["gyr", a] for a in "xyz"]],
+        acc=values[:, [index["acc", a] for a in "xyz"]],
+        gyr_units=normalise_units("gyr", units.get("gyr"), "deg/s"),
+        acc_units=normalise_units("acc", units.get("acc"), "g"),
+        time=values[:, 0] / 1e6, files=[f"{folder}/Inertial.csv"],
+        notes=[f"{name}: {n}" for n in notes],
+    )
