@@ -329,6 +329,9 @@ def info(
 
         recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
         doc = clean(_describe(recording))
+        if recording.sensor_info:  # a vendor export: what each device's file said
+            doc["sensor_info"] = clean(recording.sensor_info)
+            doc["provenance"] = clean(recording.provenance)
         if as_json:
             sys.stdout.write(json.dumps(doc, indent=2) + "\n")
             return
@@ -347,9 +350,43 @@ def info(
                 f"{name:<16}{units:<18}{s['gyr_rms_deg_s']:>8.1f} d/s{s['gyr_peak_deg_s']:>8.1f}"
                 f" d/s{s['acc_dynamic_rms_m_s2']:>9.2f} m/s2  {s['motion']}"
             )
+        from .provenance import sensor_table
+
+        lines += sensor_table(recording)
         for w in recording.warnings:
             lines.append(f"warning: {w}")
         sys.stdout.write("\n".join(lines) + "\n")
+
+
+@app.command(epilog=_examples("imucal convert opal.h5 walk.h5",
+                              "imucal convert dot_export/ walk.csv   # a folder of DOT files"))
+def convert(
+    rec: Rec,
+    out: Annotated[Path, typer.Argument(metavar="OUT", show_default=False,
+                                        help="Output file, .h5/.hdf5 or .csv.")],
+    rate: Rate = None,
+    gyr_units: GyrUnits = None,
+    acc_units: AccUnits = None,
+    quiet: Quiet = False,
+    debug: Debug = False,
+) -> None:
+    """Write a recording (any format imucal reads, e.g. a vendor export) in imucal's own
+    HDF5 or CSV layout: the devices on one time grid, SI units, dropped samples as NaN;
+    HDF5 also keeps the provenance (source format, files, serials, original rates) as
+    root attributes (docs/formats.md)."""
+    with _errors(debug):
+        from .loaders import load_recording
+        from .provenance import hdf5_attrs
+        from .writers import save_recording
+
+        _check_outputs(out, None, rec)
+        recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
+        save_recording(recording, out, extra_attrs=hdf5_attrs(recording))
+        if not quiet:
+            for w in recording.warnings:
+                _err(f"imucal: warning: {recording.source}: {w}")
+            _err(f"imucal convert: wrote {out} ({len(recording.sensors)} sensors, "
+                 f"{recording.n_samples} samples at {recording.rate:g} Hz)")
 
 
 def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,

@@ -316,3 +316,45 @@ def test_axis_from_vendor_file_equals_own_hdf5(fmt, tmp_path, reference_axis):
     assert max(e1, e2) < 0.01, (e1, e2)
     t1, t2 = axis_error_deg(result.j1, result.j2, truth["j1"], truth["j2"])
     assert max(t1, t2) < 2.0
+
+
+# ------------------------------------------------------------------------ command line
+
+
+def run_cli(*args):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
+                          capture_output=True, text=True)
+
+
+def test_info_lists_every_sensor(tmp_path):
+    folder = vw.dot(short(), tmp_path / "d", late={"foot": 5}, drops={"shank": [40]})
+    run = run_cli("info", folder)
+    assert run.returncode == 0, run.stderr
+    assert "format: Movella DOT" in run.stdout
+    shank = [ln for ln in run.stdout.splitlines() if ln.startswith("Shank ")][-1]
+    assert "D4:22:CD:00:12:02" in shank and "deg/s, m/s^2" in shank
+    assert shank.split()[-1] == "1"  # dropped samples
+    assert "499" in shank  # samples in its file
+
+
+def test_convert_keeps_provenance_and_result(tmp_path):
+    import h5py
+
+    rec = short()
+    src = vw.xsens(rec, tmp_path / "x", drops={"thigh": [50]})
+    out = tmp_path / "conv.h5"
+    run = run_cli("convert", src, out, "-q")
+    assert run.returncode == 0, run.stderr
+    with h5py.File(out) as h5:
+        assert h5.attrs["source_format"] == "Xsens MT Manager"
+        assert "00B42D4F" in h5.attrs["serials"]
+    back = load_recording(out)
+    orig = load_recording(src)
+    for name in orig.sensors:
+        np.testing.assert_array_equal(back.sensors[name].gyr, orig.sensors[name].gyr)
+    csv = tmp_path / "conv.csv"
+    assert run_cli("convert", src, csv, "-q").returncode == 0
+    assert load_recording(csv).n_samples == orig.n_samples

@@ -1,0 +1,56 @@
+"""What ``imucal info`` and ``imucal convert`` say about where a recording came from.
+
+For vendor exports (``imucal.formats``) every sensor has its label, serial, rate (from its
+time stamps), start (s on the recording's time axis; negative: it started before the span
+all sensors share), duration (s, its own samples), sample count, units as read and dropped
+samples; imucal's own layouts have none of this and get an empty table.
+"""
+
+from __future__ import annotations
+
+import json
+
+from .recording import Recording
+
+
+def sensor_table(recording: Recording) -> list[str]:
+    """Lines of a plain-text table, one per sensor of a vendor export ([] otherwise)."""
+    info = recording.sensor_info
+    if not info:
+        return []
+    fmt = recording.provenance.get("source_format", "")
+    lines = [f"format: {fmt}",
+             f"{'sensor':<18}{'serial':<20}{'rate Hz':>10}{'start s':>10}{'length s':>10}"
+             f"{'samples':>9}  {'units read':<16}{'dropped':>8}"]
+    for name, i in info.items():
+        units = f"{i['units_read']['gyr']}, {i['units_read']['acc']}"
+        lines.append(
+            f"{name:<18}{str(i.get('serial') or '-'):<20}{i['rate_hz']:>10.4f}"
+            f"{i['start_s']:>10.3f}{i['duration_s']:>10.2f}{i['samples']:>9}  {units:<16}"
+            f"{i['dropped']:>8}"
+        )
+    return lines
+
+
+def hdf5_attrs(recording: Recording) -> dict:
+    """Root attributes recording the provenance in a converted HDF5 file (JSON text for
+    the nested ones); empty for imucal's own layouts."""
+    p = recording.provenance
+    if not p:
+        return {"source": recording.source}
+    return {
+        "source": recording.source,
+        "source_format": str(p.get("source_format", "")),
+        "source_files": json.dumps(p.get("files", [])),
+        "serials": json.dumps(p.get("serials", {})),
+        "original_rates_hz": json.dumps(p.get("original_rates_hz", {})),
+        "dropped_samples": json.dumps(p.get("dropped_samples", {})),
+        "time_origin_s": float(p.get("time_origin", 0.0)),
+        "sensor_info": json.dumps(_plain(recording.sensor_info)),
+    }
+
+
+def _plain(value):
+    from .report import clean
+
+    return clean(value)
