@@ -22,6 +22,7 @@ joint angle changes during the recording (with a rigid joint every pair j1 = R j
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -68,6 +69,15 @@ from .sign import (
     perpendicular,
     plane_test,
 )
+from .time_offset import (
+    SEARCH_S,
+    check_time_offset,
+    estimate_offset,
+    offset_report,
+    offset_warnings,
+    reader,
+    shifted,
+)
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -113,6 +123,11 @@ MAX_UNCERTAINTY_DEG = 5.0
 #: Iteration limit of the cut-off refits: they start at the estimate, and a shift is
 #: only reported to a fraction of a degree.
 SENSITIVITY_ITERATIONS = 10
+#: The offset's profile refits use about this many of the samples, and this many
+#: Gauss-Newton steps from the first estimate (an offset of tens of milliseconds moves
+#: the axis by a few degrees: the refits start next to their minimum).
+OFFSET_SAMPLES = 1500
+OFFSET_STEPS = 2
 #: Below this RMS flexion rate (j2.g2 - j1.g1 at the estimate) the joint did not bend,
 #: deg/s: a rigid joint fits every pair j1 = R j2. Voluntary knee motion is 50-400 deg/s.
 MIN_FLEXION_RATE_DEG_S = 5.0
@@ -173,6 +188,10 @@ class AxisResult(Verdict):
         iterations), the coarse stage's steps first (see :func:`_multistart`).
     refined : each restart's result refined on all samples; the estimate is the one with
         the lowest cost.
+    time_offset : the second sensor's clock lateness: "time_offset_s" applied (s),
+        "mode" ("auto" or "given"), and with "auto" the estimate "estimated_s", its
+        "sigma_s", "cost_ratio" (cost at 0 over cost at the estimate), "search_s" and
+        "at_edge" (:class:`imucal.time_offset.Offset`).
     warnings : plain-language reasons to use the estimate with care; empty when fine.
     blocking : reasons the data cannot identify the axis at all (``verdict`` "not
         identifiable"; the command line exits 1).
@@ -181,6 +200,7 @@ class AxisResult(Verdict):
     window : (start, end) in seconds from the first sample.
     time_ranges : (K, 2) stretches the selection used, s from the first sample.
     gyr1, gyr2 : the filtered, windowed, subsampled rates used (M, 3), rad/s.
+    sample_index : (M,) index of each sample used in the recording passed in.
     """
 
     j1: np.ndarray
@@ -208,8 +228,10 @@ class AxisResult(Verdict):
     time_ranges: np.ndarray
     gyr1: np.ndarray
     gyr2: np.ndarray
+    sample_index: np.ndarray
     warnings: list[str] = field(default_factory=list)
     blocking: list[str] = field(default_factory=list)
+    time_offset: dict = field(default_factory=dict)
 
     @property
     def iterations(self) -> np.ndarray:
@@ -235,6 +257,8 @@ def estimate_axis(
     acc2: np.ndarray | None = None,
     select: bool = True,
     max_samples: int | None = MAX_SAMPLES,
+    time_offset: float | str = "auto",
+    offset_search: float = SEARCH_S,
 ) -> AxisResult:
     """Estimate the hinge axis seen by two gyroscopes.
 
@@ -279,11 +303,27 @@ def estimate_axis(
     acc1, acc2
         Optional (N, 3) specific force of the two sensors, m/s^2: adds the
         accelerometer test of the relative sign (the fit itself uses only the rates).
+    time_offset
+        The second sensor's clock lateness, s: "auto" estimates it from eq. (1) itself
+        (:mod:`imucal.time_offset`) after a first fit and, where it is significant, fits
+        again with the second sensor's signals read at t + offset; a number applies that
+        offset; 0 assumes synchronised clocks.
+    offset_search
+        Search range of the automatic offset, +- s.
     select, max_samples
         Informative-sample selection (:mod:`imucal.selection`): drop still stretches and
         thin to at most ``max_samples`` (None: no cap). ``select=False`` fits every sample.
     """
     g1, g2 = check_pair(gyr1, gyr2)
+    offset = check_time_offset(time_offset)
+    if offset == "auto":
+        seed = resolve_seed(seed)  # both fits must see the same restarts
+        again = partial(estimate_axis, g1, g2, rate=rate, restarts=restarts, seed=seed,
+                        cutoff=cutoff, subsample=subsample, subset=subset, start=start,
+                        end=end, max_iterations=max_iterations, sign=sign, j2_sign=j2_sign,
+                        acc1=acc1, acc2=acc2, select=select, max_samples=max_samples,
+                        offset_search=offset_search)
+        return _with_estimated_offset(again, g1, g2, rate, offset_search)
     if (acc1 is None) != (acc2 is None):
         raise InputError("give both acc1 and acc2, or neither")
     if acc1 is not None:
@@ -296,6 +336,9 @@ def estimate_axis(
     seed = resolve_seed(seed)
     flip_axis = _check_sign(sign)
     pin_j2 = _check_sign(j2_sign, "j2_sign")
+    if offset:  # the second sensor read at t + offset, over the whole recording
+        g2 = shifted(g2, rate, offset)
+        acc2 = None if acc2 is None else shifted(acc2, rate, offset)
     cutoff = 0.0 if cutoff is None else float(cutoff)
     step = resolve_subsample(rate, cutoff, subsample)
 
@@ -384,6 +427,7 @@ def estimate_axis(
         "sign_convention": sign,
         "j2_sign": j2_sign,
         "sign_tests": sorted(decision.tests),
+        "time_offset": offset,
         "subsample": step,
         "select": select,
         "max_samples": max_samples if select else None,
@@ -424,8 +468,10 @@ def estimate_axis(
         time_ranges=t0 + sel.ranges * 1.0,
         gyr1=d1,
         gyr2=d2,
+        sample_index=win.start + sel.index * step,
         warnings=warnings,
         blocking=blocking,
+        time_offset={"mode": "given", "time_offset_s": offset},
     )
 
 
@@ -449,6 +495,39 @@ def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x) -> dict:
     return {"cutoffs_hz": list(pair), "j1_shift_deg": shifts["j1"],
             "j2_shift_deg": shifts["j2"],
             "max_shift_deg": max(shifts["j1"] + shifts["j2"])}
+
+
+def _with_estimated_offset(fit, g1, g2, rate, search) -> AxisResult:
+    """Fit with synchronised clocks, then the offset that minimises eq. (1) with the axis
+    refitted at each candidate (:func:`imucal.time_offset.estimate_offset`), and fit again
+    with it where it is significant (:meth:`imucal.time_offset.Offset.significant`)."""
+    first = fit(time_offset=0.0)
+    cutoff = first.settings["cutoff_hz"]
+    read2 = reader(lowpass(g2, rate, cutoff), rate)
+    # every k-th sample used: the offset is one number, and each candidate costs a refit
+    thin = slice(None, None, max(1, first.samples_used // OFFSET_SAMPLES))
+    d1, times = first.gyr1[thin], first.sample_index[thin] / rate
+    x = np.concatenate([first.j1, first.j2])
+
+    def residuals(deltas):
+        return np.stack([_refit_residuals(d1, read2(times + d), x) for d in deltas])
+
+    found = estimate_offset(residuals, rate, search)
+    result = fit(time_offset=found.delta_s) if found.significant(rate) else first
+    result.time_offset = offset_report(found, rate)
+    result.settings["time_offset"] = "auto"
+    result.warnings.extend(offset_warnings(found, rate))
+    return result
+
+
+def _refit_residuals(d1, d2, x) -> np.ndarray:
+    """Residuals of eq. (1) after ``OFFSET_STEPS`` plain Gauss-Newton steps from ``x``:
+    the profile cost of one offset candidate, without the solver's restart machinery."""
+    for _ in range(OFFSET_STEPS):
+        e, jac = _residual_and_jacobian(d1, d2, x)
+        step = np.linalg.lstsq(jac, -e, rcond=None)[0]
+        x = _retract(x[None, :], step[None, :])[0]
+    return _residual_and_jacobian(d1, d2, x)[0]
 
 
 def _diagnose(d1, d2, flex, singular_ratio, relative, fraction, agreement, minima,

@@ -91,6 +91,11 @@ Select = Annotated[bool, typer.Option(
 MaxSamples = Annotated[int | None, typer.Option(
     min=100, help="With --select, at most this many samples enter the fit; default 3000.",
     show_default=False)]
+TimeOffset = Annotated[str, typer.Option(
+    "--time-offset", help="Clock offset of the second sensor, s (positive: its clock is "
+    "late): auto (estimated from the constraint itself within +-0.2 s and applied when it "
+    "clearly improves the fit; reported in time_offset), 0 (clocks in sync) or a number "
+    "of seconds to apply.")]
 Force = Annotated[bool, typer.Option(
     "--force", help="Write the result even when the data cannot identify it (exit 0; the "
     "JSON carries the warnings). Without it such a run writes nothing and exits 1.")]
@@ -132,6 +137,7 @@ def axis(
         "reported in quality.sign) or +x, -x, +y, -y, +z, -z to pin that component of j2 "
         "positive/negative, e.g. --sign +x --j2-sign +x when both sensors' x axes point "
         "laterally.")] = "auto",
+    time_offset: TimeOffset = "auto",
     force: Force = False,
     trace: Trace = False,
     jobs: Jobs = 1,
@@ -147,13 +153,16 @@ def axis(
             raise typer.Exit(run_study("axis", params))
         rec = rec[0]
         from .axis import estimate_axis
+        from .time_offset import check_time_offset
+
+        offset = check_time_offset(time_offset)  # a usage error, before any file is read
 
         def estimate(s1, s2, sample_rate, **window):
             return estimate_axis(s1.gyr, s2.gyr, rate=sample_rate, restarts=restarts, seed=seed,
                                  cutoff=cutoff, subsample=subsample, sign=sign,
                                  j2_sign=j2_sign, acc1=s1.acc, acc2=s2.acc,
                                  select=select, max_samples=_max_samples(max_samples),
-                                 **window)
+                                 time_offset=offset, **window)
 
         _run(estimate, "axis", rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
              quiet, force, trace=trace)
@@ -194,6 +203,7 @@ def position(
         "--j2-sign", help="With --joint hinge: pin the relative sign of the estimated axis, "
         "which decides the line the knee point is taken on (see imucal axis --help).")]
     = "auto",
+    time_offset: TimeOffset = "auto",
     force: Force = False,
     trace: Trace = False,
     jobs: Jobs = 1,
@@ -209,6 +219,9 @@ def position(
             raise typer.Exit(run_study("position", params))
         rec = rec[0]
         from .position import JOINTS, estimate_position
+        from .time_offset import check_time_offset
+
+        offset = check_time_offset(time_offset)  # a usage error, before any file is read
 
         if joint not in JOINTS:
             raise InputError(f"--joint must be one of {', '.join(JOINTS)}, got '{joint}'")
@@ -218,7 +231,7 @@ def position(
                                      restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
                                      subsample=subsample, select=select,
                                      max_samples=_max_samples(max_samples), sign=sign,
-                                     j2_sign=j2_sign, **window)
+                                     j2_sign=j2_sign, time_offset=offset, **window)
 
         _run(estimate, "position", rec, sensors, start, end, out, plot, rate, gyr_units,
              acc_units, quiet, force, trace=trace)
@@ -604,6 +617,12 @@ def _summary(doc: dict, names) -> None:
          f"(median {conv['iterations_median']:g}, max {conv['iterations_max']} iterations); "
          f"residual {q['rms_residual']:.4f} {units['rms_residual']} "
          f"({q['relative_residual']:.1%} of signal)")
+    offset = doc.get("time_offset") or {}
+    if offset.get("mode") == "auto":
+        applied = "applied" if offset["applied"] else "not applied"
+        sigma = offset["sigma_s"]
+        _err(f"  clock offset of {names[1]}: {1000 * offset['estimated_s']:+.1f} ms "
+             f"(1-sigma {'-' if sigma is None else f'{1000 * sigma:.1f}'} ms, {applied})")
     _err(f"  verdict: {q['verdict']}")
     for w in q["warnings"]:
         _err(f"  warning: {w}")

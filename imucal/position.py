@@ -21,6 +21,7 @@ Schauer 2014), with the axis from the same recording.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -62,6 +63,15 @@ from .restarts import (
 )
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
+from .time_offset import (
+    SEARCH_S,
+    check_time_offset,
+    estimate_offset,
+    offset_report,
+    offset_warnings,
+    reader,
+    shifted,
+)
 
 JOINTS = ("spheroidal", "hinge")
 #: Two estimates agree when both o1 and o2 are within this distance, m.
@@ -86,6 +96,10 @@ MAX_RELATIVE_RESIDUAL = 0.25
 MIN_SINGULAR_RATIO = 0.04
 #: A 1-sigma position uncertainty above this is not good enough for kinematics, mm.
 MAX_UNCERTAINTY_MM = 10.0
+#: The offset's profile refits use about this many samples and this many Gauss-Newton
+#: steps from the first estimate (see :data:`imucal.axis.OFFSET_SAMPLES`).
+OFFSET_SAMPLES = 1500
+OFFSET_STEPS = 2
 #: A sensor strapped to a thigh, shank or foot is never this far from the joint, m.
 MAX_PLAUSIBLE_OFFSET_M = 1.0
 
@@ -129,6 +143,7 @@ class PositionResult(Verdict):
     line : for ``joint="hinge"``, the (j1, j2) used, else None.
     warnings, blocking, settings, samples_used, window, time_ranges : as in
         :class:`imucal.axis.AxisResult`.
+    sample_index, time_offset : as in :class:`imucal.axis.AxisResult`.
     """
 
     o1: np.ndarray
@@ -153,10 +168,12 @@ class PositionResult(Verdict):
     samples_used: int
     window: tuple[float, float]
     time_ranges: np.ndarray
+    sample_index: np.ndarray
     axis: AxisResult | None = None
     line: np.ndarray | None = None
     warnings: list[str] = field(default_factory=list)
     blocking: list[str] = field(default_factory=list)
+    time_offset: dict = field(default_factory=dict)
 
     @property
     def iterations(self) -> np.ndarray:
@@ -184,6 +201,8 @@ def estimate_position(
     max_samples: int | None = MAX_SAMPLES,
     sign: str = "auto",
     j2_sign: str = "auto",
+    time_offset: float | str = "auto",
+    offset_search: float = SEARCH_S,
 ) -> PositionResult:
     """Estimate the joint centre seen by two IMUs.
 
@@ -217,6 +236,9 @@ def estimate_position(
         :func:`imucal.estimate_axis`. The point closest to both sensors depends on
         j1 and j2 pointing the same physical way, so pinning ``j2_sign`` (with ``sign``)
         pins the line the point is taken on.
+    time_offset, offset_search
+        The second sensor's clock lateness, s, as in :func:`imucal.estimate_axis`, found
+        here from eq. (3) (for a hinge, the axis is fitted with the same offset).
     """
     if joint not in JOINTS:
         raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{joint}'")
@@ -224,19 +246,26 @@ def estimate_position(
     a1, a2 = check_pair(acc1, acc2)
     if g1.shape != a1.shape:
         raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, {a1.shape[0]})")
+    offset = check_time_offset(time_offset)
+    if offset == "auto":
+        seed = resolve_seed(seed)  # both fits must see the same restarts
+        again = partial(estimate_position, g1, a1, g2, a2, rate=rate, restarts=restarts,
+                        seed=seed, joint=joint, axis=axis, cutoff=cutoff, subsample=subsample,
+                        subset=subset, start=start, end=end, max_iterations=max_iterations,
+                        select=select, max_samples=max_samples, sign=sign, j2_sign=j2_sign,
+                        offset_search=offset_search)
+        return _with_estimated_offset(again, (g1, a1, g2, a2), rate, offset_search)
     rate = check_rate(rate)
     restarts = check_restarts(restarts)
     seed = resolve_seed(seed)
+    if offset:  # the second sensor read at t + offset, over the whole recording
+        g2, a2 = shifted(g2, rate, offset), shifted(a2, rate, offset)
     cutoff = default_cutoff(rate) if cutoff is None else float(cutoff)
     step = resolve_subsample(rate, cutoff, subsample)
 
     win = window_slice(g1.shape[0], rate, start, end)
-    sensors = []
-    for g, a in ((g1, a1), (g2, a2)):
-        gf = lowpass(g, rate, cutoff)
-        gdot = derivative(gf, rate)
-        af = lowpass(a, rate, cutoff)
-        sensors.append(tuple(arr[win][::step] for arr in (gf, gdot, af)))
+    sensors = [tuple(arr[win][::step] for arr in _filtered(g, a, rate, cutoff))
+               for g, a in ((g1, a1), (g2, a2))]
     sel = select_samples(sensors[0][0], sensors[1][0], rate / step, max_samples=max_samples,
                          min_samples=MIN_SAMPLES, enabled=select)
     sensors = [tuple(arr[sel.index] for arr in parts) for parts in sensors]
@@ -255,6 +284,7 @@ def estimate_position(
                 g1, g2, rate=rate, restarts=restarts, seed=seed, subset=subset,
                 start=start, end=end, max_iterations=max_iterations, select=select,
                 max_samples=max_samples, acc1=a1, acc2=a2, sign=sign, j2_sign=j2_sign,
+                time_offset=0.0,  # g2, a2 are already aligned
             )
             line = np.concatenate([axis_result.j1, axis_result.j2])
         elif isinstance(axis, AxisResult):
@@ -391,6 +421,7 @@ def estimate_position(
         "max_iterations": max_iterations,
         "axis_sign_convention": sign if joint == "hinge" else None,
         "j2_sign": j2_sign if joint == "hinge" else None,
+        "time_offset": offset,
         "step_tolerance_m": STEP_TOLERANCE,
         "cost_tolerance": COST_TOLERANCE,
         "agreement_mm": AGREEMENT_M * 1000,
@@ -419,6 +450,8 @@ def estimate_position(
         samples_used=n,
         window=(win.start / rate, win.stop / rate),
         time_ranges=win.start / rate + sel.ranges,
+        sample_index=win.start + sel.index * step,
+        time_offset={"mode": "given", "time_offset_s": offset},
         axis=axis_result if joint == "hinge" else None,
         line=line,
         warnings=warnings,
@@ -592,6 +625,45 @@ def _solve(problem: _SpheroidalProblem, x0: np.ndarray, max_iterations: int) -> 
         cost_tolerance=COST_TOLERANCE,
         max_step=MAX_STEP,
     )
+
+
+def _with_estimated_offset(fit, signals, rate, search) -> PositionResult:
+    """Fit with synchronised clocks, then the offset that minimises eq. (3) with the
+    joint position refitted at each candidate (:func:`imucal.time_offset.estimate_offset`),
+    and fit again with it where it is significant."""
+    first = fit(time_offset=0.0)
+    cutoff = first.settings["cutoff_hz"]
+    g1, a1, g2, a2 = signals
+    # every k-th sample used: the offset is one number, and each candidate costs a refit
+    index = first.sample_index[::max(1, first.samples_used // OFFSET_SAMPLES)]
+    own = [arr[index] for arr in _filtered(g1, a1, rate, cutoff)]
+    readers = [reader(arr, rate) for arr in _filtered(g2, a2, rate, cutoff)]
+    times = index / rate
+    x = np.concatenate([first.o1, first.o2])
+
+    def residuals(deltas):
+        out = []
+        for d in deltas:
+            problem = _SpheroidalProblem(*own, *(read(times + d) for read in readers), None)
+            y = x
+            for _ in range(OFFSET_STEPS):  # plain Gauss-Newton from the first estimate
+                e, jac = problem.linearise(y[None, :])
+                y = y + np.linalg.lstsq(jac[0], -e[0], rcond=None)[0]
+            out.append(problem.residual(y[None, :])[0])
+        return np.stack(out)
+
+    found = estimate_offset(residuals, rate, search)
+    result = fit(time_offset=found.delta_s) if found.significant(rate) else first
+    result.time_offset = offset_report(found, rate)
+    result.settings["time_offset"] = "auto"
+    result.warnings.extend(offset_warnings(found, rate))
+    return result
+
+
+def _filtered(g, a, rate, cutoff):
+    """Low-passed rates, their derivative and low-passed specific force (full rate)."""
+    gf = lowpass(g, rate, cutoff)
+    return gf, derivative(gf, rate), lowpass(a, rate, cutoff)
 
 
 def _block_jackknife(sensors, x, line, max_iterations) -> dict:

@@ -59,9 +59,11 @@ def axis_report(result: AxisResult, *, input_info: dict, trace: bool = False) ->
         "settings": result.settings,
         "convention": _axis_convention(result.settings["sign_convention"]),
         "units": {"j1": "unit vector", "j2": "unit vector", "rms_residual": "rad/s",
-                  "cost": "rad/s (RMS residual)", "uncertainty": "deg", "spread": "deg"},
+                  "cost": "rad/s (RMS residual)", "uncertainty": "deg", "spread": "deg",
+                  "time_offset": "s (positive: the second sensor's clock is late)"},
         "j1": result.j1,
         "j2": result.j2,
+        "time_offset": result.time_offset,
         "quality": quality,
         "convergence": _convergence_block(result, "agreement_deg"),
         "restarts": _restart_entries(result, "j1", "j2", trace),
@@ -78,10 +80,12 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
         "settings": result.settings,
         "convention": POSITION_CONVENTION,
         "units": {"o1": "m", "o2": "m", "rms_residual": "m/s^2",
-                  "cost": "m/s^2 (RMS residual)", "uncertainty": "mm", "spread": "mm"},
+                  "cost": "m/s^2 (RMS residual)", "uncertainty": "mm", "spread": "mm",
+                  "time_offset": "s (positive: the second sensor's clock is late)"},
         "joint": result.joint,
         "o1": result.o1,
         "o2": result.o2,
+        "time_offset": result.time_offset,
     }
     if result.line is not None:
         doc["axis_line"] = {
