@@ -328,8 +328,9 @@ def simulate(
         (a late clock) makes events appear later in that sensor. ``|d_i| < duration``.
     gyr_bias
         Constant gyroscope bias, rad/s, sensor frame: a number gives every sensor a bias of
-        that magnitude in a random direction (seeded); a mapping gives some sensors a
-        magnitude (random direction) or a 3-vector, e.g. ``{"shank": (0.01, 0, -0.02)}``.
+        that magnitude in a random direction (seeded), a 3-vector gives every sensor that
+        vector; a mapping gives some sensors a magnitude (random direction) or a 3-vector,
+        e.g. ``{"shank": (0.01, 0, -0.02)}``.
 
     Returns
     -------
@@ -537,11 +538,16 @@ def _gyr_bias(gyr_bias, rng: np.random.Generator) -> dict[str, np.ndarray]:
 
 
 def _bias_setting(gyr_bias):
-    """The bias option as given, JSON-ready."""
-    if gyr_bias is None or np.ndim(gyr_bias) == 0 and not isinstance(gyr_bias, Mapping):
-        return None if gyr_bias is None else float(gyr_bias)
-    return {k: (float(v) if np.ndim(v) == 0 else [float(x) for x in v])
-            for k, v in gyr_bias.items()}
+    """The bias option as given (already validated), JSON-ready."""
+
+    def plain(v):
+        return float(v) if np.ndim(v) == 0 else [float(x) for x in v]
+
+    if gyr_bias is None:
+        return None
+    if isinstance(gyr_bias, Mapping):
+        return {k: plain(v) for k, v in gyr_bias.items()}
+    return plain(gyr_bias)  # one magnitude, or one vector, for every sensor
 
 
 def _random_rotation(rng: np.random.Generator) -> np.ndarray:
