@@ -129,16 +129,34 @@ def jackknife_sigma(deviation: np.ndarray) -> float:
     return float(np.sqrt((k - 1) / k * np.sum(deviation**2)))
 
 
-def total_sigma(curvature: float, blocks: float, cutoff_shift: float) -> float:
+def smooth_residual_rms(e: np.ndarray) -> float:
+    """RMS of the part of the residuals ``e`` (M,) that is not white noise.
+
+    White noise has mean (e_t - e_(t-1))^2 = 2 var; a model error that changes slowly
+    from sample to sample (soft tissue at gait frequencies, a knee that also rotates)
+    hardly contributes to the differences. So var(e) - mean(diff(e)^2) / 2 is the smooth
+    part's variance (clipped at 0).
+    """
+    e = np.asarray(e, dtype=np.float64)
+    if e.size < 3:
+        return 0.0
+    smooth = np.mean(e * e) - 0.5 * np.mean(np.diff(e) ** 2)
+    return float(np.sqrt(max(smooth, 0.0)))
+
+
+def total_sigma(curvature: float, blocks: float, cutoff_shift: float,
+                model: float = 0.0) -> float:
     """The reported 1-sigma: the larger of the curvature's and the time blocks' (both
     measure the same sampling error; the blocks also see correlated and non-stationary
     errors the curvature misses), with the cut-off refits' largest shift added in
     quadrature: a reasonable processing choice (half or twice the cut-off) moves the
     answer by that much, so the data do not pin it down more closely. With half the
     shift, the two halves of the shared real recording's hip disagreed by 4.8 combined
-    sigma; with all of it, every split of the real recording agrees within 3."""
+    sigma; with all of it, every split of the real recording agrees within 3. ``model``
+    is a bias bound from systematic residuals (see the estimators), added in quadrature:
+    neither the curvature nor time blocks see an error that every block shares."""
     sampling = max(curvature, blocks)
-    return float(np.sqrt(sampling**2 + cutoff_shift**2))
+    return float(np.sqrt(sampling**2 + cutoff_shift**2 + model**2))
 
 
 def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
@@ -151,7 +169,9 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
         "curvature": "the data barely constrain it",
         "time_blocks": "fits on different stretches of the recording disagree",
         "cutoff_shift": "it moves with the low-pass cut-off of the refits",
+        "model": "the residuals are systematic (soft tissue, a joint that is no hinge)",
     }[main]
     return (f"the estimate is uncertain: 1-sigma {total[name]:.1f} {unit} for {name}, mostly "
             f"because {why} (curvature {parts['curvature']:.1f}, time blocks "
-            f"{parts['time_blocks']:.1f}, cut-off shift {parts['cutoff_shift']:.1f} {unit})")
+            f"{parts['time_blocks']:.1f}, cut-off shift {parts['cutoff_shift']:.1f}"
+            + (f", model {parts['model']:.1f}" if "model" in parts else "") + f" {unit})")
