@@ -102,8 +102,13 @@ def run_study(command: str, params: dict) -> int:
         raise InputError("- (standard input) can only be read as the only REC, not in a list "
                          "of recordings")
     out = params.get("out")
+    sensor_map = params.get("sensor_map")
+    if sensor_map is not None:  # a broken map is one error, not one per recording
+        from .sensor_map import read_sensor_map
+
+        read_sensor_map(sensor_map)
     if out is not None:
-        check_not_inputs([("--out", out)], files)
+        check_not_inputs([("--out", out)], files + ([sensor_map] if sensor_map else []))
         check_writable(out)
     quiet = bool(params.get("quiet"))
     jobs = resolve_jobs(int(params.get("jobs", 1)), len(files))

@@ -84,6 +84,12 @@ GyrUnits = Annotated[str | None, typer.Option(help="Gyroscope units of a CSV: ra
 AccUnits = Annotated[str | None, typer.Option(help="Accelerometer units of a CSV: m/s^2 or g.",
                                               show_default=False)]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")]
+SensorMap = Annotated[Path | None, typer.Option(
+    "--map", metavar="FILE", show_default=False,
+    help="Sensor map for a study: device names or serials as the files give them -> the "
+    "names to use, as JSON ({\"00B4D7D3\": \"left_thigh\"}) or KEY = NAME lines; keys "
+    "match ignoring case, spaces, underscores and hyphens; keys mapped to one name are "
+    "alternatives (e.g. one per participant). See docs/formats.md.")]
 Debug = Annotated[bool, typer.Option("--debug", help="Show a traceback on errors.")]
 Select = Annotated[bool, typer.Option(
     "--select/--no-select", help="Use only informative samples: drop still stretches and thin "
@@ -128,6 +134,7 @@ def axis(
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
+    sensor_map: SensorMap = None,
     sign: Annotated[str, typer.Option(
         help="Overall sign of the axis: auto (j1's largest component positive) or +x, -x, "
         "+y, -y, +z, -z (that component of j1 is positive). j2 always points the same "
@@ -165,7 +172,7 @@ def axis(
                                  time_offset=offset, **window)
 
         _run(estimate, "axis", rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
-             quiet, force, trace=trace)
+             quiet, force, trace=trace, sensor_map=sensor_map)
 
 
 @app.command(
@@ -196,6 +203,7 @@ def position(
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
+    sensor_map: SensorMap = None,
     sign: Annotated[str, typer.Option(
         help="With --joint hinge: overall sign of the estimated axis (see imucal axis "
         "--help).")] = "auto",
@@ -234,7 +242,7 @@ def position(
                                      j2_sign=j2_sign, time_offset=offset, **window)
 
         _run(estimate, "position", rec, sensors, start, end, out, plot, rate, gyr_units,
-             acc_units, quiet, force, trace=trace)
+             acc_units, quiet, force, trace=trace, sensor_map=sensor_map)
 
 
 @app.command(
@@ -333,6 +341,7 @@ def info(
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
+    sensor_map: SensorMap = None,
     debug: Debug = False,
 ) -> None:
     """Sensors, sample rate, duration, units, and how much each sensor moves."""
@@ -340,10 +349,12 @@ def info(
         from .loaders import load_recording
         from .report import clean
 
-        recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
+        recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
+                                   names=sensor_map)
         doc = clean(_describe(recording))
         if recording.sensor_info:  # a vendor export: what each device's file said
             doc["sensor_info"] = clean(recording.sensor_info)
+        if recording.provenance:  # and where it came from (and the --map used)
             doc["provenance"] = clean(recording.provenance)
         if as_json:
             sys.stdout.write(json.dumps(doc, indent=2) + "\n")
@@ -380,6 +391,7 @@ def convert(
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
+    sensor_map: SensorMap = None,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
@@ -392,8 +404,9 @@ def convert(
         from .provenance import hdf5_attrs
         from .writers import save_recording
 
-        _check_outputs(out, None, rec)
-        recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
+        _check_outputs(out, None, rec, sensor_map)
+        recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
+                                   names=sensor_map)
         save_recording(recording, out, extra_attrs=hdf5_attrs(recording))
         if not quiet:
             for w in recording.warnings:
@@ -403,7 +416,7 @@ def convert(
 
 
 def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
-         quiet, force, trace=False) -> None:
+         quiet, force, trace=False, sensor_map=None) -> None:
     """What `axis` and `position` share: load, check, estimate, report, plot, summarise.
 
     ``command`` ("axis" or "position") names the report and figure builders to use. When
@@ -412,8 +425,8 @@ def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units
     """
     from . import report
 
-    _check_outputs(out, plot, rec)
-    recording, names = _load(rec, sensors, rate, gyr_units, acc_units)
+    _check_outputs(out, plot, rec, sensor_map)
+    recording, names = _load(rec, sensors, rate, gyr_units, acc_units, sensor_map)
     used, window = _window(recording, names, start, end)
     s1, s2 = (used.sensor(n) for n in names)
     try:
@@ -421,6 +434,10 @@ def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units
     except InputError as err:
         raise InputError(f"{recording.source}: {err}") from None
     input_info = _input_info(recording, names, used)
+    if "sensor_map" in recording.provenance:  # which device each name came from
+        in_file = {v: k for k, v in recording.provenance["sensor_map"]["renamed"].items()}
+        input_info["sensor_map"] = {"file": str(sensor_map), "sensors": {
+            m: in_file.get(m, m) for m in map(recording.resolve, names)}}
     doc = getattr(report, f"{command}_report")(result, input_info=input_info, trace=trace)
     what = f"{command} ({doc['joint']})" if "joint" in doc else command
     _progress(quiet, recording, names, what)
@@ -519,14 +536,15 @@ class _errors:
         raise typer.Exit(3)
 
 
-def _load(rec, sensors, rate, gyr_units, acc_units):
+def _load(rec, sensors, rate, gyr_units, acc_units, sensor_map=None):
     from .loaders import load_recording
 
     names = [s.strip() for s in sensors.split(",")]
     if len(names) != 2 or not all(names) or names[0] == names[1]:
         raise InputError(f"--sensors needs two different sensor names, e.g. thigh,shank; "
                          f"got '{sensors}'")
-    recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
+    recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
+                               names=sensor_map)
     for n in names:
         if n not in recording.sensors:
             recording.sensor(n)  # raises with the list of sensors that exist
@@ -566,7 +584,7 @@ def _input_info(recording, names, used=None) -> dict:
     }
 
 
-def _check_outputs(out, plot, rec) -> None:
+def _check_outputs(out, plot, rec, sensor_map=None) -> None:
     if plot is not None:
         from .plots import FORMATS
 
@@ -574,7 +592,8 @@ def _check_outputs(out, plot, rec) -> None:
             raise InputError(f"{plot}: unknown figure format '{plot.suffix or plot.name}'; "
                              f"--plot writes PNG, PDF or SVG by the file name's extension "
                              f"({', '.join(FORMATS)})")
-    check_not_inputs([("--out", out), ("--plot", plot)], [rec])
+    check_not_inputs([("--out", out), ("--plot", plot)],
+                     [rec] + ([sensor_map] if sensor_map is not None else []))
     for path in (out, plot):
         if path is not None:
             check_writable(path)

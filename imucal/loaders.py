@@ -29,6 +29,7 @@ import difflib
 import io
 import re
 import sys
+from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -65,6 +66,7 @@ def load_recording(
     rate: float | None = None,
     gyr_units: str | None = None,
     acc_units: str | None = None,
+    names: Mapping[str, str] | str | Path | None = None,
 ) -> Recording:
     """Load an HDF5 or CSV recording and return it validated, in SI units.
 
@@ -80,6 +82,12 @@ def load_recording(
         Units of the gyroscope (``rad/s`` or ``deg/s``) and accelerometer (``m/s^2`` or
         ``g``) data. For CSV they apply to all sensors (default rad/s and m/s^2); for HDF5
         they override the files' ``units`` attributes.
+    names
+        A study's sensor map: device names or serials (as the files give them, matched
+        ignoring case, spaces, underscores and hyphens) -> the names to use, e.g.
+        ``{"00B4D7D3": "left_thigh"}``, or the path of a map file (JSON or ``KEY = NAME``
+        lines; :mod:`imucal.sensor_map`, ``--map`` on the command line). A name none of
+        whose keys is in the recording is an error listing the sensors there are.
 
     Raises
     ------
@@ -87,7 +95,12 @@ def load_recording(
         One line naming the file and the problem, for every unusable input.
     """
     try:
-        return _load(path, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
+        recording = _load(path, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
+        if names is not None:
+            from .sensor_map import apply_sensor_map
+
+            recording = apply_sensor_map(recording, names)
+        return recording
     except InputError as err:
         message = str(err)
         if "\n" in message or "\r" in message:  # a column name or library text with newlines

@@ -36,10 +36,13 @@ def hdf5_attrs(recording: Recording) -> dict:
     """Root attributes recording the provenance in a converted HDF5 file (JSON text for
     the nested ones); empty for imucal's own layouts."""
     p = recording.provenance
-    if not p:
-        return {"source": recording.source}
+    attrs = {"source": recording.source}
+    if "sensor_map" in p:  # --map: the map file and which sensor it renamed to what
+        attrs["sensor_map"] = json.dumps(_plain(p["sensor_map"]))
+    if "source_format" not in p:
+        return attrs
     return {
-        "source": recording.source,
+        **attrs,
         "source_format": str(p.get("source_format", "")),
         "source_files": json.dumps(p.get("files", [])),
         "serials": json.dumps(p.get("serials", {})),
