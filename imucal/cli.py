@@ -39,11 +39,15 @@ app = typer.Typer(
 )
 
 # Options shared by `axis` and `position`.
-Rec = Annotated[str, typer.Argument(metavar="REC", show_default=False,
-                                    help="Recording (.h5, .hdf5 or .csv); - reads CSV from stdin.")]
+Rec = Annotated[str, typer.Argument(
+    metavar="REC", show_default=False,
+    help="Recording: a file or folder, imucal's HDF5/CSV or a vendor export (Xsens MT "
+    "Manager, Movella DOT, APDM, x-IMU3, Shimmer, BIDS-motion; docs/formats.md); - reads "
+    "CSV from stdin.")]
 Recs = Annotated[list[str], typer.Argument(
     metavar="REC", show_default=False,
-    help="Recording(s) (.h5, .hdf5 or .csv); - reads CSV from stdin. Several RECs: one JSON "
+    help="Recording(s): files or folders, imucal's HDF5/CSV or vendor exports "
+    "(docs/formats.md); - reads CSV from stdin. Several RECs: one JSON "
     "line per recording, in order (see --jobs).")]
 Jobs = Annotated[int, typer.Option(
     "--jobs", "-j", min=0, help="With several RECs: recordings processed at once, in separate "
