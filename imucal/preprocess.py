@@ -8,6 +8,8 @@ motion carry almost the same information. docs/method.md explains the choices.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from scipy import signal
 
@@ -151,7 +153,8 @@ def lowpass(x: np.ndarray, rate: float, cutoff: float | None,
         raise InputError(
             f"cut-off {cutoff:g} Hz must be below half the sample rate ({rate / 2:g} Hz)"
         )
-    sos = signal.butter(order, cutoff, fs=rate, output="sos")
+    # a copy: scipy's filter wants a writable array, and the cached one must not change
+    sos = _butterworth(int(order), float(cutoff), float(rate)).copy()
     padlen = min(x.shape[0] - 1, 3 * (2 * len(sos) + 1) * 4)
     return signal.sosfiltfilt(sos, x, axis=0, padlen=padlen)
 
@@ -162,6 +165,14 @@ def lowpass(x: np.ndarray, rate: float, cutoff: float | None,
 #: loses 0.02 %.
 DERIVATIVE_STENCIL = np.array([1 / 280, -4 / 105, 1 / 5, -4 / 5, 0.0, 4 / 5, -1 / 5, 4 / 105,
                                -1 / 280])
+
+
+@lru_cache(maxsize=64)
+def _butterworth(order: int, cutoff: float, rate: float) -> np.ndarray:
+    """Second-order sections of a Butterworth low-pass. Cached: designing one costs about
+    as much as filtering 10 s of three channels, and every estimate filters at the same
+    few cut-offs (fit, sign tests, sensitivity refits)."""
+    return signal.butter(order, cutoff, fs=rate, output="sos")
 
 
 def derivative(x: np.ndarray, rate: float) -> np.ndarray:
