@@ -242,7 +242,9 @@ class Recording:
                  for key, runs in gaps.items()}
         self._refuse_first_offence(inner, a0, a1, span)
 
-        notes = list(self.notes)
+        # the file's notes about one sensor ("sensor 'Foot': ...") concern only that one
+        others = {f"sensor '{other}'" for other in self.sensors if other not in names}
+        notes = [note for note in self.notes if not note.startswith(tuple(others))]
         if a0 > w0 or a1 < w1:
             culprits = [f"'{g.sensor}' {g.kind}" for runs in gaps.values() for g in runs[:1]
                         + runs[-1:] if (g.start == 0 and g.length > w0)

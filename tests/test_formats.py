@@ -393,3 +393,17 @@ def test_convert_keeps_provenance_and_result(tmp_path):
     csv = tmp_path / "conv.csv"
     assert run_cli("convert", src, csv, "-q").returncode == 0
     assert load_recording(csv).n_samples == orig.n_samples
+
+
+def test_notes_about_an_unused_sensor_stay_out_of_the_selection(tmp_path):
+    # The shank started late: the shared span trims the thigh and the foot. The knee
+    # hears about the thigh only, the ankle about the foot only.
+    path = vw.dot(short(), tmp_path / "dot", late={"shank": 18})
+    rec = load_recording(path)
+    assert {w.split(":")[0] for w in rec.warnings} >= {"sensor 'Thigh'", "sensor 'Foot'"}
+    knee = rec.select(["Thigh", "Shank"]).warnings
+    assert any(w.startswith("sensor 'Thigh'") for w in knee)
+    assert not any("Foot" in w for w in knee)
+    ankle = rec.select(["Shank", "Foot"]).warnings
+    assert any(w.startswith("sensor 'Foot'") for w in ankle)
+    assert not any("Thigh" in w for w in ankle)
