@@ -1,0 +1,425 @@
+"""Write docs/accuracy.md: imucal on its own simulator under lab-realistic conditions
+(issue 11), next to qmt's gyroscope-only estimator for the knee axis.
+
+Run from the repository root (qmt is a dev dependency), with one BLAS thread per
+process as the command line runs (a few minutes on two cores):
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python docs/tools/accuracy_table.py [--jobs N]
+
+Every estimate is called as the command line calls it (default settings, seed 1 for the
+restarts, ``time_offset="auto"``; the axis gets both accelerometers for the sign test).
+The knee axis is fitted to thigh - shank, the ankle centre (spheroidal) to shank - foot.
+Seeds, rates and conditions are fixed, so the page is reproducible.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+from multiprocessing import Pool
+from pathlib import Path
+
+import numpy as np
+
+from imucal import estimate_axis, estimate_position
+from imucal.simulate import simulate
+
+ROOT = Path(__file__).resolve().parents[2]
+DURATION = 30.0
+NOISE = {"gyr_noise": 0.01, "acc_noise": 0.05}
+TABLE_SEEDS = (1, 2, 3, 4, 5)
+TABLE_RATE = 100.0
+COVERAGE_SEEDS = tuple(range(1, 9))
+COVERAGE_RATES = (40.0, 60.0, 100.0, 150.0, 200.0)
+#: (key, label, simulate options, rate of the table row or None for TABLE_RATE,
+#:  knee-axis target, ankle-centre target). "late" simulates twice: for the knee the
+#: shank (second sensor) is 20 ms late, for the ankle the foot.
+CONDITIONS = (
+    ("protocol40", "`protocol` at 40 Hz, gyro noise 0.01 rad/s, acc noise 0.05 m/s^2",
+     {"motion": "protocol"}, 40.0, "< 0.25 deg", "< 5 mm"),
+    ("protocol100", "`protocol` at 100 Hz, same noise", {"motion": "protocol"}, None,
+     "< 0.25 deg", "< 3 mm"),
+    ("gait100", "`gait` at 100 Hz, same noise", {"motion": "gait"}, None, "< 0.25 deg",
+     "honest: weak direction reported, error < 3 sigma"),
+    ("late", "`protocol` 100 Hz, second sensor 20 ms late, same noise",
+     {"motion": "protocol", "late": 0.02}, None, "< 0.5 deg, offset within 3 ms",
+     "< 10 mm, offset within 3 ms"),
+    ("late40", "`protocol` 40 Hz, second sensor 20 ms late, same noise",
+     {"motion": "protocol", "late": 0.02}, 40.0, "< 0.5 deg, offset within 3 ms",
+     "< 10 mm, offset within 3 ms"),
+    ("bias", "`protocol` 100 Hz, gyro bias 0.02 rad/s, same noise",
+     {"motion": "protocol", "gyr_bias": 0.02}, None, "< 0.5 deg", "< 10 mm"),
+    ("soft1", "`protocol` 100 Hz, soft tissue 1 deg / 2 mm, same noise",
+     {"motion": "protocol", "soft_tissue_deg": 1.0, "soft_tissue_mm": 2.0}, None,
+     "no internal error; error < 3 sigma or refused", "same"),
+    ("soft2", "`protocol` 100 Hz, soft tissue 2 deg / 3 mm, same noise",
+     {"motion": "protocol", "soft_tissue_deg": 2.0, "soft_tissue_mm": 3.0}, None,
+     "no internal error; error < 3 sigma or refused", "same"),
+)
+REFUSED = "not identifiable"
+#: The coverage run: each distinct condition at every rate (protocol40 and protocol100
+#: differ only in rate).
+COVERAGE = {"protocol100": "`protocol`, noise", "gait100": "`gait`, noise",
+            "late": "`protocol`, second sensor 20 ms late",
+            "bias": "`protocol`, gyro bias 0.02 rad/s",
+            "soft1": "`protocol`, soft tissue 1 deg / 2 mm",
+            "soft2": "`protocol`, soft tissue 2 deg / 3 mm"}
+
+
+def axis_error_deg(j1, j2, t1, t2) -> float:
+    """The larger of the two angles to the truth, one common sign flip allowed (a wrong
+    relative sign counts as ~180 deg; tests/conftest.py)."""
+    s = 1.0 if np.dot(j1, t1) >= 0 else -1.0
+    return float(max(np.degrees(np.arccos(np.clip(s * np.dot(j, t), -1, 1)))
+                     for j, t in ((j1, t1), (j2, t2))))
+
+
+def sign_free_deg(j, t) -> float:
+    return float(np.degrees(np.arccos(min(1.0, abs(np.dot(j, t)) / np.linalg.norm(j)))))
+
+
+def qmt_axis(a, b, rate):
+    """qmt's gyroscope-only estimator (wa=0, wg=1: the residual of eq. 1), one start, as
+    in docs/tools/real_data_table.py."""
+    import qmt
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        j1, j2 = qmt.jointAxisEstHingeOlsson(a.acc, b.acc, a.gyr, b.gyr,
+                                             estSettings={"wa": 0.0, "wg": 1.0})[:2]
+    return np.ravel(j1), np.ravel(j2)
+
+
+def warning_names(warnings) -> list[str]:
+    names = []
+    for w in warnings:
+        w = w.removeprefix("axis: ")
+        if w.startswith("the estimate is uncertain"):
+            names.append("uncertain")
+        elif "only known along a line" in w or "motion stays close to one axis" in w:
+            names.append("line")
+        elif w.startswith("the residual is lowest with the second sensor"):
+            names.append("offset not applied")
+        elif "may exceed" in w:
+            names.append("offset at edge")
+        elif w.startswith("restarts disagree"):
+            names.append("restarts")
+        elif "fits poorly" in w:
+            names.append("poor fit")
+        else:
+            names.append(w[:30])
+    return names
+
+
+def run_case(case):
+    """One (condition, seed, rate): knee axis and ankle centre, with qmt when asked."""
+    key, options, seed, rate, with_qmt = case
+    options = dict(options)
+    late = options.pop("late", 0.0)
+    out = {"key": key, "seed": seed, "rate": rate}
+    for joint, first, second in (("knee", "thigh", "shank"), ("ankle", "shank", "foot")):
+        clock = {second: late} if late else None
+        rec, truth = simulate(seed=seed, rate=rate, duration=DURATION, clock_offset=clock,
+                              **NOISE, **options)
+        a, b = rec.sensor(first), rec.sensor(second)
+        true_offset = truth["time_offset_s"][joint]
+        try:
+            if joint == "knee":
+                r = estimate_axis(a.gyr, b.gyr, rate=rate, seed=1, acc1=a.acc, acc2=b.acc)
+                t1, t2 = truth["knee"]["j1"], truth["knee"]["j2"]
+                error = axis_error_deg(r.j1, r.j2, t1, t2)
+                sigma = r.uncertainty_deg
+                # per vector: error over that vector's own sigma
+                s = 1.0 if np.dot(r.j1, t1) >= 0 else -1.0
+                per = [np.degrees(np.arccos(np.clip(s * np.dot(j, t), -1, 1))) / sigma[k]
+                       for k, j, t in (("j1", r.j1, t1), ("j2", r.j2, t2))]
+                ratio = float(max(per))
+                if with_qmt:
+                    q1, q2 = qmt_axis(a, b, rate)
+                    out["qmt_deg"] = max(sign_free_deg(q1, t1), sign_free_deg(q2, t2))
+            else:
+                r = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=rate, seed=1,
+                                      joint="spheroidal")
+                t1, t2 = (np.asarray(truth["ankle"][k]) for k in ("o1", "o2"))
+                d = {"o1": 1000 * np.linalg.norm(r.o1 - t1),
+                     "o2": 1000 * np.linalg.norm(r.o2 - t2)}
+                error = float(max(d.values()))
+                sigma = r.uncertainty_mm
+                ratio = float(max(d[k] / sigma[k] for k in d))
+        except Exception as exc:  # an internal error is a result of the benchmark too
+            out[joint] = {"error": float("nan"), "sigma": float("nan"), "ratio": float("nan"),
+                          "verdict": f"internal error: {type(exc).__name__}",
+                          "warnings": [], "offset": None, "true_offset": true_offset}
+            continue
+        off = r.time_offset
+        out[joint] = {
+            "error": error, "sigma": float(max(sigma.values())), "ratio": ratio,
+            "verdict": r.verdict, "warnings": warning_names(r.warnings + r.blocking),
+            "offset": (off["estimated_s"], off["sigma_s"], off["applied"], off["cost_ratio"]),
+            "true_offset": true_offset,
+        }
+    return out
+
+
+def spread(values, fmt) -> str:
+    """worst / median"""
+    v = np.asarray(values, float)
+    return f"{format(np.nanmax(v), fmt)} / {format(np.nanmedian(v), fmt)}"
+
+
+def span(values, fmt) -> str:
+    v = np.asarray(values, float)
+    lo, hi = format(np.nanmin(v), fmt), format(np.nanmax(v), fmt)
+    return lo if lo == hi else f"{lo} to {hi}" if "+" in fmt else f"{lo}-{hi}"
+
+
+def verdicts(items) -> str:
+    names = {"good": "good", "use with care": "care", REFUSED: "refused"}
+    counts = {}
+    for it in items:
+        v = names.get(it["verdict"], it["verdict"])
+        counts[v] = counts.get(v, 0) + 1
+    return ", ".join(f"{k} {n}" for k, n in counts.items())
+
+
+def warnings_seen(items) -> str:
+    seen = sorted({w for it in items for w in it["warnings"]})
+    return ", ".join(seen) or "-"
+
+
+def offsets(items) -> str:
+    """Applied offsets (ms, how many of the seeds) and, if any, the largest estimate not
+    applied."""
+    applied = [1000 * it["offset"][0] for it in items if it["offset"] and it["offset"][2]]
+    rest = [it["offset"] for it in items if it["offset"] and not it["offset"][2]]
+    parts = []
+    if applied:
+        err = [abs(1000 * (it["offset"][0] - it["true_offset"])) for it in items
+               if it["offset"] and it["offset"][2]]
+        parts.append(f"applied {len(applied)}: {span(applied, '+.1f')} ms "
+                     f"(true {1000 * items[0]['true_offset']:+.0f}, off by <= "
+                     f"{max(err):.1f} ms)")
+    if rest:
+        big = max(rest, key=lambda o: abs(o[0]))
+        parts.append(f"not applied {len(rest)} (largest {1000 * big[0]:+.1f} ms, "
+                     f"ratio {big[3]:.2f})")
+    return "; ".join(parts) or "-"
+
+
+def offset_count(items) -> str:
+    """Applied offsets: how many, and how many of them within 3 ms of the truth."""
+    applied = [it for it in items if it["offset"] and it["offset"][2]]
+    good = sum(abs(it["offset"][0] - it["true_offset"]) <= 0.003 for it in applied)
+    return f"{len(applied)} ({good} within 3 ms)"
+
+
+def covered(item) -> bool:
+    return item["verdict"] == REFUSED or (np.isfinite(item["ratio"]) and item["ratio"] < 3)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    jobs = parser.parse_args().jobs
+    table_cases = [(key, opts, seed, rate or TABLE_RATE, True)
+                   for key, _, opts, rate, _, _ in CONDITIONS for seed in TABLE_SEEDS]
+    cover_cases = [(key, opts, seed, rate, False)
+                   for key, _, opts, _, _, _ in CONDITIONS if key in COVERAGE
+                   for rate in COVERAGE_RATES for seed in COVERAGE_SEEDS]
+    with Pool(jobs) as pool:
+        table = pool.map(run_case, table_cases, chunksize=1)
+        cover = pool.map(run_case, cover_cases, chunksize=1)
+
+    axis_rows, ankle_rows = [], []
+    for key, label, _, _, target_axis, target_ankle in CONDITIONS:
+        got = [r for r in table if r["key"] == key]
+        knee, ankle = [r["knee"] for r in got], [r["ankle"] for r in got]
+        axis_rows.append(
+            f"| {label} | {target_axis} | {spread([k['error'] for k in knee], '.2f')} | "
+            f"{span([k['sigma'] for k in knee], '.2f')} | "
+            f"{spread([k['ratio'] for k in knee], '.1f')} | {verdicts(knee)} | "
+            f"{warnings_seen(knee)} | {offsets(knee)} | "
+            f"{spread([r['qmt_deg'] for r in got], '.2f')} |")
+        ankle_rows.append(
+            f"| {label} | {target_ankle} | {spread([k['error'] for k in ankle], '.1f')} | "
+            f"{span([k['sigma'] for k in ankle], '.1f')} | "
+            f"{spread([k['ratio'] for k in ankle], '.1f')} | {verdicts(ankle)} | "
+            f"{warnings_seen(ankle)} | {offsets(ankle)} |")
+
+    cover_rows, totals = [], {"knee": [0, 0], "ankle": [0, 0]}
+    for key, label in COVERAGE.items():
+        got = [r for r in cover if r["key"] == key]
+        cells = []
+        for joint in ("knee", "ankle"):
+            items = [r[joint] for r in got]
+            ok = sum(covered(it) for it in items)
+            refused = sum(it["verdict"] == REFUSED for it in items)
+            crashed = sum(it["verdict"].startswith("internal") for it in items)
+            totals[joint][0] += ok
+            totals[joint][1] += len(items)
+            worst = max(items, key=lambda it: it["ratio"] if np.isfinite(it["ratio"]) else -1)
+            misses = [f"{int(r['rate'])} Hz s{r['seed']} {r[joint]['ratio']:.1f} sigma "
+                      f"({r[joint]['verdict']})" for r in got if not covered(r[joint])]
+            cells.append(f"{ok}/{len(items)} ({refused} refused"
+                         + (f", {crashed} internal errors" if crashed else "")
+                         + f"); worst {worst['ratio']:.1f} sigma"
+                         + (f"; misses: {', '.join(misses[:6])}"
+                            + (" ..." if len(misses) > 6 else "") if misses else ""))
+        cells.append(" / ".join(offset_count([r[j] for r in got]) for j in ("knee", "ankle")))
+        cover_rows.append(f"| {label} | "
+                          + " | ".join(cells) + " |")
+    share = {j: totals[j][0] / totals[j][1] for j in totals}
+    both = (totals["knee"][0] + totals["ankle"][0]) / (totals["knee"][1] + totals["ankle"][1])
+    cover_rows.append(
+        f"| **all** | {totals['knee'][0]}/{totals['knee'][1]} = {share['knee']:.1%} | "
+        f"{totals['ankle'][0]}/{totals['ankle'][1]} = {share['ankle']:.1%} | |")
+    without_bias = [r for r in cover if r["key"] != "bias"]
+    ok_nb = sum(covered(r[j]) for r in without_bias for j in ("knee", "ankle"))
+
+    page = (HEADER.format(seeds=f"{TABLE_SEEDS[0]}-{TABLE_SEEDS[-1]}", rate=TABLE_RATE)
+            + "\n".join(AXIS_HEAD + axis_rows) + "\n" + ANKLE_TEXT
+            + "\n".join(ANKLE_HEAD + ankle_rows) + "\n"
+            + COVER_TEXT.format(seeds=f"{COVERAGE_SEEDS[0]}-{COVERAGE_SEEDS[-1]}",
+                                rates=", ".join(f"{r:g}" for r in COVERAGE_RATES),
+                                n=len(cover) * 2)
+            + "\n".join(COVER_HEAD + cover_rows) + "\n\n"
+            + f"Both estimates together: {both:.1%} covered (target >= 95 %); without the "
+              f"gyro-bias rows {ok_nb / (2 * len(without_bias)):.1%}.\n" + FOOTER)
+    (ROOT / "docs" / "accuracy.md").write_text(page)
+    print(page)
+
+
+HEADER = """# Accuracy under lab-realistic conditions
+
+Generated by `docs/tools/accuracy_table.py` on imucal's own simulator
+([simulator.md](simulator.md)), for the benchmark of issue 11: 30 s per recording, seeds
+{seeds}, {rate:g} Hz unless stated, white noise of 0.01 rad/s (gyroscope) and 0.05 m/s^2
+(accelerometer) per component and sample. Every estimate runs as the command line runs it:
+default settings, `--time-offset auto`, 100 restarts (seed 1), accelerometers passed to
+the axis for the sign test. Knee axis: thigh - shank; ankle centre: shank - foot,
+spheroidal. "Late" simulates each joint separately with its second sensor's clock 20 ms
+late (knee: `clock_offset={{"shank": 0.02}}`, ankle: `{{"foot": 0.02}}`), so the true
+offset is +20 ms for both.
+
+Errors are worst / median over the seeds. Knee axis: the larger of the j1 and j2 angles
+to the truth, with one common sign flip allowed (a wrong relative sign counts as about
+180 deg; as in `tests/conftest.py`). Ankle centre: the larger of the |o1 - truth| and
+|o2 - truth| distances. "Sigma" is the larger of the two reported 1-sigmas (range over
+the seeds); "error / sigma" is each vector's error over its own reported 1-sigma, the
+larger of the two, worst / median. Verdicts: good / care (`use with care`) / refused
+(`not identifiable`). Offsets: the automatic clock offset (`time_offset`): how many
+seeds applied one, its values and distance from the truth; for the rest the largest
+estimate that was not applied and its cost ratio. qmt: `qmt.jointAxisEstHingeOlsson`
+with `wa=0, wg=1` (its gyroscope-only residual, the same as imucal's), one start, on the
+same samples, angles sign-free (qmt's signs are arbitrary); qmt has no clock-offset
+estimate.
+
+## Knee axis
+
+"""
+AXIS_HEAD = [
+    "| condition | target | error deg worst / median | sigma deg | error / sigma "
+    "worst / median | verdicts | warnings | clock offset | qmt gyro error deg worst / "
+    "median |",
+    "|---|---|---|---|---|---|---|---|---|",
+]
+ANKLE_TEXT = """
+## Ankle centre
+
+"""
+ANKLE_HEAD = [
+    "| condition | target | error mm worst / median | sigma mm | error / sigma "
+    "worst / median | verdicts | warnings | clock offset |",
+    "|---|---|---|---|---|---|---|---|",
+]
+COVER_TEXT = """
+## Coverage: is the true error within 3 reported sigma?
+
+Every condition above (gait for the gait row, protocol otherwise) at {rates} Hz,
+seeds {seeds}: {n} estimates. An estimate counts as covered when its true error is below
+3 x its reported 1-sigma (each vector against its own) or it is refused (`not
+identifiable`, which makes no claim). Target: >= 95 %. The last column counts the fits
+that applied an automatic clock offset, and how many of those lay within 3 ms of the
+true offset (0 except in the "late" row).
+
+"""
+COVER_HEAD = [
+    "| condition | knee axis covered | ankle centre covered | offsets applied, knee / ankle |",
+    "|---|---|---|---|",
+]
+
+FOOTER = """
+## Against the targets
+
+The numbers below are those of the tables above (written with this script; rerun it after
+a change to the estimators and check them).
+
+**Met.** The knee axis is within its target in every row but the gyro bias: 0.05 deg
+worst on the protocol at 40 Hz, 0.04 at 100 Hz, 0.02 on gait, 0.04 deg (100 Hz) and 0.18
+deg (40 Hz) with the second sensor 20 ms late, whose offset is found within 0.4 ms
+(100 Hz) and 2.0 ms (40 Hz) and applied. The ankle centre: 1.2 mm worst on the protocol
+at 40 Hz (target 5), 1.6 mm at 100 Hz (target 3), 5.5 mm with the foot 20 ms late at
+100 Hz (target 10; offset within 1.0 ms), 3.1 mm with gyro bias (target 10). On gait
+alone every seed warns that the ankle centre is only known along a line, the verdict is
+`use with care`, and the error (4.8 mm worst) stays within 1.0 sigma; the weak direction
+is named in the warning but not reported as a line or a separate sigma: the reported
+1-sigma (4.3-11.5 mm) is the total. Soft tissue gives no internal error, and every error
+of the table is within 3 sigma (knee axis 2.1 and 2.4 sigma worst, ankle 0.8 and 1.2).
+Coverage over 40-200 Hz and seeds 1-8: 99.0 % of the 480 estimates within 3 sigma or
+refused (knee axis 98.8 %, ankle centre 99.2 %; target 95 %).
+
+**Missed.**
+- **Gyro bias 0.02 rad/s, knee axis: 0.89 deg worst, 0.53 deg median** (target 0.5). qmt's
+  gyroscope-only estimator lands on the same axes (0.89 / 0.53 deg): the bias is in the
+  data that eq. (1) fits, and imucal does not estimate gyroscope bias. The error is
+  covered, though: the bias leaves a smooth residual, so the model term puts the 1-sigma
+  at 0.30-0.59 deg (error 1.7 sigma worst; 40 of 40 in the coverage run, worst 2.0
+  sigma). All five are still called `good`, because the sigma is below the 5 deg at which
+  imucal warns. (Errors of 0.35-0.9 deg at sigmas below 0.25 deg, not covered, were
+  reported for this condition before; with the model term of commit 7f85814 this table
+  does not show that.)
+- **Clock offset at 40 Hz, ankle centre: 36.4 mm worst, 24.6 mm median** (target 10), the
+  offset estimated at +22.9 to +24.8 ms for a true +20 (target: within 3 ms) with a
+  1-sigma of only 0.1-0.5 ms: at 40 Hz the joint-centre offset is biased by 3-6 ms and
+  its sigma does not show it, and the leftover misalignment moves the centre by tens of
+  millimetres. The reported centre sigma (5.9-45.3 mm) mostly covers it: seed 2 is at 4.0
+  sigma, and the coverage run misses 2 of 8 seeds at 40 Hz (the worst at 4.0 sigma); at
+  60 Hz and above the offsets are within 3 ms (the coverage run: 34 of the 40 ankle
+  offsets within 3 ms, the 6 others all at 40 Hz). The knee axis at 40 Hz is fine (offset
+  within 2.0 ms, 0.18 deg).
+- **Soft tissue is not accurate, only honest.** Knee axis errors up to 3.0 deg (median
+  1.4) at 1 deg / 2 mm and up to 11.6 deg (median 5.1) at 2 deg / 3 mm, ankle centres up
+  to 50 mm (median 22) and 95 mm (median 38): within 3 sigma
+  in this table, but not in every case of the coverage run (2 knee axes at 3.6 and 3.0
+  sigma, 2 deg / 3 mm, 40 and 60 Hz, seed 5). The knee axis is still `good` in 7 of the 10 fits:
+  its sigma stays below 5 deg. qmt's errors are the same or larger (one start: 17.7 deg
+  worst at 1 deg / 2 mm).
+- **False clock offsets under soft tissue.** Knee axis fits apply an offset of +10.7 to
+  +20.6 ms where none was simulated in 3 of the 10 soft-tissue fits of the table, and in
+  9 of the 80 of the coverage run: soft tissue lowers the residual of eq. (1) at a shift
+  by more than the 1.5 x that the application requires. The axis errors of those fits are
+  still within 3 sigma, but the reported `time_offset` is then a model error, not a
+  clock. The ankle centre never applied one where none was simulated, nor did any fit
+  without soft tissue.
+- **`good` beyond 3 sigma.** The issue asks that a result whose true error exceeds 3 sigma
+  never be called `good`. Every one of the 5 misses of the coverage run is called `good`:
+  the two soft-tissue knee axes (2 deg / 3 mm, seed 5, 40 and 60 Hz: 11.4 and 11.5 deg
+  off at a 1-sigma of 3.2 and 3.8 deg, below the 5 deg at which imucal warns), the
+  late-sensor knee at 60 Hz, seed 7 (0.12 deg at 0.04 deg, 3.1 sigma) and the two
+  late-foot ankle centres at 40 Hz (seed 2, also in the table: 20.8 mm at a 1-sigma of
+  5.1 mm, 4.0 sigma; seed 6: 16.8 mm, 3.3 sigma), whose offsets were applied 2.9 and
+  3.1 ms wrong. So are 7 of the 10 soft-tissue knee axes of the table, which are within
+  3 sigma but off by degrees (up to 11.6 deg among the 10):
+  the verdict judges the sigma against 5 deg, not the error the sigma admits.
+
+**qmt.** With the clocks in sync, qmt's gyroscope-only estimator finds the same axes as
+imucal (the same residual; the error columns agree to 0.01 deg) except where its single
+start ends in a local minimum (gait: 14.75 deg on one seed; soft tissue 1 deg / 2 mm: 17.7
+deg). With a 20 ms offset it is up to 2.1 deg off (median 1.2), as it has no offset
+estimate: imucal's 0.04 deg (100 Hz) and 0.18 deg (40 Hz) worst there are what the
+offset search buys.
+"""
+
+if __name__ == "__main__":
+    main()
