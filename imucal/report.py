@@ -102,10 +102,12 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
 
 
 UNCERTAINTY_METHOD = (
-    "sqrt(max(curvature, time_blocks)^2 + cutoff_shift^2): curvature of the cost at the "
-    "estimate ((J^T J)^-1 S (J^T J)^-1, Newey-West S), delete-one-block jackknife over 10 "
-    "contiguous time blocks, and the largest shift of the refits with the cut-off halved "
-    "and doubled (see uncertainty_components and docs/quality.md)"
+    "sqrt(max(curvature, time_blocks)^2 + cutoff_shift^2 + model^2): curvature of the cost "
+    "at the estimate ((J^T J)^-1 S (J^T J)^-1, Newey-West S), delete-one-block jackknife "
+    "over 10 contiguous time blocks, the largest shift of the cut-off refits (axis: 10 and "
+    "20 Hz low-pass, or the cut-off halved and doubled; position: the cut-off x 0.75 and "
+    "x 1.5), and for the axis a model-error bound from the residual's smooth part (see "
+    "uncertainty_components and docs/quality.md)"
 )
 SPREAD_METHOD = (
     "RMS distance between the estimate and the results of the restarts that reached it, "
