@@ -60,6 +60,31 @@ class RawRecording:
     notes: list[str] = field(default_factory=list)
 
 
+def export_files(path: Path, is_export) -> list[Path]:
+    """The files of a one-file-per-sensor export: ``path`` itself, or the files in the
+    folder ``path`` that ``is_export`` recognises, sorted by name."""
+    if path.is_dir():
+        return sorted(p for p in path.iterdir() if p.is_file() and is_export(p))
+    return [path] if is_export(path) else []
+
+
+def read_export(path: Path, source: str, files: list[Path], read_file, format_name: str,
+                what: str) -> RawRecording:
+    """A :class:`RawRecording` of one-file-per-sensor ``files`` (from :func:`export_files`),
+    each read by ``read_file(file, source, many)``; other files in the folder are named
+    in a note (``what``: the export's name in messages)."""
+    if not files:
+        raise InputError(f"{source}: no {what} found")
+    notes = []
+    if path.is_dir():
+        others = [p.name for p in path.iterdir() if p.is_file() and p not in files
+                  and not p.name.startswith(".")]
+        if others:
+            notes.append(f"files not read (not {what}s): {', '.join(sorted(others))}")
+    return RawRecording(format=format_name, sensors=[read_file(f, source, len(files) > 1)
+                                                     for f in files], notes=notes)
+
+
 def _modules():
     from . import apdm, bids, dot, shimmer, ximu3, xsens
 

@@ -17,7 +17,16 @@ import re
 from pathlib import Path
 
 from ..errors import InputError
-from . import RawRecording, RawSensor, head_text, parse_table, read_text, sep_line
+from . import (
+    RawRecording,
+    RawSensor,
+    export_files,
+    head_text,
+    parse_table,
+    read_export,
+    read_text,
+    sep_line,
+)
 
 NAME = "Movella DOT"
 US_PER_S = 1e6
@@ -39,9 +48,7 @@ def _is_file(path: Path) -> bool:
 
 
 def _files(path: Path) -> list[Path]:
-    if path.is_dir():
-        return sorted(p for p in path.iterdir() if p.is_file() and _is_file(p))
-    return [path] if _is_file(path) else []
+    return export_files(path, _is_file)
 
 
 def sniff(path: Path) -> bool:
@@ -50,17 +57,7 @@ def sniff(path: Path) -> bool:
 
 def read(path: Path, source: str | None = None) -> RawRecording:
     source = source or str(path)
-    files = _files(path)
-    if not files:
-        raise InputError(f"{source}: no Movella DOT export found")
-    notes = []
-    if path.is_dir():
-        others = [p.name for p in path.iterdir() if p.is_file() and p not in files
-                  and not p.name.startswith(".")]
-        if others:
-            notes.append(f"files not read (not DOT exports): {', '.join(sorted(others))}")
-    return RawRecording(format=NAME, sensors=[_read_file(f, source, len(files) > 1)
-                                              for f in files], notes=notes)
+    return read_export(path, source, _files(path), _read_file, NAME, "Movella DOT export")
 
 
 def _read_file(file: Path, source: str, many: bool) -> RawSensor:
