@@ -70,15 +70,7 @@ from .sign import (
     perpendicular,
     plane_test,
 )
-from .time_offset import (
-    SEARCH_S,
-    check_time_offset,
-    estimate_offset,
-    offset_report,
-    offset_warnings,
-    reader,
-    shifted,
-)
+from .time_offset import SEARCH_S, check_time_offset, fit_with_offset, reader, shifted
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -331,7 +323,7 @@ def estimate_axis(
                         end=end, max_iterations=max_iterations, sign=sign, j2_sign=j2_sign,
                         acc1=acc1, acc2=acc2, select=select, max_samples=max_samples,
                         offset_search=offset_search)
-        return _with_estimated_offset(again, g1, g2, rate, offset_search)
+        return fit_with_offset(again, _offset_profile(g2, rate), rate, offset_search)
     if (acc1 is None) != (acc2 is None):
         raise InputError("give both acc1 and acc2, or neither")
     if acc1 is not None:
@@ -509,27 +501,18 @@ def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x) -> dict:
             "max_shift_deg": max(shifts["j1"] + shifts["j2"])}
 
 
-def _with_estimated_offset(fit, g1, g2, rate, search) -> AxisResult:
-    """Fit with synchronised clocks, then the offset that minimises eq. (1) with the axis
-    refitted at each candidate (:func:`imucal.time_offset.estimate_offset`), and fit again
-    with it where it is significant (:meth:`imucal.time_offset.Offset.significant`)."""
-    first = fit(time_offset=0.0)
-    cutoff = first.settings["cutoff_hz"]
-    read2 = reader(lowpass(g2, rate, cutoff), rate)
-    # every k-th sample used: the offset is one number, and each candidate costs a refit
-    thin = slice(None, None, max(1, first.samples_used // OFFSET_SAMPLES))
-    d1, times = first.gyr1[thin], first.sample_index[thin] / rate
-    x = np.concatenate([first.j1, first.j2])
-
-    def residuals(deltas):
-        return np.stack([_refit_residuals(d1, read2(times + d), x) for d in deltas])
-
-    found = estimate_offset(residuals, rate, search)
-    result = fit(time_offset=found.delta_s) if found.significant(rate) else first
-    result.time_offset = offset_report(found, rate)
-    result.settings["time_offset"] = "auto"
-    result.warnings.extend(offset_warnings(found, rate))
-    return result
+def _offset_profile(g2, rate):
+    """``first -> residuals(deltas)``: eq. (1) over candidate offsets, the axis refitted
+    from the first fit at each (:func:`imucal.time_offset.fit_with_offset`)."""
+    def profile(first):
+        read2 = reader(lowpass(g2, rate, first.settings["cutoff_hz"]), rate)
+        # every k-th sample used: the offset is one number, and each candidate costs a refit
+        thin = slice(None, None, max(1, first.samples_used // OFFSET_SAMPLES))
+        d1, times = first.gyr1[thin], first.sample_index[thin] / rate
+        x = np.concatenate([first.j1, first.j2])
+        return lambda deltas: np.stack([_refit_residuals(d1, read2(times + d), x)
+                                        for d in deltas])
+    return profile
 
 
 def _refit_residuals(d1, d2, x) -> np.ndarray:

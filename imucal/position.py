@@ -63,15 +63,7 @@ from .restarts import (
 )
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
-from .time_offset import (
-    SEARCH_S,
-    check_time_offset,
-    estimate_offset,
-    offset_report,
-    offset_warnings,
-    reader,
-    shifted,
-)
+from .time_offset import SEARCH_S, check_time_offset, fit_with_offset, reader, shifted
 
 JOINTS = ("spheroidal", "hinge")
 #: Two estimates agree when both o1 and o2 are within this distance, m.
@@ -259,7 +251,8 @@ def estimate_position(
                         subset=subset, start=start, end=end, max_iterations=max_iterations,
                         select=select, max_samples=max_samples, sign=sign, j2_sign=j2_sign,
                         offset_search=offset_search)
-        return _with_estimated_offset(again, (g1, a1, g2, a2), rate, offset_search)
+        return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate), rate,
+                               offset_search)
     rate = check_rate(rate)
     restarts = check_restarts(restarts)
     seed = resolve_seed(seed)
@@ -638,37 +631,33 @@ def _solve(problem: _SpheroidalProblem, x0: np.ndarray, max_iterations: int) -> 
     )
 
 
-def _with_estimated_offset(fit, signals, rate, search) -> PositionResult:
-    """Fit with synchronised clocks, then the offset that minimises eq. (3) with the
-    joint position refitted at each candidate (:func:`imucal.time_offset.estimate_offset`),
-    and fit again with it where it is significant."""
-    first = fit(time_offset=0.0)
-    cutoff = first.settings["cutoff_hz"]
+def _offset_profile(signals, rate):
+    """``first -> residuals(deltas)``: eq. (3) over candidate offsets, the joint position
+    refitted from the first fit at each (:func:`imucal.time_offset.fit_with_offset`)."""
     g1, a1, g2, a2 = signals
-    # every k-th sample used: the offset is one number, and each candidate costs a refit
-    index = first.sample_index[::max(1, first.samples_used // OFFSET_SAMPLES)]
-    own = [arr[index] for arr in _filtered(g1, a1, rate, cutoff)]
-    readers = [reader(arr, rate) for arr in _filtered(g2, a2, rate, cutoff)]
-    times = index / rate
-    x = np.concatenate([first.o1, first.o2])
 
-    def residuals(deltas):
-        out = []
-        for d in deltas:
-            problem = _SpheroidalProblem(*own, *(read(times + d) for read in readers), None)
-            y = x
-            for _ in range(OFFSET_STEPS):  # plain Gauss-Newton from the first estimate
-                e, jac = problem.linearise(y[None, :])
-                y = y + np.linalg.lstsq(jac[0], -e[0], rcond=None)[0]
-            out.append(problem.residual(y[None, :])[0])
-        return np.stack(out)
+    def profile(first):
+        cutoff = first.settings["cutoff_hz"]
+        # every k-th sample used: the offset is one number, and each candidate costs a refit
+        index = first.sample_index[::max(1, first.samples_used // OFFSET_SAMPLES)]
+        own = [arr[index] for arr in _filtered(g1, a1, rate, cutoff)]
+        readers = [reader(arr, rate) for arr in _filtered(g2, a2, rate, cutoff)]
+        times = index / rate
+        x = np.concatenate([first.o1, first.o2])
 
-    found = estimate_offset(residuals, rate, search)
-    result = fit(time_offset=found.delta_s) if found.significant(rate) else first
-    result.time_offset = offset_report(found, rate)
-    result.settings["time_offset"] = "auto"
-    result.warnings.extend(offset_warnings(found, rate))
-    return result
+        def residuals(deltas):
+            out = []
+            for d in deltas:
+                problem = _SpheroidalProblem(*own, *(read(times + d) for read in readers),
+                                             None)
+                y = x
+                for _ in range(OFFSET_STEPS):  # plain Gauss-Newton from the first estimate
+                    e, jac = problem.linearise(y[None, :])
+                    y = y + np.linalg.lstsq(jac[0], -e[0], rcond=None)[0]
+                out.append(problem.residual(y[None, :])[0])
+            return np.stack(out)
+        return residuals
+    return profile
 
 
 def _filtered(g, a, rate, cutoff):

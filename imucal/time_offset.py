@@ -157,6 +157,24 @@ def reader(x: np.ndarray, rate: float) -> Callable[[np.ndarray], np.ndarray]:
     return lambda times: spline(np.clip(times, 0.0, t[-1]))
 
 
+def fit_with_offset(fit, profile, rate: float, search: float):
+    """The "auto" clock offset around any estimator.
+
+    ``fit(time_offset=seconds)`` runs the estimator with the second sensor read at
+    t + seconds; ``profile(first)`` returns the ``residuals(deltas)`` function of
+    :func:`estimate_offset` around the first, synchronised fit. Fits again with the
+    offset where it is significant (:meth:`Offset.significant`) and records it in the
+    result's ``time_offset``, ``settings`` and ``warnings``.
+    """
+    first = fit(time_offset=0.0)
+    found = estimate_offset(profile(first), rate, search)
+    result = fit(time_offset=found.delta_s) if found.significant(rate) else first
+    result.time_offset = offset_report(found, rate)
+    result.settings["time_offset"] = "auto"
+    result.warnings.extend(offset_warnings(found, rate))
+    return result
+
+
 def offset_report(found: Offset, rate: float) -> dict:
     """The ``time_offset`` block of a result estimated with "auto"."""
     applied = found.significant(rate)
