@@ -1064,19 +1064,28 @@ def _realism_truth(mot, t, clock, bias, noise_std, tissue, knee_angle, rot_deg, 
 def parse_clock_offsets(items: list[str] | None, option: str = "--clock-offset") -> dict:
     """``["shank=0.02", ...]`` -> ``{"shank": 0.02}`` (seconds); one-line errors."""
     out = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep or name not in SENSORS:
-            raise InputError(f"{option} '{item}': use SENSOR=SECONDS with SENSOR one of "
-                             f"{', '.join(SENSORS)}, e.g. shank=0.02")
-        if name in out:
-            raise InputError(f"{option}: {name} given twice")
+    usage = f"use SENSOR=SECONDS with SENSOR one of {', '.join(SENSORS)}, e.g. shank=0.02"
+    for item, name, value in _sensor_items(items or [], option, usage):
         try:
             out[name] = float(value)
         except ValueError:
             raise InputError(f"{option} '{item}': '{value}' is not a number of seconds") from None
     return out
+
+
+def _sensor_items(items: list[str], option: str, usage: str):
+    """(item, sensor, value) of each ``SENSOR=VALUE`` item; one-line errors for another
+    form, an unknown sensor (``usage`` says the form) or a sensor given twice."""
+    seen = set()
+    for item in items:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in SENSORS:
+            raise InputError(f"{option} '{item}': {usage}")
+        if name in seen:
+            raise InputError(f"{option}: {name} given twice")
+        seen.add(name)
+        yield item, name, value
 
 
 def parse_gyr_bias(items: list[str] | None, option: str = "--gyr-bias"):
@@ -1091,14 +1100,9 @@ def parse_gyr_bias(items: list[str] | None, option: str = "--gyr-bias"):
             raise InputError(f"{option} '{items[0]}': use RAD/S, SENSOR=RAD/S or "
                              "SENSOR=X,Y,Z (rad/s)") from None
     out = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep or name not in SENSORS:
-            raise InputError(f"{option} '{item}': use SENSOR=RAD/S or SENSOR=X,Y,Z with "
-                             f"SENSOR one of {', '.join(SENSORS)} (a bare magnitude only alone)")
-        if name in out:
-            raise InputError(f"{option}: {name} given twice")
+    usage = (f"use SENSOR=RAD/S or SENSOR=X,Y,Z with SENSOR one of {', '.join(SENSORS)} "
+             "(a bare magnitude only alone)")
+    for item, name, value in _sensor_items(items, option, usage):
         try:
             parts = [float(x) for x in value.split(",")]
         except ValueError:

@@ -99,19 +99,31 @@ def _read_v5(h5, source: str):
             config = g["Configuration"].attrs
             label = _text(config["Label 0"]) or serial
             rate = float(np.asarray(config["Sample Rate"]).reshape(-1)[0])
-            acc_ds, gyr_ds = g["Accelerometer"], g["Gyroscope"]
-            acc, gyr = np.asarray(acc_ds[()], float), np.asarray(gyr_ds[()], float)
-            time = np.asarray(g["Time"][()]).astype(np.int64)
-        except (KeyError, OSError, TypeError, ValueError, IndexError) as err:
-            notes.append(f"sensor {serial} skipped: its configuration or data cannot be read "
-                         f"({' '.join(str(err).split())[:80]})")
-            continue
-        sensors.append(RawSensor(
-            name=label, serial=str(serial), gyr=gyr, acc=acc,
-            gyr_units=_units(gyr_ds, "gyr", "rad/s"), acc_units=_units(acc_ds, "acc", "m/s^2"),
-            time=time, claimed_rate=rate, files=[Path(source).name],
-        ))
+            sensors.append(_sensor(label, str(serial), rate, g["Accelerometer"],
+                                   g["Gyroscope"], g["Time"], source))
+        except _UNREADABLE as err:
+            notes.append(_skipped(serial, err))
     return sensors, notes
+
+
+#: What reading one sensor's configuration or data can raise in a damaged file.
+_UNREADABLE = (KeyError, OSError, TypeError, ValueError, IndexError)
+
+
+def _sensor(label, serial, rate, acc_ds, gyr_ds, time_ds, source) -> RawSensor:
+    """One sensor from its datasets (units from their attributes, SI by default)."""
+    return RawSensor(
+        name=label, serial=serial, gyr=np.asarray(gyr_ds[()], float),
+        acc=np.asarray(acc_ds[()], float), gyr_units=_units(gyr_ds, "gyr", "rad/s"),
+        acc_units=_units(acc_ds, "acc", "m/s^2"),
+        time=np.asarray(time_ds[()]).astype(np.int64), claimed_rate=rate,
+        files=[Path(source).name],
+    )
+
+
+def _skipped(which, err) -> str:
+    return (f"sensor {which} skipped: its configuration or data cannot be read "
+            f"({' '.join(str(err).split())[:80]})")
 
 
 def _read_v3(h5, source: str):
@@ -122,16 +134,9 @@ def _read_v3(h5, source: str):
         try:
             g = h5[case]
             rate = float(np.asarray(g.attrs["SampleRate"]).reshape(-1)[0])
-            acc_ds, gyr_ds = g["Calibrated/Accelerometers"], g["Calibrated/Gyroscopes"]
-            acc, gyr = np.asarray(acc_ds[()], float), np.asarray(gyr_ds[()], float)
-            time = np.asarray(g["Time"][()]).astype(np.int64)
-        except (KeyError, OSError, TypeError, ValueError, IndexError) as err:
-            notes.append(f"sensor {case} skipped: its configuration or data cannot be read "
-                         f"({' '.join(str(err).split())[:80]})")
-            continue
-        sensors.append(RawSensor(
-            name=label or case, serial=case, gyr=gyr, acc=acc,
-            gyr_units=_units(gyr_ds, "gyr", "rad/s"), acc_units=_units(acc_ds, "acc", "m/s^2"),
-            time=time, claimed_rate=rate, files=[Path(source).name],
-        ))
+            sensors.append(_sensor(label or case, case, rate,
+                                   g["Calibrated/Accelerometers"], g["Calibrated/Gyroscopes"],
+                                   g["Time"], source))
+        except _UNREADABLE as err:
+            notes.append(_skipped(case, err))
     return sensors, notes
