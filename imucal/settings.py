@@ -1,0 +1,168 @@
+"""Estimator settings as frozen dataclasses that check themselves.
+
+A settings object is built before any file is read, so a usage error (``--sign bogus``)
+is reported as such, not blamed on a recording. The estimators accept the same values
+as keyword arguments; :meth:`AxisSettings.as_kwargs` gives them.
+
+Example::
+
+    from imucal.settings import AxisSettings
+    settings = AxisSettings(restarts=50, seed=1, sign="+x")   # InputError if invalid
+    result = imucal.estimate_axis(gyr1, gyr2, rate=100, **settings.as_kwargs())
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+from .errors import InputError
+from .selection import MAX_SAMPLES
+
+#: Sign conventions accepted by ``sign`` and ``j2_sign``.
+SIGNS = ("auto", "+x", "-x", "+y", "-y", "+z", "-z")
+#: Joint models of the position estimator.
+JOINTS = ("spheroidal", "hinge")
+#: Smallest ``max_samples`` that leaves an estimate worth reporting.
+MIN_MAX_SAMPLES = 100
+#: Largest time offset accepted, s: wireless clocks drift by tens of milliseconds, not
+#: seconds; a larger number is a mistake in units.
+MAX_TIME_OFFSET_S = 10.0
+#: Default search range of the automatic time offset, +- s.
+OFFSET_SEARCH_S = 0.2
+
+
+@dataclass(frozen=True)
+class AxisSettings:
+    """Settings of :func:`imucal.estimate_axis` (see its docstring for each meaning).
+
+    Attributes
+    ----------
+    restarts : int
+        Number of random starts, >= 1.
+    seed : int or None
+        Seed of the random starts and subsets, >= 0; None draws one.
+    cutoff : float or None
+        Zero-phase low-pass cut-off, Hz; None: the estimator's default; 0: no filter.
+    subsample : int or None
+        Use every k-th sample after filtering, >= 1; None: the estimator's default.
+    subset : float
+        Fraction of the samples each restart sees, in (0, 1].
+    start, end : float or None
+        Window in seconds from the first sample; None: from the start / to the end.
+    max_iterations : int
+        Iteration limit per restart and stage, >= 1.
+    sign : str
+        Overall sign convention of j1: "auto" or one of "+x", "-x", "+y", "-y", "+z", "-z".
+    j2_sign : str
+        Relative sign of j2: "auto" (decided from the data) or a pinned component.
+    select : bool
+        Informative-sample selection (drop still stretches, thin long recordings).
+    max_samples : int or None
+        With ``select``, at most this many samples enter the fit; None: no cap.
+    time_offset : float or str
+        The second sensor's clock lateness, s, or "auto".
+    offset_search : float
+        Search range of the automatic time offset, +- s, > 0.
+    """
+
+    restarts: int = 100
+    seed: int | None = None
+    cutoff: float | None = None
+    subsample: int | None = None
+    subset: float = 0.5
+    start: float | None = None
+    end: float | None = None
+    max_iterations: int = 50
+    sign: str = "auto"
+    j2_sign: str = "auto"
+    select: bool = True
+    max_samples: int | None = MAX_SAMPLES
+    time_offset: float | str = "auto"
+    offset_search: float = OFFSET_SEARCH_S
+
+    def __post_init__(self) -> None:
+        _check_int(self, "restarts", 1)
+        _check_int(self, "max_iterations", 1)
+        if self.seed is not None:
+            _check_int(self, "seed", 0)
+        if self.subsample is not None:
+            _check_int(self, "subsample", 1)
+        if self.max_samples is not None:
+            _check_int(self, "max_samples", MIN_MAX_SAMPLES)
+        if self.cutoff is not None:
+            _check_number(self, "cutoff", low=0.0)
+        _check_number(self, "subset", low=0.0, open_low=True, high=1.0)
+        _check_number(self, "offset_search", low=0.0, open_low=True, high=MAX_TIME_OFFSET_S)
+        for name in ("start", "end"):
+            if getattr(self, name) is not None:
+                _check_number(self, name, low=0.0)
+        if self.start is not None and self.end is not None and self.end <= self.start:
+            raise InputError(f"end ({self.end:g} s) must be after start ({self.start:g} s)")
+        for name in ("sign", "j2_sign"):
+            if getattr(self, name) not in SIGNS:
+                raise InputError(f"{name} must be one of {', '.join(SIGNS)}, got "
+                                 f"'{getattr(self, name)}'")
+        object.__setattr__(self, "select", bool(self.select))
+        object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
+
+    def as_kwargs(self) -> dict:
+        """The settings as keyword arguments of the estimator."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class PositionSettings(AxisSettings):
+    """Settings of :func:`imucal.estimate_position`: those of :class:`AxisSettings`
+    (``sign`` and ``j2_sign`` act on the axis a hinge estimates) and
+
+    Attributes
+    ----------
+    joint : str
+        "spheroidal" (3 rotational DOF, the ankle) or "hinge" (the knee).
+    """
+
+    joint: str = "spheroidal"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.joint not in JOINTS:
+            raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{self.joint}'")
+
+
+def check_time_offset(value) -> float | str:
+    """``"auto"`` or a finite number of seconds within +-10 s, else InputError."""
+    if isinstance(value, str):
+        if value.strip().lower() == "auto":
+            return "auto"
+        try:
+            value = float(value)
+        except ValueError:
+            raise InputError(f"time offset must be auto or a number of seconds, got "
+                             f"'{value}'") from None
+    value = float(value)
+    if not math.isfinite(value) or abs(value) > MAX_TIME_OFFSET_S:
+        raise InputError(f"time offset must be auto or a finite number of seconds within "
+                         f"+-{MAX_TIME_OFFSET_S:g} s, got {value:g}")
+    return value
+
+
+def _check_int(settings, name: str, low: int) -> None:
+    value = getattr(settings, name)
+    if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value):
+        raise InputError(f"{name} must be a whole number, got {value!r}")
+    if value < low:
+        raise InputError(f"{name} must be at least {low}, got {value}")
+    object.__setattr__(settings, name, int(value))
+
+
+def _check_number(settings, name: str, *, low: float, high: float | None = None,
+                  open_low: bool = False) -> None:
+    value = getattr(settings, name)
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(f"{name} must be a finite number, got {value!r}")
+    too_low = value <= low if open_low else value < low
+    if too_low or (high is not None and value > high):
+        bounds = f"{'(' if open_low else '['}{low:g}, {'inf)' if high is None else f'{high:g}]'}"
+        raise InputError(f"{name} must be in {bounds}, got {value:g}")
+    object.__setattr__(settings, name, float(value))
