@@ -44,6 +44,9 @@ if TYPE_CHECKING:
 #: lasts about 1 s, and a 3 s kernel passes < 1e-15 of 1 Hz) while following any gyro
 #: bias that changes over tens of seconds; a bias that is constant is followed exactly.
 SMOOTHING_S = 3.0
+#: Ridge of the local-linear fit's slope, as a fraction of the kernel's sigma: a drift
+#: that is linear within the kernel is still followed to within 4 % of its slope.
+RIDGE = 0.2
 #: Low-pass before the acc angle (4th-order zero-phase Butterworth, Hz): gdot is a
 #: derivative of the gyro and amplifies its noise; human motion lies below it.
 ACC_ANGLE_CUTOFF_HZ = 12.0
@@ -65,6 +68,12 @@ MOVING_RATE = 0.5
 FIT_FACTOR = 2.0
 FIT_FLOOR_RESIDUAL = 0.05
 FIT_FLOOR_DEG = 2.0
+#: An axis closer than this to gravity in either sensor while the leg is still (standing
+#: or sitting) is no knee flexion axis, which is then horizontal (deg).
+VERTICAL_AXIS_DEG = 45.0
+#: On the calibration trial, an RMS disagreement of the acc and gyro angles above this
+#: (deg) means the acc angle cannot be trusted to correct drift (simulated: 0.3-2 deg).
+ACC_AGREEMENT_DEG = 10.0
 #: Walking: at least this many flexion peaks of this prominence (deg), spaced by strides
 #: of 0.6-2 s that vary by at most GAIT_MAX_CV.
 GAIT_MIN_CYCLES = 4
@@ -178,8 +187,10 @@ def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fu
     raw = np.angle(np.exp(1j * (sig.theta_acc - sig.theta_gyro)))
     # The offset drifts through +-pi with a bias: unwrap a smoothed circular mean, then
     # put every sample within pi of it.
+    # Unwrapped over the usable samples only: between them the smoothed mean is noise.
     zc = _smooth(w * np.exp(1j * raw).real, s) + 1j * _smooth(w * np.exp(1j * raw).imag, s)
-    coarse = np.unwrap(np.angle(zc))
+    use = np.flatnonzero(w > 0)
+    coarse = np.interp(np.arange(n), use, np.unwrap(np.angle(zc[use])))
     d = coarse + np.angle(np.exp(1j * (raw - coarse)))
     offset, var_unit = _local_linear(d, w, s)
     residual = np.where(w > 0, d - offset, np.nan)
@@ -218,6 +229,10 @@ def _local_linear(d: np.ndarray, w: np.ndarray, s: float) -> tuple[np.ndarray, n
     s0 = wk[0]
     s1 = wk[1] - t * wk[0]
     s2 = wk[2] - 2 * t * wk[1] + t**2 * wk[0]
+    # A small ridge on the slope (as if the usable samples' times spread by RIDGE_S more):
+    # where they bunch up on one side of the kernel (a long stretch without usable
+    # acceleration) the slope is poorly determined, and extrapolating it would run away.
+    s2 = s2 + (RIDGE * s) ** 2 * s0
     b0 = wd[0]
     b1 = wd[1] - t * wd[0]
     det = s0 * s2 - s1**2
@@ -364,6 +379,31 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
     sign = 1 if evidence >= 0 else -1
     zero, method, zero_t = _zero(raw, sign, rec, (s1.gyr, s2.gyr))
     flex = sign * (raw - zero)
+    warnings = []
+    vertical = None
+    if zero_t is not None:
+        # a standing leg's flexion axis is horizontal: an axis along gravity in the still
+        # period is most likely a segment's long axis (the knee barely flexed)
+        i = int(np.argmin(np.abs(rec.time - zero_t)))
+        k = slice(i, i + int(STILL_MIN_S * rec.rate))
+        vertical = [float(np.degrees(np.arccos(min(1.0, abs(
+            np.mean(s.acc[k], axis=0) @ j) / np.linalg.norm(np.mean(s.acc[k], axis=0))))))
+            for s, j in ((s1, jc.j1), (s2, jc.j2))]
+        if min(vertical) < VERTICAL_AXIS_DEG:
+            which = jc.sensors[int(np.argmin(vertical))]
+            warnings.append(
+                f"{jc.name}: in the still period at t={zero_t:g} s the axis is within "
+                f"{min(vertical):.0f} deg of gravity in sensor '{which}'; a knee's flexion "
+                "axis is horizontal when standing or sitting, so this axis is most likely "
+                "a segment's long axis (too little knee flexion in the trial?) and the "
+                "'flexion' measures rotation about it: calibrate on a trial with knee "
+                "flexion (ignore this if the person lay on the side)")
+    if math.degrees(fus.disagreement) > ACC_AGREEMENT_DEG:
+        warnings.append(
+            f"{jc.name}: on the calibration trial the accelerometer-based angle differs "
+            f"from the gyro-based angle by {math.degrees(fus.disagreement):.0f} deg RMS "
+            f"(more than {ACC_AGREEMENT_DEG:g} deg): the drift correction is unreliable; "
+            "the joint is far from a hinge with these axes, or the axes are wrong")
     x1, _ = plane_basis(jc.j1)
     x2, _ = plane_basis(jc.j2)
     return {
@@ -379,6 +419,8 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
         "acc_gyro_disagreement_deg": math.degrees(fus.disagreement),
         "flexion_range_deg": [float(np.percentile(flex, 1)), float(np.percentile(flex, 99))],
         "sigma_median_deg": float(np.degrees(np.median(fus.sigma))),
+        "axis_to_gravity_deg": vertical,
+        "warnings": warnings,
     }
 
 
@@ -623,6 +665,7 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
                 "time_in": "this recording"}
     flex = sign * (raw - zero["raw_deg"])
     gyro_only = sign * np.degrees(sig.theta_gyro - sig.theta_gyro[0]) + flex[0]
+    warnings = [f"calibration: {w}" for w in ref.get("warnings", [])] + warnings
     check = _fit_check(jc, ref, s1, s2, fus)
     if not check["fits"]:
         warnings.append(check["message"])

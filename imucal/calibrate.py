@@ -329,6 +329,9 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
         from .angles import reference_statistics
 
         jc.angle = reference_statistics(used, jc, smoothing_s=smoothing_s)
+        if jc.angle["warnings"]:
+            jc.warnings += [f"angle: {w}" for w in jc.angle["warnings"]]
+            jc.verdict = _worst([jc.verdict, "use with care"])
     window = (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate)
     return jc, window
 
