@@ -66,7 +66,7 @@ MOVING_RATE = 0.5
 #: exceed the calibration trial's by this factor plus the floors below before the
 #: calibration is said not to fit (docs/angles.md#does-the-calibration-still-fit).
 FIT_FACTOR = 2.0
-FIT_FLOOR_RESIDUAL = 0.05
+FIT_FLOOR_RESIDUAL = 0.1
 FIT_FLOOR_DEG = 2.0
 #: An axis closer than this to gravity in either sensor while the leg is still (standing
 #: or sitting) is no knee flexion axis, which is then horizontal (deg).

@@ -183,3 +183,53 @@ def test_table_and_document(session, tmp_path):
         result.write(tmp_path / "a.txt")
     doc = result.to_document()
     assert doc["command"] == "angles" and doc["joints"]["knee"]["column"] == "knee_flexion_deg"
+
+
+# ----------------------------------------------------------------------------- real data
+
+
+@pytest.fixture(scope="module")
+def real_knees(real_recording):
+    from imucal.angles import joint_angles
+    from imucal.calibrate import calibrate
+
+    cal = calibrate(real_recording, restarts=20, seed=1, end=55.0,
+                    joints=["left_knee=hinge:left_thigh,left_shank",
+                            "right_knee=hinge:right_thigh,right_shank"])
+    return cal, joint_angles(real_recording, cal, end=55.0)
+
+
+def test_real_knees_are_flagged_not_silently_wrong(real_knees):
+    # On 0-55 s of the shared recording the hinge fit finds an axis that lies along
+    # gravity while the leg is still (a long axis: the knees hardly flex there), and the
+    # accelerometer angle disagrees with the gyro angle by tens of degrees; both knees must
+    # say so, in the calibration and in every angle result made from it
+    # (docs/real-data.md, "Knee flexion").
+    cal, result = real_knees
+    for name in ("left_knee", "right_knee"):
+        ref = cal.joints[name].angle
+        assert cal.joints[name].verdict != "good"
+        assert min(ref["axis_to_gravity_deg"]) < 20.0
+        assert ref["acc_gyro_disagreement_deg"] > 30.0
+        warned = " ".join(result.joints[name].warnings)
+        assert "within" in warned and "of gravity" in warned and "drift correction" in warned
+        assert np.all(np.isfinite(result.joints[name].flexion_deg))
+
+
+def test_figure_and_gait_cycles(session, tmp_path):
+    from imucal.angle_plots import gait_cycles, plot_angles
+    from imucal.angles import joint_angles
+
+    calibration, walk, truth = session
+    result = joint_angles(walk, calibration, end=20.0)
+    knee = result.joints["knee"]
+    cycles = gait_cycles(knee.flexion_deg, knee.gait["peaks"])
+    assert cycles.shape == (len(knee.gait["peaks"]) - 1, 101)
+    # a cycle runs from peak swing flexion to the next: both ends near the peak (~60 deg),
+    # the loading-response minimum in between
+    assert cycles[:, 0].mean() > 45 and cycles.min(axis=1).max() < 15
+    plot_angles(result, tmp_path / "a.png",
+                truth={"knee": np.asarray(truth["knee_flexion_deg"][:2000])})
+    assert (tmp_path / "a.png").stat().st_size > 10_000
+    with pytest.raises(InputError, match="unknown figure format"):
+        plot_angles(result, tmp_path / "a.jpg")
