@@ -47,6 +47,10 @@ SMOOTHING_S = 3.0
 #: Ridge of the local-linear fit's slope, as a fraction of the kernel's sigma: a drift
 #: that is linear within the kernel is still followed to within 4 % of its slope.
 RIDGE = 0.2
+#: The offset is fitted where the kernel holds at least this share of the usable weight
+#: it typically holds; across longer stretches without usable acceleration (standing
+#: with the axis along gravity, free fall) it is interpolated between their ends.
+MIN_KERNEL_SHARE = 0.1
 #: Low-pass before the acc angle (4th-order zero-phase Butterworth, Hz): gdot is a
 #: derivative of the gyro and amplifies its noise; human motion lies below it.
 ACC_ANGLE_CUTOFF_HZ = 12.0
@@ -236,7 +240,12 @@ def _local_linear(d: np.ndarray, w: np.ndarray, s: float) -> tuple[np.ndarray, n
     b0 = wd[0]
     b1 = wd[1] - t * wd[0]
     det = s0 * s2 - s1**2
-    ok = (s0 > 0) & (det > 1e-9 * np.maximum(s0 * s2, 1e-300))
+    # Only where the kernel holds a fair share of usable weight: an estimate from a few
+    # samples at the kernel's far end would extrapolate their slope across the gap.
+    typical = np.median(s0[w > 0]) if np.any(w > 0) else 0.0
+    ok = (s0 > MIN_KERNEL_SHARE * typical) & (det > 1e-9 * np.maximum(s0 * s2, 1e-300))
+    if not ok.any():
+        ok = s0 >= s0.max()
     est = np.full(n, np.nan)
     est[ok] = (s2[ok] * b0[ok] - s1[ok] * b1[ok]) / det[ok]
     w2 = w**2
@@ -431,15 +440,22 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
 class JointAngle:
     """Flexion of one hinge over the recording.
 
+    Attributes
+    ----------
+    name, sensors : the joint and its (thigh, shank) sensors in this recording.
     flexion_deg, sigma_deg : (N,) flexion (positive = flexion, 0 as ``zero`` says) and its
-        1-sigma (deg). gyro_only_deg : (N,) pure integration of the rates with the same
-        sign, equal to ``flexion_deg`` at the first sample (what the fusion corrects).
+        1-sigma (deg).
+    gyro_only_deg : (N,) pure integration of the rates with the same sign, equal to
+        ``flexion_deg`` at the first sample (what the fusion corrects).
     sign, sign_source : +1 / -1 applied to the calibration's raw angle (the right-handed
         rotation of the second segment about j), and why ("calibration", "recording",
-        "user"). zero : {"method", "raw_deg", "time_s"}.
+        "user").
+    sign_evidence : this recording's evidence (:func:`sign_evidence`).
+    zero : {"method", "raw_deg", "time_s", "time_in"}: what 0 deg is.
     check : the "still fits" evidence (docs/angles.md): hinge residual and acc-gyro
         disagreement here and on the calibration trial, their limits, ``fits``.
     gait : None, or {"peaks" (sample indices of peak swing flexion), "stride_s", "cv"}.
+    warnings : the calibration's angle warnings and this recording's (sign, fit).
     """
 
     name: str
@@ -462,9 +478,19 @@ class JointAngle:
 
 @dataclass
 class JointAngles:
-    """Result of :func:`joint_angles`: ``time`` (N,) s on the recording's time axis and one
-    :class:`JointAngle` per hinge; ``fits`` is False when any joint's check failed (the
-    command line exits 1 then)."""
+    """Result of :func:`joint_angles`; ``fits`` is False when any joint's check failed (the
+    command line exits 1 then).
+
+    Attributes
+    ----------
+    time : (N,) sample times, s on the recording's time axis.
+    joints : joint name -> :class:`JointAngle`, one per usable hinge of the calibration.
+    source : the recording's path.
+    calibration : the calibration's file (or, made in memory, its trial's path).
+    rate : sample rate, Hz.
+    reference : the ``reference`` argument (what 0 deg means).
+    warnings : the recording's notes about the sensors used (repairs, units).
+    """
 
     time: np.ndarray
     joints: dict[str, JointAngle]
@@ -578,6 +604,12 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
 
     Parameters
     ----------
+    recording
+        The trial to measure (:class:`imucal.Recording`), with the calibration's sensors
+        (found by name as :meth:`imucal.Recording.resolve` does).
+    calibration
+        A :class:`imucal.calibrate.Calibration` (:func:`imucal.calibrate.calibrate` or
+        :func:`imucal.calibrate.load_calibration`).
     reference
         What 0 deg means. None: the calibration's zero (its trial's most extended still
         period, else its most extended posture), so every trial of one mounting shares it;

@@ -92,9 +92,18 @@ class JointCalibration:
 class Calibration:
     """Result of :func:`calibrate` (or :func:`load_calibration`).
 
-    ``joints`` maps joint name -> :class:`JointCalibration` (hips, knees, ankles, left
-    before right); ``source`` is the recording's path, ``window_s`` the time used,
-    ``settings`` the estimators' settings, ``version`` imucal's version that made it.
+    Attributes
+    ----------
+    joints : joint name -> :class:`JointCalibration` (hips, knees, ankles; no side first,
+        then left, then right).
+    source : path of the calibration trial's recording.
+    window_s : (start, end) of the time used, s on that recording's time axis.
+    sample_rate_hz : its sample rate, Hz.
+    settings : restarts, seed, window, time-offset mode, smoothing and the joint specs.
+    version : imucal's version that made it.
+    sensors : per sensor used, what the file said about it (serial, label, ...) and its
+        units in the file.
+    file : the calibration file it was read from (:func:`load_calibration`), else None.
     """
 
     joints: dict[str, JointCalibration]

@@ -169,3 +169,19 @@ def test_a_joint_that_cannot_be_identified_does_not_lose_the_others():
     assert ankle.warnings
     doc = cal.to_document()
     assert doc["joints"]["ankle"]["verdict"] == ankle.verdict
+
+
+def test_results_and_parameters_are_documented():
+    import dataclasses
+    import inspect
+
+    from imucal.angles import JointAngle, JointAngles, joint_angles
+    from imucal.calibrate import Calibration, JointCalibration
+    from test_documented import _documented_names
+
+    for cls in (Calibration, JointCalibration, JointAngle, JointAngles):
+        missing = {f.name for f in dataclasses.fields(cls)} - _documented_names(cls.__doc__)
+        assert not missing, f"{cls.__name__}: undocumented {sorted(missing)}"
+    for func in (calibrate, joint_angles):
+        missing = set(inspect.signature(func).parameters) - _documented_names(func.__doc__)
+        assert not missing, f"{func.__name__}: undocumented {sorted(missing)}"
