@@ -199,7 +199,12 @@ def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fu
     offset, var_unit = _local_linear(d, w, s)
     residual = np.where(w > 0, d - offset, np.nan)
     r0 = np.nan_to_num(residual)
-    local_ms = _smooth(w * r0**2, s) / np.maximum(_smooth(w, s), 1e-300)
+    # The local mean square, shrunk towards the recording's where the kernel holds few
+    # usable samples (a fit to a handful of samples leaves a residual that is too small).
+    mass = _smooth(w, s)
+    prior = MIN_KERNEL_SHARE * np.median(mass[w > 0])
+    overall = float(np.sum(w * r0**2) / np.sum(w))
+    local_ms = (_smooth(w * r0**2, s) + prior * overall) / (mass + prior)
     tau = _correlation_samples(r0, w)
     sigma_offset = np.sqrt(np.maximum(local_ms, 0.0) * var_unit * tau)
     # What the offset cannot correct: the gyro angle's own error within the kernel. Its

@@ -95,6 +95,8 @@ def test_soft_tissue_keeps_the_error_small():
     rmse, drift = _err_stats(knee.flexion_deg, truth["knee_flexion_deg"])
     assert rmse < 3.0 and abs(drift) < 1.0, (rmse, drift)
     assert result.fits, knee.check
+    err = knee.flexion_deg - np.asarray(truth["knee_flexion_deg"])
+    assert np.mean(np.abs(err - err.mean()) <= 2.0 * knee.sigma_deg) > 0.95
 
 
 def test_a_calibration_of_another_mounting_is_flagged(session):
@@ -214,6 +216,7 @@ def test_real_knees_are_flagged_not_silently_wrong(real_knees):
         warned = " ".join(result.joints[name].warnings)
         assert "within" in warned and "of gravity" in warned and "drift correction" in warned
         assert np.all(np.isfinite(result.joints[name].flexion_deg))
+        assert np.all(np.isfinite(result.joints[name].sigma_deg))
 
 
 def test_figure_and_gait_cycles(session, tmp_path):

@@ -175,9 +175,10 @@ def test_results_and_parameters_are_documented():
     import dataclasses
     import inspect
 
+    from test_documented import _documented_names
+
     from imucal.angles import JointAngle, JointAngles, joint_angles
     from imucal.calibrate import Calibration, JointCalibration
-    from test_documented import _documented_names
 
     for cls in (Calibration, JointCalibration, JointAngle, JointAngles):
         missing = {f.name for f in dataclasses.fields(cls)} - _documented_names(cls.__doc__)
