@@ -222,9 +222,10 @@ def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fu
 def _local_linear(d: np.ndarray, w: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray]:
     """Local-linear regression of ``d`` with weights ``w * K`` (Gaussian K, sigma ``s``
     samples) at every sample, and the sum of squared equivalent weights (the variance of
-    the estimate per unit variance of independent samples). Where the kernel holds no
-    usable sample, the estimate is interpolated and its variance grows as it would for a
-    local-constant fit (see the caller)."""
+    the estimate per unit variance of independent samples). The slope carries a ridge
+    (:data:`RIDGE`); where the kernel holds less than :data:`MIN_KERNEL_SHARE` of its
+    typical usable weight, the estimate is interpolated between the neighbouring fits
+    and its variance grows with the squared distance to them, in kernel sigmas."""
     n = d.shape[0]
     t = np.arange(n, dtype=float) - n / 2
     k2 = s / math.sqrt(2.0)
@@ -494,7 +495,8 @@ class JointAngles:
     calibration : the calibration's file (or, made in memory, its trial's path).
     rate : sample rate, Hz.
     reference : the ``reference`` argument (what 0 deg means).
-    warnings : the recording's notes about the sensors used (repairs, units).
+    warnings : hinges of the calibration that have no angle (their estimate failed) and
+        the recording's notes about the sensors used (repairs, units).
     """
 
     time: np.ndarray
@@ -654,9 +656,12 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
         local = replace(jc, sensors=tuple(recording.resolve(s) for s in jc.sensors))
         joints[jc.name] = _one_joint(rec, local, reference=reference, pinned=pinned,
                                      smoothing_s=smoothing_s or jc.angle["smoothing_s"])
+    skipped = [f"joint '{j.name}' has no angle: its calibration {j.verdict} ("
+               f"{j.warnings[-1] if j.warnings else 'no vectors'})"
+               for j in calibration.hinges if all(j is not h for h in hinges)]
     return JointAngles(time=rec.time.copy(), joints=joints, source=recording.source,
                        calibration=calibration.file or calibration.source, rate=rec.rate,
-                       reference=reference, warnings=list(rec.warnings))
+                       reference=reference, warnings=skipped + list(rec.warnings))
 
 
 def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:

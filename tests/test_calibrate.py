@@ -186,3 +186,22 @@ def test_results_and_parameters_are_documented():
     for func in (calibrate, joint_angles):
         missing = set(inspect.signature(func).parameters) - _documented_names(func.__doc__)
         assert not missing, f"{func.__name__}: undocumented {sorted(missing)}"
+
+
+def test_a_failed_hinge_is_named_in_the_angles(calibration):
+    import dataclasses
+
+    from imucal.angles import joint_angles
+
+    cal, _ = calibration
+    failed = dataclasses.replace(cal.joints["knee"], name="other_knee", verdict="failed",
+                                 j1=None, j2=None, o1=None, o2=None, angle=None,
+                                 warnings=["other_knee: estimate stopped: no motion"])
+    both = dataclasses.replace(cal, joints={**cal.joints, "other_knee": failed})
+    rec, _ = simulate(seed=2, mounting_seed=11, motion="gait", duration=10.0)
+    result = joint_angles(rec, both)
+    assert list(result.joints) == ["knee"]
+    assert "joint 'other_knee' has no angle: its calibration failed" in result.warnings[0]
+    only_failed = dataclasses.replace(cal, joints={"other_knee": failed})
+    with pytest.raises(InputError, match="no usable hinge joint"):
+        joint_angles(rec, only_failed)
