@@ -20,7 +20,7 @@ both pointing the same physical way, and the joint centre ``o1``, ``o2`` on that
 
 The flexion angle is ``sign * (theta - zero)`` in degrees: the sign makes flexion positive,
 the zero is an anatomical convention (docs/angles.md). The calibration and its file are in
-:mod:`imucal.calibrate`; :func:`joint_angles` applies one to a recording.
+:mod:`imucal.calibration`; :func:`joint_angles` applies one to a recording.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from .errors import InputError
 from .preprocess import derivative, lowpass
 
 if TYPE_CHECKING:
-    from .calibrate import Calibration
+    from .calibration import Calibration
 
 #: Half-width (1-sigma of the Gaussian kernel) of the fusion, s. The kernel removes the
 #: acc angle's noise and its stride-locked errors (soft tissue, an imperfect o: a stride
@@ -615,8 +615,8 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
         The trial to measure (:class:`imucal.Recording`), with the calibration's sensors
         (found by name as :meth:`imucal.Recording.resolve` does).
     calibration
-        A :class:`imucal.calibrate.Calibration` (:func:`imucal.calibrate.calibrate` or
-        :func:`imucal.calibrate.load_calibration`).
+        A :class:`imucal.calibration.Calibration` (:func:`imucal.calibration.calibrate` or
+        :func:`imucal.calibration.load_calibration`).
     reference
         What 0 deg means. None: the calibration's zero (its trial's most extended still
         period, else its most extended posture), so every trial of one mounting shares it;

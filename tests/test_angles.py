@@ -48,7 +48,7 @@ def _err_stats(flexion, truth):
 
 @pytest.fixture(scope="module")
 def session():
-    from imucal.calibrate import calibrate
+    from imucal.calibration import calibrate
 
     cal, _ = simulate(seed=1, mounting_seed=MOUNTING, motion="protocol", duration=30.0,
                       **NOISE)
@@ -82,7 +82,7 @@ def test_fused_flexion_is_accurate_and_does_not_drift(session):
 
 def test_soft_tissue_keeps_the_error_small():
     from imucal.angles import joint_angles
-    from imucal.calibrate import calibrate
+    from imucal.calibration import calibrate
 
     tissue = {"soft_tissue_deg": 1.0, "soft_tissue_mm": 2.0, **NOISE}
     cal, _ = simulate(seed=3, mounting_seed=MOUNTING, motion="protocol", duration=30.0,
@@ -144,7 +144,7 @@ def test_zero_from_a_still_standing_period():
 
 
 def _session_calibration():
-    from imucal.calibrate import calibrate
+    from imucal.calibration import calibrate
 
     cal, _ = simulate(seed=1, mounting_seed=MOUNTING, motion="protocol", duration=30.0,
                       **NOISE)
@@ -193,7 +193,7 @@ def test_table_and_document(session, tmp_path):
 @pytest.fixture(scope="module")
 def real_knees(real_recording):
     from imucal.angles import joint_angles
-    from imucal.calibrate import calibrate
+    from imucal.calibration import calibrate
 
     cal = calibrate(real_recording, restarts=20, seed=1, end=55.0,
                     joints=["left_knee=hinge:left_thigh,left_shank",

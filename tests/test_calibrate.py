@@ -1,4 +1,4 @@
-"""imucal.calibrate: joints from sensor names, explicit specs, the calibration file."""
+"""imucal.calibration.calibrate: joints from sensor names, explicit specs, the calibration file."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from imucal import make_recording
-from imucal.calibrate import (
+from imucal.calibration import (
     FORMAT_VERSION,
     calibrate,
     discover_joints,
@@ -178,7 +178,7 @@ def test_results_and_parameters_are_documented():
     from test_documented import _documented_names
 
     from imucal.angles import JointAngle, JointAngles, joint_angles
-    from imucal.calibrate import Calibration, JointCalibration
+    from imucal.calibration import Calibration, JointCalibration
 
     for cls in (Calibration, JointCalibration, JointAngle, JointAngles):
         missing = {f.name for f in dataclasses.fields(cls)} - _documented_names(cls.__doc__)

@@ -13,7 +13,7 @@ import numpy as np
 
 from imucal.angle_plots import plot_angles
 from imucal.angles import joint_angles
-from imucal.calibrate import calibrate
+from imucal.calibration import calibrate
 from imucal.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[2]
