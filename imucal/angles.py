@@ -35,6 +35,7 @@ from scipy.ndimage import gaussian_filter1d
 
 from .errors import InputError
 from .preprocess import derivative, lowpass
+from .rest import STILL_MIN_S, STILL_RATE, gravity_check, gravity_warning, still_periods
 
 if TYPE_CHECKING:
     from .calibration import Calibration
@@ -57,10 +58,6 @@ ACC_ANGLE_CUTOFF_HZ = 12.0
 #: The acc angle is not used where the in-plane part of c_i is below this in either
 #: sensor (m/s^2): its direction is then mostly noise (free fall, an axis along gravity).
 MIN_INPLANE_ACC = 2.0
-#: Still (for the zero): both sensors turn slower than this (rad/s, ~6 deg/s) ...
-STILL_RATE = 0.1
-#: ... for at least this long, s.
-STILL_MIN_S = 1.0
 #: Sign decisions with |evidence| below this (see :func:`sign_evidence`) are weak.
 SIGN_EVIDENCE_MIN = 0.15
 #: Samples turning slower than this (rad/s, both sensors' mean in-plane rate) are left
@@ -72,9 +69,6 @@ MOVING_RATE = 0.5
 FIT_FACTOR = 2.0
 FIT_FLOOR_RESIDUAL = 0.1
 FIT_FLOOR_DEG = 2.0
-#: An axis closer than this to gravity in either sensor while the leg is still (standing
-#: or sitting) is no knee flexion axis, which is then horizontal (deg).
-VERTICAL_AXIS_DEG = 45.0
 #: On the calibration trial, an RMS disagreement of the acc and gyro angles above this
 #: (deg) means the acc angle cannot be trusted to correct drift (simulated: 0.3-2 deg).
 ACC_AGREEMENT_DEG = 10.0
@@ -304,20 +298,6 @@ def sign_evidence(angle: np.ndarray) -> float:
     return 0.0 if span <= 0 else float(((p95 - p50) - (p50 - p5)) / span)
 
 
-def still_periods(gyrs, rate: float, min_s: float = STILL_MIN_S) -> list[tuple[int, int]]:
-    """Runs ``[i0, i1)`` of at least ``min_s`` s where every sensor in ``gyrs`` turns slower
-    than :data:`STILL_RATE` (after a 2 Hz low-pass, so noise does not break them)."""
-    moving = np.zeros(np.asarray(gyrs[0]).shape[0], dtype=bool)
-    for g in gyrs:
-        speed = np.linalg.norm(lowpass(np.asarray(g, float), rate, min(2.0, 0.4 * rate)),
-                               axis=1)
-        moving |= speed > STILL_RATE
-    edges = np.diff(np.concatenate([[1], moving.astype(np.int8), [1]]))
-    starts, stops = np.flatnonzero(edges == -1), np.flatnonzero(edges == 1)
-    need = int(round(min_s * rate))
-    return [(int(a), int(b)) for a, b in zip(starts, stops, strict=True) if b - a >= need]
-
-
 def hinge_residual(g1, g2, j1, j2) -> float:
     """Relative hinge residual: RMS of ``|g1 x j1| - |g2 x j2|`` over the RMS of their mean,
     on the samples where the joint moves (mean > :data:`MOVING_RATE`); NaN if it never
@@ -394,25 +374,12 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
     sign = 1 if evidence >= 0 else -1
     zero, method, zero_t = _zero(raw, sign, rec, (s1.gyr, s2.gyr))
     flex = sign * (raw - zero)
-    warnings = []
-    vertical = None
-    if zero_t is not None:
-        # a standing leg's flexion axis is horizontal: an axis along gravity in the still
-        # period is most likely a segment's long axis (the knee barely flexed)
-        i = int(np.argmin(np.abs(rec.time - zero_t)))
-        k = slice(i, i + int(STILL_MIN_S * rec.rate))
-        vertical = [float(np.degrees(np.arccos(min(1.0, abs(
-            np.mean(s.acc[k], axis=0) @ j) / np.linalg.norm(np.mean(s.acc[k], axis=0))))))
-            for s, j in ((s1, jc.j1), (s2, jc.j2))]
-        if min(vertical) < VERTICAL_AXIS_DEG:
-            which = jc.sensors[int(np.argmin(vertical))]
-            warnings.append(
-                f"{jc.name}: in the still period at t={zero_t:g} s the axis is within "
-                f"{min(vertical):.0f} deg of gravity in sensor '{which}'; a knee's flexion "
-                "axis is horizontal when standing or sitting, so this axis is most likely "
-                "a segment's long axis (too little knee flexion in the trial?) and the "
-                "'flexion' measures rotation about it: calibrate on a trial with knee "
-                "flexion (ignore this if the person lay on the side)")
+    # one hinge axis makes the same angle with the vertical in both sensors whenever
+    # they rest, whatever the posture (imucal.rest): eq. (1) never sees gravity, so this
+    # is an independent test of the axes the angles rest on
+    gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rec.rate)
+    warned = gravity_warning(gravity, f"{jc.name}: the axis")
+    warnings = [] if warned is None else [warned]
     if math.degrees(fus.disagreement) > ACC_AGREEMENT_DEG:
         warnings.append(
             f"{jc.name}: on the calibration trial the accelerometer-based angle differs "
@@ -434,7 +401,8 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
         "acc_gyro_disagreement_deg": math.degrees(fus.disagreement),
         "flexion_range_deg": [float(np.percentile(flex, 1)), float(np.percentile(flex, 99))],
         "sigma_median_deg": float(np.degrees(np.median(fus.sigma))),
-        "axis_to_gravity_deg": vertical,
+        "gravity_mismatch_deg": gravity["max_mismatch_deg"],
+        "gravity_consistent": gravity["consistent"],
         "warnings": warnings,
     }
 
@@ -708,14 +676,14 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     flex = sign * (raw - zero["raw_deg"])
     gyro_only = sign * np.degrees(sig.theta_gyro - sig.theta_gyro[0]) + flex[0]
     warnings = [f"calibration: {w}" for w in ref.get("warnings", [])] + warnings
-    check = _fit_check(jc, ref, s1, s2, fus)
+    check = _fit_check(jc, ref, s1, s2, fus, rec.rate)
     if not check["fits"]:
         warnings.append(check["message"])
     return JointAngle(jc.name, jc.sensors, flex, np.degrees(fus.sigma), gyro_only, sign,
                       source, evidence, zero, check, detect_gait(flex, rec.rate), warnings)
 
 
-def _fit_check(jc, ref, s1, s2, fus) -> dict:
+def _fit_check(jc, ref, s1, s2, fus, rate: float) -> dict:
     """Does the calibration still fit this recording? (docs/angles.md)"""
     res = hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2)
     dis = math.degrees(fus.disagreement)
@@ -726,6 +694,12 @@ def _fit_check(jc, ref, s1, s2, fus) -> dict:
         bad += [] if math.isnan(res) else [
             f"hinge residual {res:.3f} > {res_lim:.3f} (calibration trial "
             f"{ref['hinge_residual']:.3f})"]
+    gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rate)
+    if gravity["consistent"] is False:
+        worst = gravity["max_mismatch_deg"]
+        bad.append(f"at rest the axis makes angles with the vertical that differ by "
+                   f"{worst:.0f} deg between the sensors (one hinge axis: within "
+                   f"{gravity['max_allowed_deg']:g} deg)")
     if dis > dis_lim:
         bad.append(f"acc- vs gyro-angle disagreement {dis:.2f} deg > {dis_lim:.2f} deg "
                    f"(calibration trial {ref['acc_gyro_disagreement_deg']:.2f} deg)")
@@ -733,6 +707,7 @@ def _fit_check(jc, ref, s1, s2, fus) -> dict:
            "calibration_hinge_residual": ref["hinge_residual"],
            "acc_gyro_disagreement_deg": dis, "acc_gyro_disagreement_limit_deg": dis_lim,
            "calibration_acc_gyro_disagreement_deg": ref["acc_gyro_disagreement_deg"],
+           "gravity_mismatch_deg": gravity["max_mismatch_deg"],
            "tolerance": f"{FIT_FACTOR:g} x the calibration trial's value + "
                         f"{FIT_FLOOR_RESIDUAL:g} (residual) / {FIT_FLOOR_DEG:g} deg"}
     if bad:
