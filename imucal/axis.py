@@ -21,8 +21,7 @@ joint angle changes during the recording (with a rigid joint every pair j1 = R j
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from functools import partial
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -54,7 +53,6 @@ from .quality import (
 from .restarts import (
     agreeing,
     best_restart,
-    check_restarts,
     competing_agreement,
     equal_minima,
     resolve_seed,
@@ -63,6 +61,8 @@ from .restarts import (
 )
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
+from .settings import AxisSettings
+from .settings import resolve as resolve_settings
 from .sign import (
     MAX_KNEE_SPAN_DEG,
     RANGE_BLOCK_S,
@@ -70,7 +70,7 @@ from .sign import (
     perpendicular,
     plane_test,
 )
-from .time_offset import SEARCH_S, check_time_offset, fit_with_offset, reader, shifted
+from .time_offset import SEARCH_S, fit_with_offset, reader, shifted
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -259,6 +259,7 @@ def estimate_axis(
     max_samples: int | None = MAX_SAMPLES,
     time_offset: float | str = "auto",
     offset_search: float = SEARCH_S,
+    settings: AxisSettings | None = None,
 ) -> AxisResult:
     """Estimate the hinge axis seen by two gyroscopes.
 
@@ -313,17 +314,25 @@ def estimate_axis(
     select, max_samples
         Informative-sample selection (:mod:`imucal.selection`): drop still stretches and
         thin to at most ``max_samples`` (None: no cap). ``select=False`` fits every sample.
+    settings
+        All of the above (``restarts`` to ``offset_search``) as one
+        :class:`imucal.settings.AxisSettings`, instead of keyword arguments (giving both,
+        with keyword values other than the defaults, is an InputError).
     """
+    s = resolve_settings(
+        AxisSettings, settings, restarts=restarts, seed=seed, cutoff=cutoff,
+        subsample=subsample, subset=subset, start=start, end=end,
+        max_iterations=max_iterations, sign=sign, j2_sign=j2_sign, select=select,
+        max_samples=max_samples, time_offset=time_offset, offset_search=offset_search)
     g1, g2 = check_pair(gyr1, gyr2)
-    offset = check_time_offset(time_offset)
-    if offset == "auto":
-        seed = resolve_seed(seed)  # both fits must see the same restarts
-        again = partial(estimate_axis, g1, g2, rate=rate, restarts=restarts, seed=seed,
-                        cutoff=cutoff, subsample=subsample, subset=subset, start=start,
-                        end=end, max_iterations=max_iterations, sign=sign, j2_sign=j2_sign,
-                        acc1=acc1, acc2=acc2, select=select, max_samples=max_samples,
-                        offset_search=offset_search)
-        return fit_with_offset(again, _offset_profile(g2, rate), rate, offset_search)
+    rate = check_rate(rate)
+    if s.time_offset == "auto":
+        s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
+
+        def again(seconds):
+            return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
+                                 settings=replace(s, time_offset=seconds))
+        return fit_with_offset(again, _offset_profile(g2, rate), rate, s.offset_search)
     if (acc1 is None) != (acc2 is None):
         raise InputError("give both acc1 and acc2, or neither")
     if acc1 is not None:
@@ -331,16 +340,16 @@ def estimate_axis(
         if acc1.shape != g1.shape:
             raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, "
                              f"{acc1.shape[0]})")
-    rate = check_rate(rate)
-    restarts = check_restarts(restarts)
-    seed = resolve_seed(seed)
-    flip_axis = _check_sign(sign)
-    pin_j2 = _check_sign(j2_sign, "j2_sign")
+    restarts, seed, cutoff, subset = s.restarts, resolve_seed(s.seed), s.cutoff, s.subset
+    start, end, max_iterations, sign, j2_sign = s.start, s.end, s.max_iterations, s.sign, s.j2_sign
+    select, max_samples, offset = s.select, s.max_samples, s.time_offset
+    flip_axis = _sign_index(sign)
+    pin_j2 = _sign_index(j2_sign)
     if offset:  # the second sensor read at t + offset, over the whole recording
         g2 = shifted(g2, rate, offset)
         acc2 = None if acc2 is None else shifted(acc2, rate, offset)
     cutoff = 0.0 if cutoff is None else float(cutoff)
-    step = resolve_subsample(rate, cutoff, subsample)
+    step = resolve_subsample(rate, cutoff, s.subsample)
 
     win = window_slice(g1.shape[0], rate, start, end)
     f1 = lowpass(g1, rate, cutoff)[win][::step]
@@ -595,13 +604,9 @@ def _block_jackknife(d1, d2, x) -> dict:
             "j2": jackknife_sigma(_angle_deg(y[:, 3:], x[3:]))}
 
 
-def _check_sign(sign: str, what: str = "sign") -> int | None:
-    """Index of the component a sign convention pins; None for "auto"."""
-    if sign == "auto":
-        return None
-    if isinstance(sign, str) and len(sign) == 2 and sign[0] in "+-" and sign[1] in "xyz":
-        return "xyz".index(sign[1])
-    raise InputError(f"{what} must be auto, +x, -x, +y, -y, +z or -z, got '{sign}'")
+def _sign_index(sign: str) -> int | None:
+    """Index of the component a (checked) sign convention pins; None for "auto"."""
+    return None if sign == "auto" else "xyz".index(sign[1])
 
 
 def _pin(v: np.ndarray, k: int | None, convention: str) -> float:

@@ -20,8 +20,7 @@ Schauer 2014), with the axis from the same recording.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from functools import partial
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -54,7 +53,6 @@ from .quality import (
 )
 from .restarts import (
     best_restart,
-    check_restarts,
     competing_agreement,
     equal_minima,
     resolve_seed,
@@ -63,9 +61,10 @@ from .restarts import (
 )
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
-from .time_offset import SEARCH_S, check_time_offset, fit_with_offset, reader, shifted
+from .settings import PositionSettings
+from .settings import resolve as resolve_settings
+from .time_offset import SEARCH_S, fit_with_offset, reader, shifted
 
-JOINTS = ("spheroidal", "hinge")
 #: Two estimates agree when both o1 and o2 are within this distance, m.
 AGREEMENT_M = 0.01
 #: Initial offsets are uniform in [-INIT_BOX_M, INIT_BOX_M]^3 per sensor, m: a sensor
@@ -195,6 +194,7 @@ def estimate_position(
     j2_sign: str = "auto",
     time_offset: float | str = "auto",
     offset_search: float = SEARCH_S,
+    settings: PositionSettings | None = None,
 ) -> PositionResult:
     """Estimate the joint centre seen by two IMUs.
 
@@ -236,32 +236,39 @@ def estimate_position(
     time_offset, offset_search
         The second sensor's clock lateness, s, as in :func:`imucal.estimate_axis`, found
         here from eq. (3) (for a hinge, the axis is fitted with the same offset).
+    settings
+        All of the above but ``axis`` as one :class:`imucal.settings.PositionSettings`,
+        instead of keyword arguments (giving both, with keyword values other than the
+        defaults, is an InputError).
     """
-    if joint not in JOINTS:
-        raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{joint}'")
+    s = resolve_settings(
+        PositionSettings, settings, restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
+        subsample=subsample, subset=subset, start=start, end=end,
+        max_iterations=max_iterations, select=select, max_samples=max_samples, sign=sign,
+        j2_sign=j2_sign, time_offset=time_offset, offset_search=offset_search)
     g1, g2 = check_pair(gyr1, gyr2)
     a1, a2 = check_pair(acc1, acc2)
     if g1.shape != a1.shape:
         raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, {a1.shape[0]})")
-    offset = check_time_offset(time_offset)
-    if offset == "auto":
-        seed = resolve_seed(seed)  # both fits must see the same restarts
-        again = partial(estimate_position, g1, a1, g2, a2, rate=rate, restarts=restarts,
-                        seed=seed, joint=joint, axis=axis, cutoff=cutoff, subsample=subsample,
-                        subset=subset, start=start, end=end, max_iterations=max_iterations,
-                        select=select, max_samples=max_samples, sign=sign, j2_sign=j2_sign,
-                        offset_search=offset_search)
-        return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate), rate,
-                               offset_search)
     rate = check_rate(rate)
-    restarts = check_restarts(restarts)
-    seed = resolve_seed(seed)
+    if s.time_offset == "auto":
+        s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
+
+        def again(seconds):
+            return estimate_position(g1, a1, g2, a2, rate=rate, axis=axis,
+                                     settings=replace(s, time_offset=seconds))
+        return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate), rate,
+                               s.offset_search)
+    restarts, seed, joint, subset, start, end = (s.restarts, resolve_seed(s.seed), s.joint,
+                                                 s.subset, s.start, s.end)
+    max_iterations, select, max_samples = s.max_iterations, s.select, s.max_samples
+    sign, j2_sign, offset = s.sign, s.j2_sign, s.time_offset
     if offset:  # the second sensor read at t + offset, over the whole recording
         g2, a2 = shifted(g2, rate, offset), shifted(a2, rate, offset)
     win0 = window_slice(g1.shape[0], rate, start, end)
-    cutoff = (spectral_cutoff((g1[win0], g2[win0]), rate) if cutoff is None
-              else float(cutoff))
-    step = resolve_subsample(rate, cutoff, subsample)
+    cutoff = (spectral_cutoff((g1[win0], g2[win0]), rate) if s.cutoff is None
+              else float(s.cutoff))
+    step = resolve_subsample(rate, cutoff, s.subsample)
 
     win = window_slice(g1.shape[0], rate, start, end)
     sensors = [tuple(arr[win][::step] for arr in _filtered(g, a, rate, cutoff))

@@ -25,14 +25,6 @@ def resolve_seed(seed: int | None) -> int:
     return seed
 
 
-def check_restarts(restarts) -> int:
-    """A restart count of at least 1, else InputError."""
-    restarts = int(restarts)
-    if restarts < 1:
-        raise InputError(f"restarts must be at least 1, got {restarts}")
-    return restarts
-
-
 def subset_mask(
     n: int, restarts: int, fraction: float, rng: np.random.Generator
 ) -> np.ndarray | None:
