@@ -61,7 +61,7 @@ from .restarts import (
 )
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
-from .settings import PositionSettings
+from .settings import JOINTS, PositionSettings  # noqa: F401 (JOINTS: imported from here)
 from .settings import resolve as resolve_settings
 from .time_offset import SEARCH_S, fit_with_offset, reader, shifted
 
