@@ -26,7 +26,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .errors import InputError
-from .gauss_newton import BatchResult, chain, gauss_newton
+from .gauss_newton import BatchResult
+from .multistart import Stages, multistart
 from .preprocess import (
     FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
@@ -51,8 +52,6 @@ from .quality import (
     uncertainty_warning,
 )
 from .restarts import (
-    agreeing,
-    best_restart,
     competing_agreement,
     equal_minima,
     resolve_seed,
@@ -89,10 +88,6 @@ COARSE_SAMPLES = 600
 #: The coarse stage stops after this many steps; restarts still moving go on on their
 #: subsets (a few restarts in flat valleys would otherwise run long on little data).
 COARSE_ITERATIONS = 6
-#: Precision of the restarts' arithmetic: single precision halves the time of the
-#: element-wise work and resolves the axis to about 1e-5 rad, far below
-#: ``RESTART_STEP_TOLERANCE``; the estimate itself is polished in double precision.
-RESTART_DTYPE = np.float32
 #: Stop when a step lowers the mean squared residual by less than this fraction.
 COST_TOLERANCE = 1e-12
 #: Largest tangent step per iteration, rad (norm over both axes).
@@ -366,9 +361,10 @@ def estimate_axis(
 
     rng = np.random.default_rng(seed)
     x0 = np.concatenate([_random_unit(rng, restarts), _random_unit(rng, restarts)], axis=1)
-    batch, refined, best, reached = _multistart(d1, d2, subset_mask(n, restarts, subset, rng),
-                                                x0, max_iterations, rng)
-    j1, j2 = _unit(refined.x[best, :3]), _unit(refined.x[best, 3:])
+    fit = multistart(HINGE, (d1, d2), subset_mask(n, restarts, subset, rng), x0,
+                     max_iterations, rng)
+    batch, refined, best, reached = fit.batch, fit.refined, fit.best, fit.reached
+    j1, j2 = _unit(fit.estimate[:3]), _unit(fit.estimate[3:])
 
     # The sign tests follow the rates sample by sample: they need the full rate and a
     # smooth signal, so they always see low-passed rates.
@@ -499,10 +495,9 @@ def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x) -> dict:
     m = data[0][0].shape[0]
     own = np.zeros((2, 2 * m))
     own[0, :m] = own[1, m:] = 1.0
-    problem = _HingeProblem(np.concatenate([data[0][0], data[1][0]]),
-                            np.concatenate([data[0][1], data[1][1]]), own, RESTART_DTYPE,
-                            newton=True)
-    y = _solve(problem, np.stack([x, x]), SENSITIVITY_ITERATIONS, RESTART_STEP_TOLERANCE).x
+    y = HINGE.refit((np.concatenate([data[0][0], data[1][0]]),
+                     np.concatenate([data[0][1], data[1][1]])), own, np.stack([x, x]),
+                    SENSITIVITY_ITERATIONS)
     shifts = {"j1": [float(a) for a in _angle_deg(y[:, :3], x[:3])],
               "j2": [float(a) for a in _angle_deg(y[:, 3:], x[3:])]}
     return {"cutoffs_hz": list(pair), "j1_shift_deg": shifts["j1"],
@@ -597,9 +592,8 @@ def _block_jackknife(d1, d2, x) -> dict:
     """{"j1", "j2"}: delete-one-block jackknife 1-sigma, deg; every refit starts at the
     estimate ``x`` and leaves out one contiguous time block of the samples used."""
     masks = block_masks(d1.shape[0])
-    problem = _HingeProblem(d1, d2, masks, RESTART_DTYPE, newton=True)
-    y = _solve(problem, np.repeat(x[None, :], masks.shape[0], axis=0), MAX_ITERATIONS,
-               RESTART_STEP_TOLERANCE).x
+    y = HINGE.refit((d1, d2), masks, np.repeat(x[None, :], masks.shape[0], axis=0),
+                    MAX_ITERATIONS)
     return {"j1": jackknife_sigma(_angle_deg(y[:, :3], x[:3])),
             "j2": jackknife_sigma(_angle_deg(y[:, 3:], x[3:]))}
 
@@ -867,66 +861,6 @@ def _residual_and_jacobian(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
     return n1 - n2, np.concatenate([s1, s2], axis=1)
 
 
-def _multistart(d1, d2, mask, x0, max_iterations, rng):
-    """Every restart fitted on its subset, then refined on all samples (Sec. IV).
-
-    Returns the subset stage ``batch``, the ``refined`` results, the index of the best
-    refined restart (the estimate) and which restarts reached it. What keeps 100
-    restarts cheaper than one start of a plain solver, without changing what is
-    reported:
-
-    - a coarse stage runs every restart on its subset of a shared random sample of
-      ``COARSE_SAMPLES``: the first, large steps from a random start only have to find
-      the basin, and there they cost a fraction of a step on the whole subset;
-    - near the minimum, Newton steps (:meth:`_HingeProblem.normal`) instead of
-      Gauss-Newton's linear convergence;
-    - the restarts compute in single precision and stop at ``RESTART_STEP_TOLERANCE``,
-      far finer than anything reported about them (agreement within 2 deg, spreads of
-      tenths of a degree and more); only the best one is polished in double precision
-      to ``STEP_TOLERANCE``.
-    """
-    n = d1.shape[0]
-    batch = None
-    if n >= 2 * COARSE_SAMPLES:
-        cols = np.sort(rng.choice(n, COARSE_SAMPLES, replace=False))
-        coarse = _HingeProblem(d1[cols], d2[cols], None if mask is None else mask[:, cols],
-                               RESTART_DTYPE)
-        batch = _solve(coarse, x0, min(max_iterations, COARSE_ITERATIONS),
-                       COARSE_STEP_TOLERANCE)
-    subset = _HingeProblem(d1, d2, mask, RESTART_DTYPE, newton=True)
-    fitted = _solve(subset, x0 if batch is None else batch.x, max_iterations,
-                    RESTART_STEP_TOLERANCE)
-    batch = fitted if batch is None else chain(batch, fitted)
-
-    # Refine every restart on all samples: the refined costs are comparable, so the
-    # lowest is the least-squares answer and the share of restarts reaching it measures
-    # independence from the start; the subset finals (``batch.x``) show how much the
-    # answer depends on the data (Sec. IV).
-    everything = _HingeProblem(d1, d2, None, RESTART_DTYPE, newton=True)
-    refined = _solve(everything, batch.x, max_iterations, RESTART_STEP_TOLERANCE)
-    best, _ = best_restart(refined.x, refined.final_cost, _axis_distance, AGREEMENT_DEG)
-    polished = _solve(_HingeProblem(d1, d2, None, newton=True), refined.x[best][None, :],
-                      max_iterations, STEP_TOLERANCE)
-    refined = chain(refined, polished, np.array([best]))
-    # best is not chosen again: the other restarts' costs are single precision
-    return batch, refined, best, agreeing(refined.x, best, _axis_distance, AGREEMENT_DEG)
-
-
-def _solve(problem: _HingeProblem, x0: np.ndarray, max_iterations: int,
-           step_tolerance: float = STEP_TOLERANCE) -> BatchResult:
-    return gauss_newton(
-        problem.normal,
-        problem.cost,
-        _retract,
-        x0,
-        max_iterations=max_iterations,
-        step_tolerance=step_tolerance,
-        cost_tolerance=COST_TOLERANCE,
-        max_step=MAX_STEP,
-        contraction=True,
-    )
-
-
 def _retract(x: np.ndarray, step: np.ndarray) -> np.ndarray:
     r = x.shape[0]
     j = x.reshape(2 * r, 3)  # rows j1, j2, j1, j2, ...
@@ -976,3 +910,19 @@ def _random_unit(rng: np.random.Generator, n: int) -> np.ndarray:
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
+
+
+def _hinge_problem(data, mask, dtype, newton) -> _HingeProblem:
+    return _HingeProblem(data[0], data[1], mask, dtype, newton)
+
+
+#: Eq. (1) in the staged multistart (:mod:`imucal.multistart`). In single precision the
+#: restarts resolve the axis to about 1e-5 rad, far below ``RESTART_STEP_TOLERANCE``.
+HINGE = Stages(
+    problem=_hinge_problem, retract=_retract, distance=_axis_distance,
+    agreement=AGREEMENT_DEG, step_tolerance=STEP_TOLERANCE,
+    restart_step_tolerance=RESTART_STEP_TOLERANCE,
+    coarse_step_tolerance=COARSE_STEP_TOLERANCE, coarse_samples=COARSE_SAMPLES,
+    coarse_iterations=COARSE_ITERATIONS, cost_tolerance=COST_TOLERANCE, max_step=MAX_STEP,
+    contraction=True,
+)
