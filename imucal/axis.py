@@ -27,7 +27,7 @@ import numpy as np
 
 from .errors import InputError
 from .gauss_newton import BatchResult
-from .multistart import Stages, multistart
+from .multistart import SENSITIVITY_ITERATIONS, SYMMETRIC, Stages, multistart, safe_newton
 from .preprocess import (
     FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
@@ -113,9 +113,6 @@ MAX_RELATIVE_RESIDUAL = 0.5
 MODEL_DEG_PER_RESIDUAL = 60.0
 #: A 1-sigma axis uncertainty above this is not good enough for joint angles, deg.
 MAX_UNCERTAINTY_DEG = 5.0
-#: Iteration limit of the cut-off refits: they start at the estimate, and a shift is
-#: only reported to a fraction of a degree.
-SENSITIVITY_ITERATIONS = 10
 #: The offset's profile refits use about this many of the samples, and this many
 #: Gauss-Newton steps from the first estimate (an offset of tens of milliseconds moves
 #: the axis by a few degrees: the refits start next to their minimum).
@@ -489,15 +486,8 @@ def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x) -> dict:
     default cut-off and twice it); the shifts show how much the answer rests on the filter.
     """
     pair = sensitivity_cutoffs(cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
-    data = [[lowpass(h, rate, c)[win][::step][index] for h in (g1, g2)] for c in pair]
-    # Both refits as one batch of two restarts, each on its own half of the stacked
-    # samples: one pass of the solver's fixed costs instead of two.
-    m = data[0][0].shape[0]
-    own = np.zeros((2, 2 * m))
-    own[0, :m] = own[1, m:] = 1.0
-    y = HINGE.refit((np.concatenate([data[0][0], data[1][0]]),
-                     np.concatenate([data[0][1], data[1][1]])), own, np.stack([x, x]),
-                    SENSITIVITY_ITERATIONS)
+    data = [tuple(lowpass(h, rate, c)[win][::step][index] for h in (g1, g2)) for c in pair]
+    y = HINGE.refit_each(data, x, SENSITIVITY_ITERATIONS)
     shifts = {"j1": [float(a) for a in _angle_deg(y[:, :3], x[:3])],
               "j2": [float(a) for a in _angle_deg(y[:, 3:], x[3:])]}
     return {"cutoffs_hz": list(pair), "j1_shift_deg": shifts["j1"],
@@ -657,13 +647,6 @@ def joint_plane_projection(g: np.ndarray, j: np.ndarray) -> np.ndarray:
     return np.stack([g @ u, g @ np.cross(j, u)], axis=1)
 
 
-#: Entry (i, k) of a symmetric 3 x 3 matrix stored as its upper triangle (6,).
-_SYMMETRIC = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
-
-#: Newton steps only where the Hessian's smallest eigenvalue exceeds this fraction of
-#: the trace of J^T J (else Gauss-Newton): a nearly singular Hessian gives wild steps.
-MIN_HESSIAN_EIGENVALUE = 1e-3
-
 #: Smallest |g x j|^2 / |g|^2 used, per precision: a little above the relative rounding
 #: error of |g|^2 - (g.j)^2 (|g x j| >= 1e-3 |g| in single, 1e-7 |g| in double precision).
 NORM_FLOOR = {np.dtype(np.float32): 1e-6, np.dtype(np.float64): 1e-14}
@@ -815,8 +798,8 @@ class _HingeProblem:
             grad[1] += tmp @ self.g2[sl]
             total += np.einsum("ij,ij->i", e, e)
         grad[0] *= -1.0
-        s11 = sums[0][:, _SYMMETRIC]
-        s22 = sums[1][:, _SYMMETRIC]
+        s11 = sums[0][:, SYMMETRIC]
+        s22 = sums[1][:, SYMMETRIC]
         s12 = -np.concatenate(sums[2:], axis=1).reshape(r, 3, 3)
         both = _tangent_basis(x.reshape(2 * r, 3))  # rows j1, j2, j1, j2, ...
         b1, b2 = both[0::2], both[1::2]
@@ -834,18 +817,10 @@ class _HingeProblem:
         # e = n1 - n2: the second sensor's curvature enters with the opposite sign
         hess = jtj.copy()
         eye = np.eye(2)
-        hess[:, :2, :2] += (-(b1t @ curv[0][:, _SYMMETRIC] @ b1)
+        hess[:, :2, :2] += (-(b1t @ curv[0][:, SYMMETRIC] @ b1)
                             + shift[0][:, None, None] * eye)
-        hess[:, 2:, 2:] += b2t @ curv[1][:, _SYMMETRIC] @ b2 - shift[1][:, None, None] * eye
-        # Far from a minimum the Hessian can be indefinite: there Gauss-Newton's J^T J
-        # (always positive semi-definite) gives a descent direction instead.
-        scale = np.trace(jtj, axis1=1, axis2=2)
-        finite = np.isfinite(hess).all(axis=(1, 2))
-        # eigvalsh fails for the whole batch on one non-finite matrix; such a row keeps
-        # Gauss-Newton (the solver drops it if J^T J is not finite either).
-        lowest = np.linalg.eigvalsh(np.where(finite[:, None, None], hess, np.eye(4)))[:, 0]
-        safe = finite & (lowest > MIN_HESSIAN_EIGENVALUE * scale)
-        return cost, np.where(safe[:, None, None], hess, jtj), jte
+        hess[:, 2:, 2:] += b2t @ curv[1][:, SYMMETRIC] @ b2 - shift[1][:, None, None] * eye
+        return cost, safe_newton(jtj, hess), jte
 
 
 def _residual_and_jacobian(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):

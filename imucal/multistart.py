@@ -32,6 +32,32 @@ from .restarts import agreeing, best_restart
 #: Precision of the restarts' arithmetic: single precision halves the time of the
 #: element-wise work; the estimate itself is polished in double precision.
 RESTART_DTYPE = np.float32
+#: Newton steps only where the Hessian's smallest eigenvalue exceeds this fraction of
+#: the trace of J^T J (else Gauss-Newton): a nearly singular Hessian gives wild steps.
+MIN_HESSIAN_EIGENVALUE = 1e-3
+#: Iteration limit of the cut-off sensitivity refits (:meth:`Stages.refit_each`): they
+#: start at the estimate, and a shift is only reported to a fraction of a degree or mm.
+SENSITIVITY_ITERATIONS = 10
+#: Entry (i, k) of a symmetric 3 x 3 matrix stored as its upper triangle (6,).
+SYMMETRIC = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
+
+
+def safe_newton(jtj: np.ndarray, hess: np.ndarray) -> np.ndarray:
+    """Per restart, the exact Hessian ``hess`` (r, k, k) where it is safely positive
+    definite, else Gauss-Newton's ``jtj`` (r, k, k).
+
+    Gauss-Newton alone converges only linearly when the residuals stay large; Newton
+    steps converge quadratically near a minimum. Far from one the Hessian can be
+    indefinite: there J^T J (always positive semi-definite) gives a descent direction.
+    """
+    scale = np.trace(jtj, axis1=1, axis2=2)
+    finite = np.isfinite(hess).all(axis=(1, 2))
+    # eigvalsh fails for the whole batch on one non-finite matrix; such a row keeps
+    # Gauss-Newton (the solver drops it if J^T J is not finite either).
+    eye = np.eye(hess.shape[-1])
+    lowest = np.linalg.eigvalsh(np.where(finite[:, None, None], hess, eye))[:, 0]
+    safe = finite & (lowest > MIN_HESSIAN_EIGENVALUE * scale)
+    return np.where(safe[:, None, None], hess, jtj)
 
 
 @dataclass(frozen=True)
@@ -90,6 +116,20 @@ class Stages:
         their minimum and are reported far more coarsely than the estimate)."""
         problem = self.problem(data, mask, RESTART_DTYPE, True)
         return self.solve(problem, x0, max_iterations, self.restart_step_tolerance).x
+
+    def refit_each(self, datasets: list[tuple], x: np.ndarray,
+                   max_iterations: int) -> np.ndarray:
+        """(D, s): the state ``x`` (s,) refitted on each of the D ``datasets`` (tuples
+        like ``data``, the same number of samples each), as one batch of D restarts, each
+        on its own block of the stacked samples: one pass of the solver's fixed costs
+        instead of D (the cut-off sensitivity refits)."""
+        m = datasets[0][0].shape[0]
+        own = np.zeros((len(datasets), len(datasets) * m))
+        for k in range(len(datasets)):
+            own[k, k * m:(k + 1) * m] = 1.0
+        stacked = tuple(np.concatenate(parts) for parts in zip(*datasets, strict=True))
+        return self.refit(stacked, own, np.repeat(x[None, :], len(datasets), axis=0),
+                          max_iterations)
 
 
 @dataclass

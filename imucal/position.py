@@ -21,12 +21,20 @@ Schauer 2014), with the axis from the same recording.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 
 from .axis import AxisResult, estimate_axis
 from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton
+from .gauss_newton import BatchResult
+from .multistart import (
+    SENSITIVITY_ITERATIONS,
+    SYMMETRIC,
+    Stages,
+    multistart,
+    safe_newton,
+)
 from .preprocess import (
     JOINT_FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
@@ -47,12 +55,12 @@ from .quality import (
     block_masks,
     jackknife_sigma,
     robust_covariance,
+    sensitivity_cutoffs,
     singular_values,
     total_sigma,
     uncertainty_warning,
 )
 from .restarts import (
-    best_restart,
     competing_agreement,
     equal_minima,
     resolve_seed,
@@ -71,9 +79,20 @@ AGREEMENT_M = 0.01
 #: strapped to a thigh, shank or foot sits well within half a metre of the joint.
 INIT_BOX_M = 0.5
 MAX_ITERATIONS = 50
-#: Stop when the step is below this, m (0.01 mm).
+#: The estimate is polished (double precision) until the step is below this, m (0.01 mm).
 STEP_TOLERANCE = 1e-5
+#: The restarts (single precision, on their subsets and refined) stop at this step, m:
+#: a hundredth of ``AGREEMENT_M``, and below the spreads and sigmas reported (mm).
+RESTART_STEP_TOLERANCE = 1e-4
+#: The coarse stage only has to find each restart's basin, m.
+COARSE_STEP_TOLERANCE = 1e-3
+#: Samples shared by all restarts in the coarse stage, and its step limit (see
+#: :mod:`imucal.multistart`).
+COARSE_SAMPLES = 150
+COARSE_ITERATIONS = 6
 COST_TOLERANCE = 1e-9
+#: The cut-off sensitivity refits use the cut-off times these factors.
+SENSITIVITY_FACTORS = (0.75, 1.5)
 #: Largest step per iteration, m.
 MAX_STEP = 0.5
 SUBSET_FRACTION = 0.5
@@ -304,18 +323,16 @@ def estimate_position(
     rng = np.random.default_rng(seed)
     x0 = rng.uniform(-INIT_BOX_M, INIT_BOX_M, size=(restarts, 6))
     mask = subset_mask(n, restarts, subset, rng)
-    batch = _solve(_SpheroidalProblem(*sensors[0], *sensors[1], mask), x0, max_iterations)
-
-    # As for the axis: refine every restart on all samples, agree on the refined values,
-    # measure the data dependence on the subset values.
-    full = _SpheroidalProblem(*sensors[0], *sensors[1], None)
-    refined = _solve(full, batch.x, max_iterations)
-    finals = refined.x if line is None else closest_point_on_axis(refined.x, line)
-    subset_finals = batch.x if line is None else closest_point_on_axis(batch.x, line)
     # On a hinge every point of the line has the same cost, so comparing the projected
     # points with the lowest-cost one is fair.
-    best, reached = best_restart(finals, refined.final_cost, _position_distance, AGREEMENT_M)
-    x = finals[best]
+    stages = SPHEROIDAL if line is None else replace(
+        SPHEROIDAL, project=partial(closest_point_on_axis, line=line))
+    fit = multistart(stages, (*sensors[0], *sensors[1]), mask, x0, max_iterations, rng)
+    batch, refined, finals, best, reached = (fit.batch, fit.refined, fit.finals, fit.best,
+                                             fit.reached)
+    subset_finals = batch.x if line is None else closest_point_on_axis(batch.x, line)
+    x = fit.estimate
+    full = _SpheroidalProblem(*sensors[0], *sensors[1], None)
 
     e, jac = full.linearise(x[None, :])
     e, jac = e[0], jac[0]
@@ -339,7 +356,7 @@ def estimate_position(
         "singular_values_1_s2": sv,
     }
     sensitivity = _cutoff_sensitivity(
-        (g1, a1, g2, a2), rate, cutoff, win, step, sel.index, x, line, max_iterations
+        (g1, a1, g2, a2), rate, cutoff, win, step, sel.index, x, line
     )
     blocks = _block_jackknife(sensors, x, line, max_iterations)
     components = {"curvature": curvature, "time_blocks": blocks,
@@ -474,23 +491,20 @@ def _across(line: np.ndarray) -> np.ndarray:
     return np.linalg.svd(np.eye(6) - np.outer(along, along))[0][:, :5]
 
 
-def _cutoff_sensitivity(signals, rate, cutoff, win, step, index, x, line, max_iterations):
-    """Refit from the estimate ``x`` with the cut-off times 0.75 and 1.5; shifts in mm."""
+def _cutoff_sensitivity(signals, rate, cutoff, win, step, index, x, line):
+    """Refit from the estimate ``x`` with the cut-off times 0.75 and 1.5 (no filter: the
+    default cut-off and 1.5 times it); shifts in mm."""
     # With the flat joint filter, half the cut-off (6 Hz) would cut the stride's own
     # harmonics: the refits move it by a quarter down and a half up instead.
-    base = cutoff or default_joint_cutoff(rate)
-    top = MAX_CUTOFF_FRACTION * rate
-    pair = (0.75 * base, min(1.5 * base, top)) if cutoff else (base, min(1.5 * base, top))
-    shifts = {"o1": [], "o2": []}
-    for c in pair:
-        parts = []
-        for g, a in (signals[:2], signals[2:]):
-            parts += [arr[win][::step][index] for arr in _filtered(g, a, rate, c)]
-        y = _solve(_SpheroidalProblem(*parts, None), x[None, :], max_iterations).x[0]
-        if line is not None:
-            y = closest_point_on_axis(y, line)
-        shifts["o1"].append(float(1000 * np.linalg.norm(y[:3] - x[:3])))
-        shifts["o2"].append(float(1000 * np.linalg.norm(y[3:] - x[3:])))
+    pair = sensitivity_cutoffs(cutoff, default_joint_cutoff(rate), MAX_CUTOFF_FRACTION * rate,
+                               factors=SENSITIVITY_FACTORS)
+    data = [tuple(arr[win][::step][index] for g, a in (signals[:2], signals[2:])
+                  for arr in _filtered(g, a, rate, c)) for c in pair]
+    y = SPHEROIDAL.refit_each(data, x, SENSITIVITY_ITERATIONS)
+    if line is not None:
+        y = closest_point_on_axis(y, line)
+    shifts = {k: [float(d) for d in 1000 * np.linalg.norm(y[:, sl] - x[sl], axis=1)]
+              for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
     return {"cutoffs_hz": list(pair), "o1_shift_mm": shifts["o1"],
             "o2_shift_mm": shifts["o2"], "max_shift_mm": max(shifts["o1"] + shifts["o2"])}
 
@@ -508,21 +522,36 @@ def closest_point_on_axis(x: np.ndarray, line: np.ndarray) -> np.ndarray:
 
 
 class _SpheroidalProblem:
-    """Residual (3) and the Gauss-Newton normal equations of eq. (4) for many restarts.
+    """Residual (3) and the normal equations of eq. (4) for many restarts at once.
 
     ``Gamma_g(o) = (g g^T - |g|^2 I + [gdot]x) o`` is linear in ``o``: each sample's 3x3
     matrix is built once, and every restart's ``a - Gamma(o)`` is one matrix product
     (restarts x 3 samples). Data subsets are 0/1 weights, so no per-restart copies.
     """
 
-    def __init__(self, g1, gdot1, a1, g2, gdot2, a2, mask):
-        """``mask`` (R, N): 1 where restart r uses sample n; None: all samples for all."""
-        self.mask = mask
-        self.count = float(g1.shape[0]) if mask is None else mask.sum(axis=1)
+    def __init__(self, g1, gdot1, a1, g2, gdot2, a2, mask, dtype=np.float64,
+                 newton: bool = False):
+        """``mask`` (R, N): 1 where restart r uses sample n; None: all samples for all.
+        ``dtype``: precision of the element-wise work; ``newton``: :meth:`normal` returns
+        the exact Hessian where it is safely positive definite."""
+        self.dtype = dtype
+        self.newton = newton
+        self.mask = None if mask is None else mask.astype(dtype)
+        self.count = float(g1.shape[0]) if mask is None else mask.sum(axis=1,
+                                                                       dtype=np.float64)
         # Component-major layouts (3, N), so every sum over x, y, z adds three
         # contiguous rows instead of reducing a short inner axis.
-        self.sensors = [(self._gamma(g, gdot), np.ascontiguousarray(a.T))
-                        for g, gdot, a in ((g1, gdot1, a1), (g2, gdot2, a2))]
+        self.sensors = []
+        for g, gdot, a in ((g1, gdot1, a1), (g2, gdot2, a2)):
+            gam = self._gamma(g, gdot)
+            flat = np.ascontiguousarray(gam.transpose(1, 0, 2).reshape(3, -1))
+            self.sensors.append((gam.astype(dtype), np.ascontiguousarray(a.T, dtype=dtype),
+                                 flat.astype(dtype)))
+        if newton:  # (N, 6) upper triangles of Gamma^T Gamma per sample
+            up = np.triu_indices(3)
+            self.gtg = [np.ascontiguousarray(np.einsum("kin,kjn->nij", gam, gam)[:, up[0],
+                                                                                up[1]])
+                        .astype(dtype) for gam, _, _ in self.sensors]
         self._work = None
 
     @staticmethod
@@ -541,31 +570,31 @@ class _SpheroidalProblem:
         return m
 
     def _r(self, k, o):
-        """a - Gamma(o) for sensor k and offsets o (r, 3): (r, 3, N), and G."""
-        gam, at = self.sensors[k]
+        """a - Gamma(o) for sensor k and offsets o (r, 3): (r, 3, N)."""
+        _, at, flat = self.sensors[k]
         n = at.shape[1]
         # (r, 3) @ (3, 3N): row r holds (Gamma_n o_r)_k for every component k, sample n
-        flat = o @ gam.transpose(1, 0, 2).reshape(3, 3 * n)
-        return at - flat.reshape(o.shape[0], 3, n), gam
+        return at - (o.astype(self.dtype, copy=False) @ flat).reshape(o.shape[0], 3, n)
 
     @staticmethod
     def _norm(r):
         return np.sqrt(r[:, 0] ** 2 + r[:, 1] ** 2 + r[:, 2] ** 2)
 
     def _weights(self, rows):
-        return None if self.mask is None else self.mask[rows]
+        if self.mask is None:
+            return None
+        return self.mask if rows.size == self.mask.shape[0] else self.mask[rows]
 
     def _count(self, rows):
         return self.count if self.mask is None else self.count[rows]
 
     def joint_acceleration_norm(self, k: int, o: np.ndarray) -> np.ndarray:
         """|a_k - Gamma(o)| per sample for one offset ``o`` (3,), m/s^2."""
-        r, _ = self._r(k, o[None, :])
-        return self._norm(r)[0]
+        return self._norm(self._r(k, o[None, :]))[0]
 
     def residual(self, x):
         """e (r, N) for states ``x`` (r, 6)."""
-        return self._norm(self._r(0, x[:, :3])[0]) - self._norm(self._r(1, x[:, 3:])[0])
+        return self._norm(self._r(0, x[:, :3])) - self._norm(self._r(1, x[:, 3:]))
 
     def cost(self, x, rows):
         e = self.residual(x)
@@ -573,26 +602,25 @@ class _SpheroidalProblem:
         w = self._weights(rows)
         if w is not None:
             e *= w
-        return e.sum(axis=1) / self._count(rows)
+        return e.sum(axis=1, dtype=np.float64) / self._count(rows)
 
     def _buffers(self, r: int):
         """Work arrays for ``r`` restarts, reused across iterations: fresh large
         temporaries cost more (page faults) than the arithmetic on them."""
         n = self.sensors[0][1].shape[1]
         if self._work is None or self._work[0].shape[0] < r:
-            self._work = (np.empty((r, 6, n)), np.empty((r, 6, n)), np.empty((r, 3, n)),
-                          np.empty((r, 3, n)), np.empty((3, r, n)))
+            self._work = (np.empty((r, 6, n), self.dtype), np.empty((r, 6, n), self.dtype),
+                          np.empty((r, 3, n), self.dtype), np.empty((r, 3, n), self.dtype),
+                          np.empty((2, r, n), self.dtype))
         return [w[:r] for w in self._work[:4]] + [self._work[4][:, :r]]
 
     def _linearise(self, x):
-        """e (r, N) and Jacobian (r, 6, N) of eq. (4); the Jacobian is a reused buffer."""
+        """e (r, N), Jacobian (r, 6, N) of eq. (4) (a reused buffer) and |r_k| (2, r, N)."""
         r = x.shape[0]
-        jac, wj, res, tmp, norms = self._buffers(r)
-        n = res.shape[2]
-        for k, sign in ((0, -1.0), (1, 1.0)):
-            gam, at = self.sensors[k]
-            flat = x[:, 3 * k:3 * k + 3] @ gam.transpose(1, 0, 2).reshape(3, 3 * n)
-            np.subtract(at, flat.reshape(r, 3, n), out=res)
+        jac, _, res, tmp, norms = self._buffers(r)
+        for k in (0, 1):
+            gam = self.sensors[k][0]
+            np.copyto(res, self._r(k, x[:, 3 * k:3 * k + 3]))
             nr = norms[k]
             np.multiply(res[:, 0], res[:, 0], out=nr)
             nr += res[:, 1] ** 2
@@ -605,37 +633,44 @@ class _SpheroidalProblem:
             for c in (1, 2):
                 np.multiply(res[:, c, None, :], gam[c][None], out=tmp)
                 out += tmp
-            if sign < 0:
+            if k == 0:
                 np.negative(out, out=out)
-        return norms[0] - norms[1], jac
+        return norms[0] - norms[1], jac, norms
 
     def linearise(self, x):
         """e (r, N) and Jacobian (r, N, 6) of eq. (4)."""
-        e, jac = self._linearise(x)
+        e, jac, _ = self._linearise(x)
         return e, np.swapaxes(jac, 1, 2).copy()
 
     def normal(self, x, rows):
-        e, jac = self._linearise(x)  # jac (r, 6, N)
+        """Cost (r,), J^T J (r, 6, 6) and J^T e (r, 6); with ``newton`` the first matrix
+        is the exact Hessian J^T J + sum e H_e where it is safely positive definite.
+
+        The Hessian of |r| = |a - Gamma o| is Gamma^T (I - u u^T) Gamma / |r| with
+        u = r / |r|; Gamma^T u is the Jacobian block, so the term is a fixed per-sample
+        table Gamma^T Gamma weighted by e / |r|, minus the Jacobian's weighted outer
+        products. Gauss-Newton alone converges linearly where the residuals stay large.
+        """
+        e, jac, norms = self._linearise(x)  # jac (r, 6, N)
         w = self._weights(rows)
         wj = jac
         if w is not None:
             wj = self._buffers(x.shape[0])[1]
             np.multiply(jac, w[:, None, :], out=wj)
-        cost = np.sum((e * e) * (1.0 if w is None else w), axis=1) / self._count(rows)
-        return cost, wj @ np.swapaxes(jac, 1, 2), (wj @ e[..., None])[..., 0]
-
-
-def _solve(problem: _SpheroidalProblem, x0: np.ndarray, max_iterations: int) -> BatchResult:
-    return gauss_newton(
-        problem.normal,
-        problem.cost,
-        lambda x, step: x + step,
-        x0,
-        max_iterations=max_iterations,
-        step_tolerance=STEP_TOLERANCE,
-        cost_tolerance=COST_TOLERANCE,
-        max_step=MAX_STEP,
-    )
+        we = e if w is None else e * w
+        cost = np.einsum("ij,ij->i", we, e, dtype=np.float64) / self._count(rows)
+        jtj = (wj @ np.swapaxes(jac, 1, 2)).astype(np.float64)
+        jte = (wj @ e[..., None])[..., 0].astype(np.float64)
+        if not self.newton:
+            return cost, jtj, jte
+        hess = jtj.copy()
+        for k, sign in ((0, 1.0), (1, -1.0)):  # e = |r1| - |r2|
+            c = we / np.maximum(norms[k], 1e-12)
+            blk = slice(3 * k, 3 * k + 3)
+            part = (c @ self.gtg[k]).astype(np.float64)[:, SYMMETRIC]
+            part -= ((jac[:, blk] * c[:, None, :]) @ np.swapaxes(jac[:, blk], 1, 2))
+            hess[:, blk, blk] += sign * part
+        return cost, safe_newton(jtj, hess), jte
 
 
 def _offset_profile(signals, rate):
@@ -677,8 +712,8 @@ def _block_jackknife(sensors, x, line, max_iterations) -> dict:
     """{"o1", "o2"}: delete-one-block jackknife 1-sigma, mm; every refit starts at the
     estimate ``x`` and leaves out one contiguous time block of the samples used."""
     masks = block_masks(sensors[0][0].shape[0])
-    problem = _SpheroidalProblem(*sensors[0], *sensors[1], masks)
-    y = _solve(problem, np.repeat(x[None, :], masks.shape[0], axis=0), max_iterations).x
+    y = SPHEROIDAL.refit((*sensors[0], *sensors[1]), masks,
+                         np.repeat(x[None, :], masks.shape[0], axis=0), max_iterations)
     if line is not None:
         y = closest_point_on_axis(y, line)
     return {k: jackknife_sigma(1000 * np.linalg.norm(y[:, sl] - x[sl], axis=1))
@@ -695,3 +730,17 @@ def _position_distance(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         np.linalg.norm(x[..., :3] - y[..., :3], axis=-1),
         np.linalg.norm(x[..., 3:] - y[..., 3:], axis=-1),
     )
+
+
+def _spheroidal_problem(data, mask, dtype, newton) -> _SpheroidalProblem:
+    return _SpheroidalProblem(*data, mask, dtype, newton)
+
+
+#: Eq. (3) in the staged multistart (:mod:`imucal.multistart`).
+SPHEROIDAL = Stages(
+    problem=_spheroidal_problem, retract=lambda x, step: x + step,
+    distance=_position_distance, agreement=AGREEMENT_M, step_tolerance=STEP_TOLERANCE,
+    restart_step_tolerance=RESTART_STEP_TOLERANCE,
+    coarse_step_tolerance=COARSE_STEP_TOLERANCE, coarse_samples=COARSE_SAMPLES,
+    coarse_iterations=COARSE_ITERATIONS, cost_tolerance=COST_TOLERANCE, max_step=MAX_STEP,
+)

@@ -51,11 +51,14 @@ class Verdict:
         return not (self.warnings or self.blocking)
 
 
-def sensitivity_cutoffs(cutoff: float, default: float, top: float) -> tuple[float, float]:
-    """The two cut-offs, Hz, of the sensitivity refits: ``cutoff`` halved and doubled, or
-    without a filter (``cutoff`` 0) the ``default`` and twice it; never above ``top``."""
+def sensitivity_cutoffs(cutoff: float, default: float, top: float,
+                        factors: tuple[float, float] = (0.5, 2.0)) -> tuple[float, float]:
+    """The two cut-offs, Hz, of the cut-off sensitivity refits of every estimator:
+    ``cutoff`` times ``factors`` (down, up), or without a filter (``cutoff`` 0) the
+    ``default`` and ``default`` times the upper factor; never above ``top``."""
+    down, up = factors
     base = cutoff if cutoff else default
-    return (base / 2, min(2 * base, top)) if cutoff else (base, min(2 * base, top))
+    return (down * base, min(up * base, top)) if cutoff else (base, min(up * base, top))
 
 
 def newey_west_lags(m: int) -> int:
