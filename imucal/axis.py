@@ -27,7 +27,14 @@ import numpy as np
 
 from .errors import InputError
 from .gauss_newton import BatchResult
-from .multistart import SENSITIVITY_ITERATIONS, SYMMETRIC, Stages, multistart, safe_newton
+from .multistart import (
+    SENSITIVITY_ITERATIONS,
+    SYMMETRIC,
+    Stages,
+    multistart,
+    one_blas_thread,
+    safe_newton,
+)
 from .preprocess import (
     FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
@@ -230,6 +237,7 @@ class AxisResult(Verdict):
         return self.batch.iterations
 
 
+@one_blas_thread
 def estimate_axis(
     gyr1: np.ndarray,
     gyr2: np.ndarray,

@@ -21,10 +21,12 @@ how a local step moves a state, and how far two states are apart.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from .gauss_newton import BatchResult, chain, gauss_newton
 from .restarts import agreeing, best_restart
@@ -40,6 +42,28 @@ MIN_HESSIAN_EIGENVALUE = 1e-3
 SENSITIVITY_ITERATIONS = 10
 #: Entry (i, k) of a symmetric 3 x 3 matrix stored as its upper triangle (6,).
 SYMMETRIC = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
+
+
+_BLAS: ThreadpoolController | None = None
+
+
+def one_blas_thread(estimator: Callable) -> Callable:
+    """Run ``estimator`` with BLAS limited to one thread (threadpoolctl), as the command
+    line does.
+
+    The estimators' matrix products are small (restarts x a few thousand samples): a
+    BLAS thread pool spends more on waking and syncing its threads than it saves, and
+    on a loaded machine far more. The controller is built on first use, when numpy's and
+    scipy's BLAS libraries are loaded, and reused (about 20 us per call).
+    """
+    @functools.wraps(estimator)
+    def limited(*args, **kwargs):
+        global _BLAS
+        if _BLAS is None:
+            _BLAS = ThreadpoolController()
+        with _BLAS.limit(limits=1, user_api="blas"):
+            return estimator(*args, **kwargs)
+    return limited
 
 
 def safe_newton(jtj: np.ndarray, hess: np.ndarray) -> np.ndarray:

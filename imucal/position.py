@@ -33,6 +33,7 @@ from .multistart import (
     SYMMETRIC,
     Stages,
     multistart,
+    one_blas_thread,
     safe_newton,
 )
 from .preprocess import (
@@ -190,6 +191,7 @@ class PositionResult(Verdict):
         return self.batch.iterations
 
 
+@one_blas_thread
 def estimate_position(
     gyr1: np.ndarray,
     acc1: np.ndarray,
