@@ -21,12 +21,11 @@ joint angle changes during the recording (with a rigid joint every pair j1 = R j
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .errors import InputError
-from .gauss_newton import BatchResult
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
@@ -48,7 +47,6 @@ from .preprocess import (
     window_slice,
 )
 from .quality import (
-    Verdict,
     block_masks,
     jackknife_sigma,
     robust_covariance,
@@ -65,6 +63,7 @@ from .restarts import (
     settled,
     subset_mask,
 )
+from .result import EstimateResult
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
 from .settings import AxisSettings
@@ -135,16 +134,17 @@ MIN_SINGULAR_RATIO = 0.04
 MIN_SIGN_EVIDENCE = 1.5
 
 
-@dataclass
-class AxisResult(Verdict):
-    """Result of :func:`estimate_axis`.
+@dataclass(kw_only=True)
+class AxisResult(EstimateResult):
+    """Result of :func:`estimate_axis`: the fields of
+    :class:`imucal.result.EstimateResult` and the axis' own.
 
     Attributes
     ----------
     j1, j2 : (3,) unit hinge axis in the first / second sensor's frame, pointing the same
         physical way (see ``sign_evidence``); overall sign: j1's largest component > 0,
         or as ``settings["sign_convention"]`` pins it.
-    rms_residual : RMS of e(t) over all used samples at the estimate, rad/s.
+    rms_residual : RMS of e(t) of eq. (1) over all used samples at the estimate, rad/s.
     relative_residual : ``rms_residual`` over the RMS angular-rate magnitude of both
         sensors, dimensionless (0 = perfect hinge).
     sign_evidence : how much better the data's relative sign explains the data than the
@@ -152,89 +152,30 @@ class AxisResult(Verdict):
         against it (>= 1; below 1.5 the data barely decide; :mod:`imucal.sign`).
     sign_tests : each test's evidence, whether it favours the reported j2, and the
         numbers behind it for the reported and the flipped j2 (:mod:`imucal.sign`).
-    singular_ratio : smallest / largest singular value of the Jacobian of eq. (1) at the
-        estimate (near 0: some direction of (j1, j2) is not determined by the data, e.g.
-        a joint that did not move).
-    singular_values : singular values of that Jacobian over sqrt(samples), rad/s per rad.
+    singular_values : singular values of the Jacobian of eq. (1) over sqrt(samples),
+        rad/s per rad (a joint that did not move leaves one near 0).
     uncertainty_deg : {"j1", "j2"} 1-sigma angle uncertainty, deg: the larger of the
-        curvature's and the time blocks' with the cut-off shift added in quadrature
-        (:func:`imucal.quality.total_sigma`).
-    uncertainty_components : the parts of it, each {"j1", "j2"} in deg: "curvature" (the
-        cost's curvature, robust to correlated residuals,
-        :func:`imucal.quality.robust_covariance`), "time_blocks" (delete-one-block
-        jackknife over contiguous time blocks, :func:`imucal.quality.block_masks`),
-        "cutoff_shift" (the largest shift of the cut-off refits), "model" (a bias bound
-        in proportion to the smooth part of the residual,
-        :func:`imucal.quality.smooth_residual_rms`).
+        curvature's and the time blocks' with the cut-off shift and the model bound added
+        in quadrature (:func:`imucal.quality.total_sigma`); its parts, in deg, are
+        ``uncertainty_components``.
     excitation : RMS flexion rate j2.g2 - j1.g1 and RMS joint-plane rate |g_i x j_i| of
         each segment over the samples used, deg/s.
     sensitivity : cut-offs of two refits (halved and doubled; without a filter: 1 and 2
         times the default) and the angles the axes moved, deg.
-    convergence_fraction : fraction of restarts that reached the estimate: whose final
-        value, refined on all samples, lies within ``AGREEMENT_DEG`` of it. The estimate
-        is the refined result with the lowest cost.
-    competing_agreement : the same fraction among restarts whose RMS residual is within
-        1.25 x the best (clearly worse local minima do not count).
-    equal_minima : restarts that ended elsewhere at an RMS residual within
-        :data:`imucal.restarts.EQUAL_RMS_FACTOR` of the best: "count", the largest angle
-        to the estimate "max_distance_deg" and the largest "max_rms_ratio" (a second
-        answer outside the reported 1-sigma blocks the estimate).
-    reached : (R,) which restarts did.
     spread_deg : RMS angle between the agreeing restarts' subset results and the
         estimate, per axis, deg: how much the answer depends on the data (subset fits
         stuck in a local minimum left out, :func:`imucal.restarts.settled`).
-    batch : the restarts on their subsets (initial states ``batch.path[0]``, costs,
-        iterations), the coarse stage's steps first (see :func:`_multistart`).
-    refined : each restart's result refined on all samples; the estimate is the one with
-        the lowest cost.
-    time_offset : the second sensor's clock lateness: "time_offset_s" applied (s),
-        "mode" ("auto" or "given"), and with "auto" the estimate "estimated_s", its
-        "sigma_s", "cost_ratio" (cost at 0 over cost at the estimate), "search_s" and
-        "at_edge" (:class:`imucal.time_offset.Offset`).
-    warnings : plain-language reasons to use the estimate with care; empty when fine.
-    blocking : reasons the data cannot identify the axis at all (``verdict`` "not
-        identifiable"; the command line exits 1).
-    settings : every setting used, including the seed.
-    samples_used : samples after window, subsampling and informative-sample selection.
-    window : (start, end) in seconds from the first sample.
-    time_ranges : (K, 2) stretches the selection used, s from the first sample.
     gyr1, gyr2 : the filtered, windowed, subsampled rates used (M, 3), rad/s.
-    sample_index : (M,) index of each sample used in the recording passed in.
     """
 
     j1: np.ndarray
     j2: np.ndarray
-    rms_residual: float
-    relative_residual: float
     sign_evidence: float
     sign_tests: dict
-    singular_ratio: float
-    singular_values: np.ndarray
     uncertainty_deg: dict
-    uncertainty_components: dict
-    excitation: dict
-    sensitivity: dict
-    convergence_fraction: float
-    competing_agreement: float
-    equal_minima: dict
-    reached: np.ndarray
     spread_deg: dict
-    batch: BatchResult
-    refined: BatchResult
-    settings: dict
-    samples_used: int
-    window: tuple[float, float]
-    time_ranges: np.ndarray
     gyr1: np.ndarray
     gyr2: np.ndarray
-    sample_index: np.ndarray
-    warnings: list[str] = field(default_factory=list)
-    blocking: list[str] = field(default_factory=list)
-    time_offset: dict = field(default_factory=dict)
-
-    @property
-    def iterations(self) -> np.ndarray:
-        return self.batch.iterations
 
 
 @one_blas_thread
@@ -318,6 +259,35 @@ def estimate_axis(
         All of the above (``restarts`` to ``offset_search``) as one
         :class:`imucal.settings.AxisSettings`, instead of keyword arguments (giving both,
         with keyword values other than the defaults, is an InputError).
+
+    Returns
+    -------
+    AxisResult
+        j1, j2 (unit, each in its sensor's frame), the quality report (uncertainty,
+        identifiability, ``verdict``, ``warnings``) and every restart. An axis the data
+        cannot identify is still returned, with ``blocking`` reasons.
+
+    Raises
+    ------
+    InputError
+        Invalid settings (before any data are used), arrays not (N, 3) of finite numbers
+        or of different lengths, a sample rate outside 1-10000 Hz, a window outside the
+        recording, or fewer than ``MIN_SAMPLES`` samples left to fit.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. II-A, III-B/C
+    and IV (eq. 1 and 2, the restarts on data subsets).
+
+    Examples
+    --------
+    >>> import imucal
+    >>> rec = imucal.load_recording("sample_data/circling.h5")
+    >>> r = imucal.estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr,
+    ...                          rate=rec.rate, seed=1)
+    >>> r.verdict, r.j1.round(2)
+    ('good', array([-0.42, -0.35,  0.84]))
     """
     s = resolve_settings(
         AxisSettings, settings, restarts=restarts, seed=seed, cutoff=cutoff,

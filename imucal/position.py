@@ -20,14 +20,13 @@ Schauer 2014), with the axis from the same recording.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
 
 from .axis import AxisResult, estimate_axis
 from .errors import InputError
-from .gauss_newton import BatchResult
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
@@ -52,7 +51,6 @@ from .preprocess import (
     window_slice,
 )
 from .quality import (
-    Verdict,
     block_masks,
     jackknife_sigma,
     robust_covariance,
@@ -68,6 +66,7 @@ from .restarts import (
     settled,
     subset_mask,
 )
+from .result import EstimateResult
 from .selection import MAX_SAMPLES
 from .selection import select as select_samples
 from .settings import JOINTS, PositionSettings  # noqa: F401 (JOINTS: imported from here)
@@ -115,80 +114,47 @@ OFFSET_STEPS = 2
 MAX_PLAUSIBLE_OFFSET_M = 1.0
 
 
-@dataclass
-class PositionResult(Verdict):
-    """Result of :func:`estimate_position`.
+@dataclass(kw_only=True)
+class PositionResult(EstimateResult):
+    """Result of :func:`estimate_position`: the fields of
+    :class:`imucal.result.EstimateResult` and the position's own.
 
     Attributes
     ----------
     o1, o2 : (3,) vector from the joint centre to the first / second sensor's origin, in
         that sensor's frame, m.
     joint : "spheroidal" or "hinge".
-    rms_residual : RMS of e(t) at the estimate, m/s^2.
+    rms_residual : RMS of e(t) of eq. (3) at the estimate, m/s^2.
     relative_residual : ``rms_residual`` over the RMS of |a_i - Gamma_i(o_i)|.
-    singular_ratio : smallest / largest singular value of the Jacobian at the estimate
-        (near 0: the position is only known along a line); for a hinge, of the directions
-        across the axis.
+    singular_ratio : as in :class:`imucal.result.EstimateResult`; for a hinge, of the
+        directions across the axis.
     singular_values : singular values of that Jacobian over sqrt(samples), 1/s^2.
     uncertainty_mm : {"o1", "o2"} 1-sigma, mm (for a hinge: across the axis line): the
         larger of the curvature's and the time blocks' with the cut-off shift added in
-        quadrature (:func:`imucal.quality.total_sigma`).
-    uncertainty_components : its parts, each {"o1", "o2"} in mm, as in
-        :class:`imucal.axis.AxisResult`.
+        quadrature (:func:`imucal.quality.total_sigma`); its parts, in mm, are
+        ``uncertainty_components``.
     excitation : RMS angular rate of each sensor, deg/s, and the Jacobian's singular
         values over sqrt(samples), 1/s^2.
-    sensitivity : cut-offs of two refits (halved and doubled) and the shifts, mm.
-    competing_agreement : as in :class:`imucal.axis.AxisResult`.
-    equal_minima : as in :class:`imucal.axis.AxisResult`, distance in mm
+    sensitivity : cut-offs of two refits (times 0.75 and 1.5) and the shifts, mm.
+    equal_minima : as in :class:`imucal.result.EstimateResult`, distance in mm
         ("max_distance_mm").
-    convergence_fraction : fraction of restarts whose final value, refined on all samples,
-        lies within ``AGREEMENT_M`` of the estimate, the refined result with the lowest
-        cost (for a hinge: after moving each to its closest point on the axis).
-    reached : (R,) which restarts did.
+    convergence_fraction : as in :class:`imucal.result.EstimateResult`, within
+        ``AGREEMENT_M`` (for a hinge: after moving each restart to its closest point on
+        the axis).
     spread_mm : RMS distance of the agreeing restarts' subset results from the estimate
         per vector, mm: how much the answer depends on the data (subset fits stuck in a
         local minimum left out, :func:`imucal.restarts.settled`).
-    batch : the restarts on their subsets.
-    refined : each restart's result refined on all samples.
     axis : for ``joint="hinge"`` with an estimated axis, its :class:`AxisResult`.
     line : for ``joint="hinge"``, the (j1, j2) used, else None.
-    warnings, blocking, settings, samples_used, window, time_ranges : as in
-        :class:`imucal.axis.AxisResult`.
-    sample_index, time_offset : as in :class:`imucal.axis.AxisResult`.
     """
 
     o1: np.ndarray
     o2: np.ndarray
     joint: str
-    rms_residual: float
-    relative_residual: float
-    singular_ratio: float
-    singular_values: np.ndarray
     uncertainty_mm: dict
-    uncertainty_components: dict
-    excitation: dict
-    sensitivity: dict
-    convergence_fraction: float
-    competing_agreement: float
-    equal_minima: dict
-    reached: np.ndarray
     spread_mm: dict
-    batch: BatchResult
-    refined: BatchResult
-    settings: dict
-    samples_used: int
-    window: tuple[float, float]
-    time_ranges: np.ndarray
-    sample_index: np.ndarray
     axis: AxisResult | None = None
     line: np.ndarray | None = None
-    warnings: list[str] = field(default_factory=list)
-    blocking: list[str] = field(default_factory=list)
-    time_offset: dict = field(default_factory=dict)
-
-    @property
-    def iterations(self) -> np.ndarray:
-        return self.batch.iterations
 
 
 @one_blas_thread
@@ -261,6 +227,38 @@ def estimate_position(
         All of the above but ``axis`` as one :class:`imucal.settings.PositionSettings`,
         instead of keyword arguments (giving both, with keyword values other than the
         defaults, is an InputError).
+
+    Returns
+    -------
+    PositionResult
+        o1, o2 (m, each in its sensor's frame; for a hinge the point of the axis closest
+        to both sensors), the quality report (uncertainty, identifiability, ``verdict``,
+        ``warnings``) and every restart. A position the data cannot identify is still
+        returned, with ``blocking`` reasons.
+
+    Raises
+    ------
+    InputError
+        Invalid settings (before any data are used), arrays not (N, 3) of finite numbers
+        or of different lengths, a sample rate outside 1-10000 Hz, a window outside the
+        recording, or fewer than ``MIN_SAMPLES`` samples left to fit.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. II-B, III-B
+    (eq. 3 and 4); Seel, Raisch, Schauer (2014), "IMU-based joint angle measurement for
+    gait analysis", Sensors 14 (the point of a hinge axis closest to both sensors).
+
+    Examples
+    --------
+    >>> import imucal
+    >>> rec = imucal.load_recording("sample_data/circling.h5")
+    >>> shank, foot = rec.sensor("shank"), rec.sensor("foot")
+    >>> r = imucal.estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc,
+    ...                              rate=rec.rate, seed=1)
+    >>> r.verdict, (1000 * r.o1).round()  # mm
+    ('good', array([101.,  40.,  17.]))
     """
     s = resolve_settings(
         PositionSettings, settings, restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
@@ -451,6 +449,9 @@ def estimate_position(
         "j2_sign": j2_sign if joint == "hinge" else None,
         "time_offset": offset,
         "step_tolerance_m": STEP_TOLERANCE,
+        "restart_step_tolerance_m": RESTART_STEP_TOLERANCE,
+        "coarse_samples": COARSE_SAMPLES,
+        "coarse_iterations": COARSE_ITERATIONS,
         "cost_tolerance": COST_TOLERANCE,
         "agreement_mm": AGREEMENT_M * 1000,
         "initial_values": f"o1, o2 uniform in [-{INIT_BOX_M}, {INIT_BOX_M}]^3 m",
