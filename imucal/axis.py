@@ -29,6 +29,7 @@ from .errors import InputError
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
+    Multistart,
     Stages,
     multistart,
     one_blas_thread,
@@ -37,35 +38,39 @@ from .multistart import (
 from .preprocess import (
     FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
+    Prepared,
     check_pair,
     check_rate,
     default_cutoff,
     lowpass,
-    resolve_subsample,
+    prepare,
     stillness_warning,
     unit_doubts,
-    window_slice,
 )
 from .quality import (
     block_masks,
+    cutoff_shifts,
     jackknife_sigma,
+    rms,
     robust_covariance,
     sensitivity_cutoffs,
     singular_values,
     smooth_residual_rms,
-    total_sigma,
+    uncertainty_totals,
     uncertainty_warning,
 )
 from .restarts import (
+    MIN_AGREEING_FRACTION,
     competing_agreement,
+    disagreement_warning,
     equal_minima,
+    equal_minima_blocking,
     resolve_seed,
     settled,
     subset_mask,
 )
 from .result import EstimateResult
 from .selection import MAX_SAMPLES
-from .selection import select as select_samples
 from .settings import AxisSettings
 from .settings import resolve as resolve_settings
 from .sign import (
@@ -75,7 +80,7 @@ from .sign import (
     perpendicular,
     plane_test,
 )
-from .time_offset import SEARCH_S, fit_with_offset, reader, shifted
+from .time_offset import SEARCH_S, fit_with_offset, reader
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -102,8 +107,6 @@ MAX_STEP = 1.0
 SUBSET_FRACTION = 0.5
 #: Below this many samples (after subsampling) the 4-parameter fit is meaningless.
 MIN_SAMPLES = 20
-#: Fewer restarts than this fraction reaching the estimate is not confident.
-MIN_AGREEING_FRACTION = 0.8
 #: Relative residual (against the angular-rate magnitude) above which restarts that
 #: disagree mean "not a hinge": simulated hinges at SNR 30-300 stay below 0.03, simulated
 #: spheroidal ankles fitted as a hinge lie above 0.15.
@@ -296,127 +299,184 @@ def estimate_axis(
         max_samples=max_samples, time_offset=time_offset, offset_search=offset_search)
     g1, g2 = check_pair(gyr1, gyr2)
     rate = check_rate(rate)
+    acc1, acc2 = _check_acc(g1, acc1, acc2)
     if s.time_offset == "auto":
-        s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
+        return _with_auto_offset(g1, g2, acc1, acc2, rate, s)
+    s = replace(s, seed=resolve_seed(s.seed))
+    prepared = prepare((g1, acc1), (g2, acc2), rate, s, cutoff=s.cutoff or 0.0,
+                       fit_signals=lambda sensor, c: (lowpass(sensor[0], rate, c),),
+                       min_samples=MIN_SAMPLES, what="axis")
+    fit = _fit(prepared, s)
+    j1, j2, decision, applied = _signs(prepared, fit, s)
+    quality = _quality(prepared, fit, np.concatenate([j1, j2]))
+    warnings, blocking = _diagnose(prepared, quality, decision)
+    warnings += _sign_warnings(decision, applied, s.j2_sign != "auto")
+    return _result(prepared, s, fit, j1, j2, decision, applied, quality, warnings, blocking)
 
-        def again(seconds):
-            return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
-                                 settings=replace(s, time_offset=seconds))
-        return fit_with_offset(again, _offset_profile(g2, rate), rate, s.offset_search)
+
+def _check_acc(g1, acc1, acc2):
+    """The optional specific forces, checked like the rates (both or neither)."""
     if (acc1 is None) != (acc2 is None):
         raise InputError("give both acc1 and acc2, or neither")
-    if acc1 is not None:
-        acc1, acc2 = check_pair(acc1, acc2)
-        if acc1.shape != g1.shape:
-            raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, "
-                             f"{acc1.shape[0]})")
-    restarts, seed, cutoff, subset = s.restarts, resolve_seed(s.seed), s.cutoff, s.subset
-    start, end, max_iterations, sign, j2_sign = s.start, s.end, s.max_iterations, s.sign, s.j2_sign
-    select, max_samples, offset = s.select, s.max_samples, s.time_offset
-    flip_axis = _sign_index(sign)
-    pin_j2 = _sign_index(j2_sign)
-    if offset:  # the second sensor read at t + offset, over the whole recording
-        g2 = shifted(g2, rate, offset)
-        acc2 = None if acc2 is None else shifted(acc2, rate, offset)
-    cutoff = 0.0 if cutoff is None else float(cutoff)
-    step = resolve_subsample(rate, cutoff, s.subsample)
+    if acc1 is None:
+        return None, None
+    acc1, acc2 = check_pair(acc1, acc2)
+    if acc1.shape != g1.shape:
+        raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, "
+                         f"{acc1.shape[0]})")
+    return acc1, acc2
 
-    win = window_slice(g1.shape[0], rate, start, end)
-    f1 = lowpass(g1, rate, cutoff)[win][::step]
-    f2 = lowpass(g2, rate, cutoff)[win][::step]
-    sel = select_samples(f1, f2, rate / step, max_samples=max_samples,
-                         min_samples=MIN_SAMPLES, enabled=select)
-    d1, d2 = f1[sel.index], f2[sel.index]
-    n = d1.shape[0]
-    if n < MIN_SAMPLES:
-        raise InputError(
-            f"only {n} samples left after window and subsampling; the axis needs at least "
-            f"{MIN_SAMPLES} (about {MIN_SAMPLES * step / rate:.1f} s of motion)"
-        )
 
-    rng = np.random.default_rng(seed)
-    x0 = np.concatenate([_random_unit(rng, restarts), _random_unit(rng, restarts)], axis=1)
-    fit = multistart(HINGE, (d1, d2), subset_mask(n, restarts, subset, rng), x0,
-                     max_iterations, rng)
-    batch, refined, best, reached = fit.batch, fit.refined, fit.best, fit.reached
-    j1, j2 = _unit(fit.estimate[:3]), _unit(fit.estimate[3:])
+def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
+    """The estimate with the clock offset found from eq. (1) itself
+    (:func:`imucal.time_offset.fit_with_offset`)."""
+    s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
 
+    def again(seconds):
+        return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
+                             settings=replace(s, time_offset=seconds))
+    return fit_with_offset(again, _offset_profile(g2, rate), rate, s.offset_search)
+
+
+def _fit(p: Prepared, s: AxisSettings) -> Multistart:
+    """The staged multistart of eq. (1) from axes uniform on the sphere (Sec. IV)."""
+    rng = np.random.default_rng(s.seed)
+    x0 = np.concatenate([_random_unit(rng, s.restarts), _random_unit(rng, s.restarts)],
+                        axis=1)
+    return multistart(HINGE, p.data, subset_mask(p.samples, s.restarts, s.subset, rng), x0,
+                      s.max_iterations, rng)
+
+
+def _signs(p: Prepared, fit: Multistart, s: AxisSettings):
+    """(j1, j2, decision, applied): the estimate oriented by the sign tests or pins."""
+    j1, j2 = unit(fit.estimate[:3]), unit(fit.estimate[3:])
     # The sign tests follow the rates sample by sample: they need the full rate and a
     # smooth signal, so they always see low-passed rates.
-    sign_cutoff = cutoff or default_cutoff(rate)
-    decision = decide_relative_sign(g1, g2, j1, j2, rate, acc1, acc2, cutoff=sign_cutoff,
-                                    window=win)
-    j1, j2, applied = _orient(j1, j2, decision.sign, sign, flip_axis, j2_sign, pin_j2)
-    evidence = decision.evidence
+    decision = decide_relative_sign(p.first[0], p.second[0], j1, j2, p.rate, p.first[1],
+                                    p.second[1], cutoff=_sign_cutoff(p), window=p.window)
+    j1, j2, applied = _orient(j1, j2, decision.sign, s.sign, _sign_index(s.sign), s.j2_sign,
+                              _sign_index(s.j2_sign))
+    return j1, j2, decision, applied
 
-    x = np.concatenate([j1, j2])
+
+def _sign_cutoff(p: Prepared) -> float:
+    return p.cutoff or default_cutoff(p.rate)
+
+
+def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
+    """Residual, identifiability, uncertainty and restart agreement at the estimate ``x``
+    (j1, j2)."""
+    d1, d2 = p.data
     e, jac = _residual_and_jacobian(d1, d2, x)
-    n1 = np.linalg.norm(np.cross(d1, j1), axis=1)
-    n2 = np.linalg.norm(np.cross(d2, j2), axis=1)
-    rms = float(np.sqrt(np.mean(e**2)))
+    rms_e = float(np.sqrt(np.mean(e**2)))
     # Relative to the angular rates, so recordings of different intensity compare. Not
     # to the joint-plane rates |g x j| that eq. (1) compares: those vanish exactly when a
     # joint flexes cleanly about its axis, which would make the best data look worst.
     scale = float(np.sqrt(np.mean((np.sum(d1 * d1, axis=1) + np.sum(d2 * d2, axis=1)) / 2)))
-    relative = rms / scale if scale > 0 else float("inf")
-
     cov = robust_covariance(e, jac)
-    curvature = {
-        "j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),
-        "j2": float(np.degrees(np.sqrt(cov[2, 2] + cov[3, 3]))),
-    }
     sv = singular_values(jac)
-    singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
-    thetadot = d2 @ j2 - d1 @ j1
-    excitation = {
+    sensitivity = _cutoff_sensitivity(p, x)
+    # a smooth residual is a model error every time block shares (soft tissue moving the
+    # sensors in step with the gait cycle): a bias bound in proportion to it
+    model = MODEL_DEG_PER_RESIDUAL * smooth_residual_rms(e) / scale if scale > 0 else 0.0
+    components = {
+        "curvature": {"j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),
+                      "j2": float(np.degrees(np.sqrt(cov[2, 2] + cov[3, 3])))},
+        "time_blocks": _block_jackknife(d1, d2, x),
+        "cutoff_shift": cutoff_shifts(sensitivity, ("j1", "j2"), "deg"),
+        "model": {"j1": model, "j2": model},
+    }
+    keep = settled(fit.batch.final_cost, fit.reached)
+    return {
+        "rms": rms_e,
+        "relative": rms_e / scale if scale > 0 else float("inf"),
+        "singular_values": sv,
+        "singular_ratio": float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
+        "excitation": _excitation(d1, d2, x),
+        "sensitivity": sensitivity,
+        "components": components,
+        "uncertainty": uncertainty_totals(components),
+        "fraction": float(fit.reached.mean()),
+        "agreement": competing_agreement(fit.refined.final_cost, fit.reached),
+        "spread": {k: rms(_angle_deg(fit.batch.x[keep, sl], x[sl]))
+                   for k, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6)))},
+        "minima": equal_minima(fit.refined.x, fit.refined.final_cost, fit.best, fit.reached,
+                               _axis_distance),
+    }
+
+
+def _excitation(d1, d2, x) -> dict:
+    """RMS flexion rate and joint-plane rates over the samples used, deg/s."""
+    thetadot = d2 @ x[3:] - d1 @ x[:3]
+    n1, n2 = joint_plane_rate(d1, x[:3]), joint_plane_rate(d2, x[3:])
+    return {
         "flexion_rate_rms_deg_s": float(np.degrees(np.sqrt(np.mean(thetadot**2)))),
         "joint_plane_rate_rms_deg_s": [float(np.degrees(np.sqrt(np.mean(n1**2)))),
                                        float(np.degrees(np.sqrt(np.mean(n2**2))))],
     }
 
-    sensitivity = _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, sel.index, x)
-    blocks = _block_jackknife(d1, d2, x)
-    # a smooth residual is a model error every time block shares (soft tissue moving the
-    # sensors in step with the gait cycle): a bias bound in proportion to it
-    model = MODEL_DEG_PER_RESIDUAL * smooth_residual_rms(e) / scale if scale > 0 else 0.0
-    components = {"curvature": curvature, "time_blocks": blocks,
-                  "cutoff_shift": {k: max(sensitivity[f"{k}_shift_deg"])
-                                   for k in ("j1", "j2")},
-                  "model": {"j1": model, "j2": model}}
-    uncertainty = {k: total_sigma(curvature[k], blocks[k], components["cutoff_shift"][k],
-                                  model) for k in ("j1", "j2")}
 
-    fraction = float(reached.mean())
-    agreement = competing_agreement(refined.final_cost, reached)
-    spread = {}
-    keep = settled(batch.final_cost, reached)
-    for name, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6))):
-        ang = _angle_deg(batch.x[keep, sl], (j1 if name == "j1" else j2))
-        spread[name] = float(np.sqrt(np.mean(ang**2))) if ang.size else float("nan")
+def joint_plane_rate(g: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """|g x j| per sample: the rate's part in the joint plane of the unit axis ``j``
+    (eq. 1), via |g|^2 - (g.j)^2 (no cross product)."""
+    return np.sqrt(np.maximum(np.sum(g * g, axis=1) - (g @ j) ** 2, 0.0))
 
-    minima = equal_minima(refined.x, refined.final_cost, best, reached, _axis_distance)
-    equal = {"count": minima[0], "max_distance_deg": minima[1], "max_rms_ratio": minima[2]}
-    warnings, blocking = _diagnose(
-        d1, d2, excitation["flexion_rate_rms_deg_s"], singular_ratio, relative, fraction,
-        agreement, minima, uncertainty, components, decision,
+
+def _result(p: Prepared, s: AxisSettings, fit: Multistart, j1, j2, decision, applied,
+            q: dict, warnings: list[str], blocking: list[str]) -> AxisResult:
+    minima = q["minima"]
+    return AxisResult(
+        j1=j1,
+        j2=j2,
+        rms_residual=q["rms"],
+        relative_residual=q["relative"],
+        sign_evidence=decision.evidence,
+        sign_tests={name: t.report(applied) for name, t in decision.tests.items()},
+        singular_ratio=q["singular_ratio"],
+        singular_values=q["singular_values"],
+        uncertainty_deg=q["uncertainty"],
+        uncertainty_components=q["components"],
+        excitation=q["excitation"],
+        sensitivity=q["sensitivity"],
+        convergence_fraction=q["fraction"],
+        competing_agreement=q["agreement"],
+        equal_minima={"count": minima[0], "max_distance_deg": minima[1],
+                      "max_rms_ratio": minima[2]},
+        reached=fit.reached,
+        spread_deg=q["spread"],
+        batch=fit.batch,
+        refined=fit.refined,
+        settings=_settings_record(p, s, decision),
+        samples_used=p.samples,
+        window=p.span_s,
+        time_ranges=p.time_ranges,
+        gyr1=p.data[0],
+        gyr2=p.data[1],
+        sample_index=p.sample_index,
+        warnings=warnings,
+        blocking=blocking,
+        time_offset={"mode": "given", "time_offset_s": s.time_offset},
     )
-    warnings += _sign_warnings(decision, applied, pin_j2 is not None)
 
-    settings = {
-        "restarts": restarts,
-        "seed": seed,
-        "cutoff_hz": cutoff,
-        "filter": f"Butterworth order {FILTER_ORDER} low-pass, zero phase" if cutoff else None,
-        "sign_test_cutoff_hz": sign_cutoff,
-        "sign_convention": sign,
-        "j2_sign": j2_sign,
+
+def _settings_record(p: Prepared, s: AxisSettings, decision) -> dict:
+    """Every setting used, for the result (``settings``)."""
+    return {
+        "restarts": s.restarts,
+        "seed": s.seed,
+        "cutoff_hz": p.cutoff,
+        "filter": (f"Butterworth order {FILTER_ORDER} low-pass, zero phase" if p.cutoff
+                   else None),
+        "sign_test_cutoff_hz": _sign_cutoff(p),
+        "sign_convention": s.sign,
+        "j2_sign": s.j2_sign,
         "sign_tests": sorted(decision.tests),
-        "time_offset": offset,
-        "subsample": step,
-        "select": select,
-        "max_samples": max_samples if select else None,
-        "subset_fraction": subset,
-        "max_iterations": max_iterations,
+        "time_offset": s.time_offset,
+        "subsample": p.step,
+        "select": s.select,
+        "max_samples": s.max_samples if s.select else None,
+        "subset_fraction": s.subset,
+        "max_iterations": s.max_iterations,
         "step_tolerance_rad": STEP_TOLERANCE,
         "restart_step_tolerance_rad": RESTART_STEP_TOLERANCE,
         "coarse_samples": COARSE_SAMPLES,
@@ -425,46 +485,16 @@ def estimate_axis(
         "agreement_deg": AGREEMENT_DEG,
         "initial_values": "j1, j2 uniform on the unit sphere",
     }
-    t0 = win.start / rate
-    return AxisResult(
-        j1=j1,
-        j2=j2,
-        rms_residual=rms,
-        relative_residual=relative,
-        sign_evidence=evidence,
-        sign_tests={name: t.report(applied) for name, t in decision.tests.items()},
-        singular_ratio=singular_ratio,
-        singular_values=sv,
-        uncertainty_deg=uncertainty,
-        uncertainty_components=components,
-        excitation=excitation,
-        sensitivity=sensitivity,
-        convergence_fraction=fraction,
-        competing_agreement=agreement,
-        equal_minima=equal,
-        reached=reached,
-        spread_deg=spread,
-        batch=batch,
-        refined=refined,
-        settings=settings,
-        samples_used=n,
-        window=(t0, win.stop / rate),
-        time_ranges=t0 + sel.ranges * 1.0,
-        gyr1=d1,
-        gyr2=d2,
-        sample_index=win.start + sel.index * step,
-        warnings=warnings,
-        blocking=blocking,
-        time_offset={"mode": "given", "time_offset_s": offset},
-    )
 
 
-def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x) -> dict:
+def _cutoff_sensitivity(p: Prepared, x: np.ndarray) -> dict:
     """Refit from the estimate ``x`` with the cut-off halved and doubled (no filter: the
     default cut-off and twice it); the shifts show how much the answer rests on the filter.
     """
-    pair = sensitivity_cutoffs(cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
-    data = [tuple(lowpass(h, rate, c)[win][::step][index] for h in (g1, g2)) for c in pair]
+    rate = p.rate
+    pair = sensitivity_cutoffs(p.cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
+    data = [tuple(lowpass(h, rate, c)[p.window][::p.step][p.selection.index]
+                  for h in (p.first[0], p.second[0])) for c in pair]
     y = HINGE.refit_each(data, x, SENSITIVITY_ITERATIONS)
     shifts = {"j1": [float(a) for a in _angle_deg(y[:, :3], x[:3])],
               "j2": [float(a) for a in _angle_deg(y[:, 3:], x[3:])]}
@@ -497,63 +527,59 @@ def _refit_residuals(d1, d2, x) -> np.ndarray:
     return _residual_and_jacobian(d1, d2, x)[0]
 
 
-def _diagnose(d1, d2, flex, singular_ratio, relative, fraction, agreement, minima,
-              uncertainty, components, decision) -> tuple[list[str], list[str]]:
+def _diagnose(p: Prepared, q: dict, decision) -> tuple[list[str], list[str]]:
     """(warnings, blocking) of an axis estimate; thresholds and their reasons in
     docs/quality.md."""
-    blocking = stillness_warning(d1, d2)
-    doubts = unit_doubts((d1, d2))
+    doubts = unit_doubts(p.data)
+    blocking = _blocking(p, q, decision, doubts)
+    relative, sigma = q["relative"], max(q["uncertainty"].values())
     warnings = list(doubts)
-    if not blocking and flex < MIN_FLEXION_RATE_DEG_S:
-        blocking.append(
-            f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
-            f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this recording; "
-            "record the joint flexing and extending"
-        )
-    elif not blocking and singular_ratio < MIN_SINGULAR_RATIO:
-        blocking.append(
-            f"the data leave one direction of the axes undetermined (singular ratio "
-            f"{singular_ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not "
-            "identifiable from this recording; record more varied motion"
-        )
-    if not blocking and fraction < MIN_AGREEING_FRACTION and relative > POOR_FIT_RESIDUAL:
-        blocking.append(
-            f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge model "
-            f"fits poorly (residual {relative:.0%} of the signal): the joint does not move "
-            "like a hinge (a spheroidal joint such as the ankle?), so no axis is identifiable"
-        )
-    count, far, ratio = minima
-    sigma = max(uncertainty.values())
-    # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
-    if not blocking and count and far > max(sigma, 2 * AGREEMENT_DEG):
-        blocking.append(
-            f"two different axes fit equally well ({count} restarts ended {far:.0f} deg from "
-            f"the estimate at {ratio:.2f} x its RMS residual): the data do not single out "
-            "one axis"
-        )
-    span = decision.tests["range"].detail["span_deg"]
-    # rates in the wrong units scale the span, too: then the unit warning is the finding
-    if not blocking and not doubts and min(span) > MAX_KNEE_SPAN_DEG:
-        blocking.append(
-            f"the angle about this axis, integrated from j2.g2 - j1.g1, spans {min(span):.0f} "
-            f"deg within {RANGE_BLOCK_S:g} s (more than the {MAX_KNEE_SPAN_DEG:g} deg a joint "
-            "can flex) with either relative sign: the segments do not move as a hinge here "
-            "(soft tissue, impacts, or a joint that is not a hinge)"
-        )
-    if not blocking and agreement < MIN_AGREEING_FRACTION:
-        warnings.append(
-            f"restarts disagree: of the restarts that fit almost as well as the best, only "
-            f"{agreement:.0%} reached the estimate: the answer depends on the starting point; "
-            "the joint may have moved too little or not as a hinge"
-        )
+    if not blocking:
+        warnings += disagreement_warning(
+            q["agreement"], "; the joint may have moved too little or not as a hinge")
     if relative > MAX_RELATIVE_RESIDUAL:
         warnings.append(
             f"the hinge model fits poorly (residual {relative:.0%} of the signal; real knees "
             "leave 35-45 %): the joint may not be a hinge, or the sensors moved on the skin"
         )
     if sigma > MAX_UNCERTAINTY_DEG:
-        warnings.append(uncertainty_warning(uncertainty, components, "deg"))
+        warnings.append(uncertainty_warning(q["uncertainty"], q["components"], "deg"))
     return warnings, blocking
+
+
+def _blocking(p: Prepared, q: dict, decision, doubts: list[str]) -> list[str]:
+    """The first reason, if any, why the data cannot identify the axis."""
+    blocking = stillness_warning(*p.data)
+    if blocking:
+        return blocking
+    flex, ratio = q["excitation"]["flexion_rate_rms_deg_s"], q["singular_ratio"]
+    if flex < MIN_FLEXION_RATE_DEG_S:
+        return [f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
+                f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this "
+                "recording; record the joint flexing and extending"]
+    if ratio < MIN_SINGULAR_RATIO:
+        return [f"the data leave one direction of the axes undetermined (singular ratio "
+                f"{ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not identifiable "
+                "from this recording; record more varied motion"]
+    fraction, relative = q["fraction"], q["relative"]
+    if fraction < MIN_AGREEING_FRACTION and relative > POOR_FIT_RESIDUAL:
+        return [f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge "
+                f"model fits poorly (residual {relative:.0%} of the signal): the joint does not "
+                "move like a hinge (a spheroidal joint such as the ankle?), so no axis is "
+                "identifiable"]
+    # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
+    blocking = equal_minima_blocking(q["minima"], max(q["uncertainty"].values()),
+                                     2 * AGREEMENT_DEG, "deg", "different axes", "axis")
+    if blocking:
+        return blocking
+    span = min(decision.tests["range"].detail["span_deg"])
+    # rates in the wrong units scale the span, too: then the unit warning is the finding
+    if not doubts and span > MAX_KNEE_SPAN_DEG:
+        return [f"the angle about this axis, integrated from j2.g2 - j1.g1, spans {span:.0f} "
+                f"deg within {RANGE_BLOCK_S:g} s (more than the {MAX_KNEE_SPAN_DEG:g} deg a "
+                "joint can flex) with either relative sign: the segments do not move as a "
+                "hinge here (soft tissue, impacts, or a joint that is not a hinge)"]
+    return []
 
 
 def _block_jackknife(d1, d2, x) -> dict:
@@ -861,7 +887,9 @@ def _random_unit(rng: np.random.Generator, n: int) -> np.ndarray:
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
+def unit(v) -> np.ndarray:
+    """``v`` scaled to length 1, as float64."""
+    v = np.asarray(v, dtype=np.float64)
     return v / np.linalg.norm(v)
 
 
