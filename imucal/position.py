@@ -25,11 +25,12 @@ from functools import partial
 
 import numpy as np
 
-from .axis import AxisResult, estimate_axis
+from .axis import AxisResult, estimate_axis, unit
 from .errors import InputError
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
+    Multistart,
     Stages,
     multistart,
     one_blas_thread,
@@ -38,40 +39,43 @@ from .multistart import (
 from .preprocess import (
     JOINT_FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
+    Prepared,
     check_pair,
     check_rate,
     default_joint_cutoff,
     derivative,
     lowpass,
-    resolve_subsample,
+    prepare,
     rms_rate_deg_s,
     spectral_cutoff,
     stillness_warning,
     unit_doubts,
-    window_slice,
 )
 from .quality import (
     block_masks,
+    cutoff_shifts,
     jackknife_sigma,
+    rms,
     robust_covariance,
     sensitivity_cutoffs,
     singular_values,
-    total_sigma,
+    uncertainty_totals,
     uncertainty_warning,
 )
 from .restarts import (
     competing_agreement,
+    disagreement_warning,
     equal_minima,
+    equal_minima_blocking,
     resolve_seed,
     settled,
     subset_mask,
 )
 from .result import EstimateResult
 from .selection import MAX_SAMPLES
-from .selection import select as select_samples
 from .settings import JOINTS, PositionSettings  # noqa: F401 (JOINTS: imported from here)
 from .settings import resolve as resolve_settings
-from .time_offset import SEARCH_S, fit_with_offset, reader, shifted
+from .time_offset import SEARCH_S, fit_with_offset, reader
 
 #: Two estimates agree when both o1 and o2 are within this distance, m.
 AGREEMENT_M = 0.01
@@ -97,7 +101,6 @@ SENSITIVITY_FACTORS = (0.75, 1.5)
 MAX_STEP = 0.5
 SUBSET_FRACTION = 0.5
 MIN_SAMPLES = 30
-MIN_AGREEING_FRACTION = 0.8
 MAX_RELATIVE_RESIDUAL = 0.25
 #: A singular value of the Jacobian at the estimate below this fraction of the largest is
 #: a direction of (o1, o2) the data barely determine (simulated: a point that slides along
@@ -271,129 +274,125 @@ def estimate_position(
         raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, {a1.shape[0]})")
     rate = check_rate(rate)
     if s.time_offset == "auto":
-        s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
+        return _with_auto_offset(g1, a1, g2, a2, rate, axis, s)
+    s = replace(s, seed=resolve_seed(s.seed))
+    prepared = prepare(
+        (g1, a1), (g2, a2), rate, s,
+        cutoff=(lambda w1, w2: spectral_cutoff((w1, w2), rate)) if s.cutoff is None
+        else float(s.cutoff),
+        fit_signals=lambda sensor, c: _filtered(*sensor, rate, c),
+        min_samples=MIN_SAMPLES, what="joint position")
+    axis_result, line = _axis_line(prepared, s, axis)
+    fit = _fit(prepared, s, line)
+    quality = _quality(prepared, s, fit, line)
+    warnings, blocking = _diagnose(prepared, s, fit.estimate, quality, line)
+    if axis_result is not None:
+        blocking.extend(f"axis: {w}" for w in axis_result.blocking)
+        warnings.extend(f"axis: {w}" for w in axis_result.warnings)
+    return _result(prepared, s, fit, quality, axis_result, line, warnings, blocking)
 
-        def again(seconds):
-            return estimate_position(g1, a1, g2, a2, rate=rate, axis=axis,
-                                     settings=replace(s, time_offset=seconds))
-        return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate), rate,
-                               s.offset_search)
-    restarts, seed, joint, subset, start, end = (s.restarts, resolve_seed(s.seed), s.joint,
-                                                 s.subset, s.start, s.end)
-    max_iterations, select, max_samples = s.max_iterations, s.select, s.max_samples
-    sign, j2_sign, offset = s.sign, s.j2_sign, s.time_offset
-    if offset:  # the second sensor read at t + offset, over the whole recording
-        g2, a2 = shifted(g2, rate, offset), shifted(a2, rate, offset)
-    win0 = window_slice(g1.shape[0], rate, start, end)
-    cutoff = (spectral_cutoff((g1[win0], g2[win0]), rate) if s.cutoff is None
-              else float(s.cutoff))
-    step = resolve_subsample(rate, cutoff, s.subsample)
 
-    win = window_slice(g1.shape[0], rate, start, end)
-    sensors = [tuple(arr[win][::step] for arr in _filtered(g, a, rate, cutoff))
-               for g, a in ((g1, a1), (g2, a2))]
-    sel = select_samples(sensors[0][0], sensors[1][0], rate / step, max_samples=max_samples,
-                         min_samples=MIN_SAMPLES, enabled=select)
-    sensors = [tuple(arr[sel.index] for arr in parts) for parts in sensors]
-    n = sensors[0][0].shape[0]
-    if n < MIN_SAMPLES:
-        raise InputError(
-            f"only {n} samples left after window and subsampling; the joint position needs "
-            f"at least {MIN_SAMPLES} (about {MIN_SAMPLES * step / rate:.1f} s of motion)"
-        )
+def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> PositionResult:
+    """The estimate with the clock offset found from eq. (3) itself
+    (:func:`imucal.time_offset.fit_with_offset`)."""
+    s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
 
-    line = None
+    def again(seconds):
+        return estimate_position(g1, a1, g2, a2, rate=rate, axis=axis,
+                                 settings=replace(s, time_offset=seconds))
+    return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate), rate,
+                           s.offset_search)
+
+
+def _axis_line(p: Prepared, s: PositionSettings, axis):
+    """(axis result or None, the hinge line (j1, j2) or None) for ``s.joint``."""
+    if s.joint != "hinge":
+        return None, None
     axis_result = None
-    if joint == "hinge":
-        if axis is None:
-            axis_result = estimate_axis(
-                g1, g2, rate=rate, restarts=restarts, seed=seed, subset=subset,
-                start=start, end=end, max_iterations=max_iterations, select=select,
-                max_samples=max_samples, acc1=a1, acc2=a2, sign=sign, j2_sign=j2_sign,
-                time_offset=0.0,  # g2, a2 are already aligned
-            )
-            line = np.concatenate([axis_result.j1, axis_result.j2])
-        elif isinstance(axis, AxisResult):
-            axis_result = axis
-            line = np.concatenate([axis.j1, axis.j2])
-        else:
-            line = np.concatenate([np.asarray(axis[0], float), np.asarray(axis[1], float)])
-        line = np.concatenate([_unit(line[:3]), _unit(line[3:])])
+    if axis is None:
+        axis_result = estimate_axis(
+            p.first[0], p.second[0], rate=p.rate, restarts=s.restarts, seed=s.seed,
+            subset=s.subset, start=s.start, end=s.end, max_iterations=s.max_iterations,
+            select=s.select, max_samples=s.max_samples, acc1=p.first[1], acc2=p.second[1],
+            sign=s.sign, j2_sign=s.j2_sign,
+            time_offset=0.0,  # the second sensor is already aligned
+        )
+        axis = (axis_result.j1, axis_result.j2)
+    elif isinstance(axis, AxisResult):
+        axis_result = axis
+        axis = (axis.j1, axis.j2)
+    return axis_result, np.concatenate([unit(axis[0]), unit(axis[1])])
 
-    rng = np.random.default_rng(seed)
-    x0 = rng.uniform(-INIT_BOX_M, INIT_BOX_M, size=(restarts, 6))
-    mask = subset_mask(n, restarts, subset, rng)
+
+def _fit(p: Prepared, s: PositionSettings, line) -> Multistart:
+    """The staged multistart of eq. (3) from offsets uniform in the box (Sec. IV)."""
+    rng = np.random.default_rng(s.seed)
+    x0 = rng.uniform(-INIT_BOX_M, INIT_BOX_M, size=(s.restarts, 6))
+    mask = subset_mask(p.samples, s.restarts, s.subset, rng)
     # On a hinge every point of the line has the same cost, so comparing the projected
     # points with the lowest-cost one is fair.
     stages = SPHEROIDAL if line is None else replace(
         SPHEROIDAL, project=partial(closest_point_on_axis, line=line))
-    fit = multistart(stages, (*sensors[0], *sensors[1]), mask, x0, max_iterations, rng)
-    batch, refined, finals, best, reached = (fit.batch, fit.refined, fit.finals, fit.best,
-                                             fit.reached)
-    subset_finals = batch.x if line is None else closest_point_on_axis(batch.x, line)
-    x = fit.estimate
-    full = _SpheroidalProblem(*sensors[0], *sensors[1], None)
+    return multistart(stages, p.data, mask, x0, s.max_iterations, rng)
 
+
+def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
+    """Residual, identifiability, uncertainty and restart agreement at the estimate."""
+    x = fit.estimate
+    full = _SpheroidalProblem(*p.data, None)
     e, jac = full.linearise(x[None, :])
     e, jac = e[0], jac[0]
     r1 = full.joint_acceleration_norm(0, x[:3])
     r2 = full.joint_acceleration_norm(1, x[3:])
-    rms = float(np.sqrt(np.mean(e**2)))
+    rms_e = float(np.sqrt(np.mean(e**2)))
     # Relative to the joint-centre accelerations the residual compares.
     scale = float(np.sqrt(np.mean((r1**2 + r2**2) / 2)))
-    relative = rms / scale if scale > 0 else float("inf")
-
     # On a hinge the direction along the axis is invisible by construction; what is
     # identifiable is the point across it.
     free = np.eye(6) if line is None else _across(line)
     sv = singular_values(jac @ free)
-    singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
     cov = free @ robust_covariance(e, jac @ free) @ free.T
-    curvature = {"o1": float(1000 * np.sqrt(np.trace(cov[:3, :3]))),
-                 "o2": float(1000 * np.sqrt(np.trace(cov[3:, 3:])))}
-    excitation = {
-        "rate_rms_deg_s": [rms_rate_deg_s(sensors[0][0]), rms_rate_deg_s(sensors[1][0])],
-        "singular_values_1_s2": sv,
+    sensitivity = _cutoff_sensitivity(p, x, line)
+    components = {
+        "curvature": {"o1": float(1000 * np.sqrt(np.trace(cov[:3, :3]))),
+                      "o2": float(1000 * np.sqrt(np.trace(cov[3:, 3:])))},
+        "time_blocks": _block_jackknife(p.data, x, line, s.max_iterations),
+        "cutoff_shift": cutoff_shifts(sensitivity, ("o1", "o2"), "mm"),
     }
-    sensitivity = _cutoff_sensitivity(
-        (g1, a1, g2, a2), rate, cutoff, win, step, sel.index, x, line
-    )
-    blocks = _block_jackknife(sensors, x, line, max_iterations)
-    components = {"curvature": curvature, "time_blocks": blocks,
-                  "cutoff_shift": {k: max(sensitivity[f"{k}_shift_mm"])
-                                   for k in ("o1", "o2")}}
-    uncertainty = {k: total_sigma(curvature[k], blocks[k], components["cutoff_shift"][k])
-                   for k in ("o1", "o2")}
+    subset_finals = fit.batch.x if line is None else closest_point_on_axis(fit.batch.x, line)
+    keep = settled(fit.batch.final_cost, fit.reached)
+    count, apart, ratio = equal_minima(fit.finals, fit.refined.final_cost, fit.best,
+                                       fit.reached, _position_distance)
+    return {
+        "rms": rms_e,
+        "relative": rms_e / scale if scale > 0 else float("inf"),
+        "singular_values": sv,
+        "singular_ratio": float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
+        "excitation": {"rate_rms_deg_s": [rms_rate_deg_s(p.data[0]),
+                                          rms_rate_deg_s(p.data[3])],
+                       "singular_values_1_s2": sv},
+        "sensitivity": sensitivity,
+        "components": components,
+        "uncertainty": uncertainty_totals(components),
+        "fraction": float(fit.reached.mean()),
+        "agreement": competing_agreement(fit.refined.final_cost, fit.reached),
+        "spread": {k: rms(np.linalg.norm(subset_finals[keep, sl] - x[sl], axis=1) * 1000)
+                   for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))},
+        "minima": (count, 1000 * apart, ratio),  # distance in mm
+    }
 
-    fraction = float(reached.mean())
-    agreement = competing_agreement(refined.final_cost, reached)
-    spread = {}
-    keep = settled(batch.final_cost, reached)
-    for name, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6))):
-        d = np.linalg.norm(subset_finals[keep, sl] - x[sl], axis=1) * 1000
-        spread[name] = float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
 
-    blocking = stillness_warning(sensors[0][0], sensors[1][0])
-    if not blocking:
-        # both scales enter eq. (3): wrong units give a confident-looking wrong point
-        blocking += unit_doubts((sensors[0][0], sensors[1][0]), (sensors[0][2], sensors[1][2]))
-    warnings = []
-    far = max(np.linalg.norm(x[:3]), np.linalg.norm(x[3:]))
+def _diagnose(p: Prepared, s: PositionSettings, x: np.ndarray, q: dict,
+              line) -> tuple[list[str], list[str]]:
+    """(warnings, blocking) of a joint position; thresholds and their reasons in
+    docs/quality.md."""
+    sv = q["singular_values"]
     # Each singular value far below the largest is a direction of (o1, o2) the data
     # barely see: one is the line of a hinge or of planar motion; three (the point's
     # every coordinate) mean the joint did not move at all.
     weak = int(np.sum(sv < MIN_SINGULAR_RATIO * sv[0])) if sv[0] > 0 else sv.size
-    if not blocking and weak >= 3:
-        blocking.append(
-            f"the joint barely moved ({weak} of {sv.size} directions of the joint position "
-            "are undetermined): the joint position is not identifiable from this recording; "
-            "record the joint moving in all directions"
-        )
-    if not blocking and far > MAX_PLAUSIBLE_OFFSET_M:
-        blocking.append(
-            f"the estimate puts the joint {far:.2f} m from a sensor, implausible on a limb: "
-            "the data do not determine the joint position"
-        )
+    blocking = _blocking(p, x, q, weak)
+    warnings: list[str] = []
     if not blocking and weak and line is None:
         warnings.append(
             "motion stays in one plane (or the joint is a hinge): the joint position is only "
@@ -405,49 +404,97 @@ def estimate_position(
     elif not blocking and weak:
         warnings.append(f"{weak} directions of the point across the hinge axis are barely "
                         "determined")
-    count, apart, ratio = equal_minima(finals, refined.final_cost, best, reached,
-                                       _position_distance)
-    equal = {"count": count, "max_distance_mm": 1000 * apart, "max_rms_ratio": ratio}
-    worst = max(uncertainty.values())
-    # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
-    if not blocking and count and 1000 * apart > max(worst, 2000 * AGREEMENT_M):
-        blocking.append(
-            f"two joint positions fit equally well ({count} restarts ended "
-            f"{1000 * apart:.0f} mm from the estimate at {ratio:.2f} x its RMS residual): the "
-            "data do not single out one joint centre"
-        )
-    if agreement < MIN_AGREEING_FRACTION:
+    if not blocking:
+        # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
+        blocking = equal_minima_blocking(q["minima"], max(q["uncertainty"].values()),
+                                         2000 * AGREEMENT_M, "mm", "joint positions",
+                                         "joint centre")
+    warnings += disagreement_warning(q["agreement"])
+    if q["relative"] > MAX_RELATIVE_RESIDUAL:
         warnings.append(
-            f"restarts disagree: of the restarts that fit almost as well as the best, only "
-            f"{agreement:.0%} reached the estimate: the answer depends on the starting point"
+            f"the {s.joint} joint model fits poorly (residual {q['relative']:.0%} of the "
+            "signal)"
         )
-    if relative > MAX_RELATIVE_RESIDUAL:
-        warnings.append(
-            f"the {joint} joint model fits poorly (residual {relative:.0%} of the signal)"
-        )
-    if worst > MAX_UNCERTAINTY_MM:
-        warnings.append(uncertainty_warning(uncertainty, components, "mm"))
-    if axis_result is not None:
-        blocking.extend(f"axis: {w}" for w in axis_result.blocking)
-        warnings.extend(f"axis: {w}" for w in axis_result.warnings)
+    if max(q["uncertainty"].values()) > MAX_UNCERTAINTY_MM:
+        warnings.append(uncertainty_warning(q["uncertainty"], q["components"], "mm"))
+    return warnings, blocking
 
-    settings = {
-        "restarts": restarts,
-        "seed": seed,
-        "joint": joint,
-        "cutoff_hz": cutoff,
+
+def _blocking(p: Prepared, x: np.ndarray, q: dict, weak: int) -> list[str]:
+    """The first reason, if any, why the data cannot identify the joint position (the
+    equal minima come after the warnings about weak directions, :func:`_diagnose`)."""
+    g1, _, a1, g2, _, a2 = p.data
+    # both scales enter eq. (3): wrong units give a confident-looking wrong point
+    blocking = stillness_warning(g1, g2) or unit_doubts((g1, g2), (a1, a2))
+    if blocking:
+        return blocking
+    if weak >= 3:
+        return [f"the joint barely moved ({weak} of {q['singular_values'].size} directions of "
+                "the joint position are undetermined): the joint position is not "
+                "identifiable from this recording; record the joint moving in all directions"]
+    far = max(np.linalg.norm(x[:3]), np.linalg.norm(x[3:]))
+    if far > MAX_PLAUSIBLE_OFFSET_M:
+        return [f"the estimate puts the joint {far:.2f} m from a sensor, implausible on a "
+                "limb: the data do not determine the joint position"]
+    return []
+
+
+def _result(p: Prepared, s: PositionSettings, fit: Multistart, q: dict, axis_result, line,
+            warnings: list[str], blocking: list[str]) -> PositionResult:
+    x = fit.estimate
+    count, apart, ratio = q["minima"]
+    return PositionResult(
+        o1=x[:3].copy(),
+        o2=x[3:].copy(),
+        joint=s.joint,
+        rms_residual=q["rms"],
+        relative_residual=q["relative"],
+        singular_ratio=q["singular_ratio"],
+        singular_values=q["singular_values"],
+        uncertainty_mm=q["uncertainty"],
+        uncertainty_components=q["components"],
+        excitation=q["excitation"],
+        sensitivity=q["sensitivity"],
+        convergence_fraction=q["fraction"],
+        competing_agreement=q["agreement"],
+        equal_minima={"count": count, "max_distance_mm": apart, "max_rms_ratio": ratio},
+        reached=fit.reached,
+        spread_mm=q["spread"],
+        batch=fit.batch,
+        refined=fit.refined,
+        settings=_settings_record(p, s),
+        samples_used=p.samples,
+        window=p.span_s,
+        time_ranges=p.time_ranges,
+        sample_index=p.sample_index,
+        time_offset={"mode": "given", "time_offset_s": s.time_offset},
+        axis=axis_result,
+        line=line,
+        warnings=warnings,
+        blocking=blocking,
+    )
+
+
+def _settings_record(p: Prepared, s: PositionSettings) -> dict:
+    """Every setting used, for the result (``settings``)."""
+    hinge = s.joint == "hinge"
+    return {
+        "restarts": s.restarts,
+        "seed": s.seed,
+        "joint": s.joint,
+        "cutoff_hz": p.cutoff,
         "filter": (f"Butterworth order {JOINT_FILTER_ORDER} low-pass, zero phase"
-                   if cutoff else None),
+                   if p.cutoff else None),
         "sensitivity": "refits with the cut-off x 0.75 and x 1.5",
         "gdot": "central difference of the filtered gyroscope signal",
-        "subsample": step,
-        "select": select,
-        "max_samples": max_samples if select else None,
-        "subset_fraction": subset,
-        "max_iterations": max_iterations,
-        "axis_sign_convention": sign if joint == "hinge" else None,
-        "j2_sign": j2_sign if joint == "hinge" else None,
-        "time_offset": offset,
+        "subsample": p.step,
+        "select": s.select,
+        "max_samples": s.max_samples if s.select else None,
+        "subset_fraction": s.subset,
+        "max_iterations": s.max_iterations,
+        "axis_sign_convention": s.sign if hinge else None,
+        "j2_sign": s.j2_sign if hinge else None,
+        "time_offset": s.time_offset,
         "step_tolerance_m": STEP_TOLERANCE,
         "restart_step_tolerance_m": RESTART_STEP_TOLERANCE,
         "coarse_samples": COARSE_SAMPLES,
@@ -456,36 +503,6 @@ def estimate_position(
         "agreement_mm": AGREEMENT_M * 1000,
         "initial_values": f"o1, o2 uniform in [-{INIT_BOX_M}, {INIT_BOX_M}]^3 m",
     }
-    return PositionResult(
-        o1=x[:3].copy(),
-        o2=x[3:].copy(),
-        joint=joint,
-        rms_residual=rms,
-        relative_residual=relative,
-        singular_ratio=singular_ratio,
-        singular_values=sv,
-        uncertainty_mm=uncertainty,
-        uncertainty_components=components,
-        excitation=excitation,
-        sensitivity=sensitivity,
-        convergence_fraction=fraction,
-        competing_agreement=agreement,
-        equal_minima=equal,
-        reached=reached,
-        spread_mm=spread,
-        batch=batch,
-        refined=refined,
-        settings=settings,
-        samples_used=n,
-        window=(win.start / rate, win.stop / rate),
-        time_ranges=win.start / rate + sel.ranges,
-        sample_index=win.start + sel.index * step,
-        time_offset={"mode": "given", "time_offset_s": offset},
-        axis=axis_result if joint == "hinge" else None,
-        line=line,
-        warnings=warnings,
-        blocking=blocking,
-    )
 
 
 def _across(line: np.ndarray) -> np.ndarray:
@@ -494,15 +511,16 @@ def _across(line: np.ndarray) -> np.ndarray:
     return np.linalg.svd(np.eye(6) - np.outer(along, along))[0][:, :5]
 
 
-def _cutoff_sensitivity(signals, rate, cutoff, win, step, index, x, line):
+def _cutoff_sensitivity(p: Prepared, x: np.ndarray, line) -> dict:
     """Refit from the estimate ``x`` with the cut-off times 0.75 and 1.5 (no filter: the
     default cut-off and 1.5 times it); shifts in mm."""
     # With the flat joint filter, half the cut-off (6 Hz) would cut the stride's own
     # harmonics: the refits move it by a quarter down and a half up instead.
-    pair = sensitivity_cutoffs(cutoff, default_joint_cutoff(rate), MAX_CUTOFF_FRACTION * rate,
+    rate = p.rate
+    pair = sensitivity_cutoffs(p.cutoff, default_joint_cutoff(rate), MAX_CUTOFF_FRACTION * rate,
                                factors=SENSITIVITY_FACTORS)
-    data = [tuple(arr[win][::step][index] for g, a in (signals[:2], signals[2:])
-                  for arr in _filtered(g, a, rate, c)) for c in pair]
+    data = [tuple(arr[p.window][::p.step][p.selection.index] for sensor in (p.first, p.second)
+                  for arr in _filtered(*sensor, rate, c)) for c in pair]
     y = SPHEROIDAL.refit_each(data, x, SENSITIVITY_ITERATIONS)
     if line is not None:
         y = closest_point_on_axis(y, line)
@@ -711,20 +729,16 @@ def _filtered(g, a, rate, cutoff):
     return gf, derivative(gf, rate), lowpass(a, rate, cutoff, JOINT_FILTER_ORDER)
 
 
-def _block_jackknife(sensors, x, line, max_iterations) -> dict:
+def _block_jackknife(data, x, line, max_iterations) -> dict:
     """{"o1", "o2"}: delete-one-block jackknife 1-sigma, mm; every refit starts at the
     estimate ``x`` and leaves out one contiguous time block of the samples used."""
-    masks = block_masks(sensors[0][0].shape[0])
-    y = SPHEROIDAL.refit((*sensors[0], *sensors[1]), masks,
+    masks = block_masks(data[0].shape[0])
+    y = SPHEROIDAL.refit(data, masks,
                          np.repeat(x[None, :], masks.shape[0], axis=0), max_iterations)
     if line is not None:
         y = closest_point_on_axis(y, line)
     return {k: jackknife_sigma(1000 * np.linalg.norm(y[:, sl] - x[sl], axis=1))
             for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return np.asarray(v, dtype=np.float64) / np.linalg.norm(v)
 
 
 def _position_distance(x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -290,7 +290,8 @@ class Prepared:
         return self.window.start / self.rate + self.selection.ranges * 1.0
 
 
-def prepare(first: tuple, second: tuple, rate: float, settings, *, cutoff: float,
+def prepare(first: tuple, second: tuple, rate: float, settings, *,
+            cutoff: float | Callable[[np.ndarray, np.ndarray], float],
             fit_signals: Callable[[tuple, float], tuple], min_samples: int,
             what: str) -> Prepared:
     """The ``prepare`` stage of every estimator: the second sensor's clock offset
@@ -301,13 +302,16 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *, cutoff: float
 
     ``first``, ``second``: each sensor's full-length (N, 3) signals; ``settings``: an
     :class:`imucal.settings.AxisSettings` with a number for ``time_offset``; ``cutoff``:
-    the cut-off to use, Hz. Raises InputError when fewer than ``min_samples`` samples are
+    the cut-off to use, Hz, or a rule giving it from both gyroscopes' windows (after the
+    offset). Raises InputError when fewer than ``min_samples`` samples are
     left (``what`` names the estimate in the message).
     """
     if settings.time_offset:  # the second sensor read at t + offset, over the whole recording
         second = tuple(None if x is None else shifted(x, rate, settings.time_offset)
                        for x in second)
     win = window_slice(first[0].shape[0], rate, settings.start, settings.end)
+    if callable(cutoff):
+        cutoff = cutoff(first[0][win], second[0][win])
     step = resolve_subsample(rate, cutoff, settings.subsample)
     parts = [tuple(x[win][::step] for x in fit_signals(sensor, cutoff))
              for sensor in (first, second)]
