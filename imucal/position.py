@@ -760,4 +760,5 @@ SPHEROIDAL = Stages(
     restart_step_tolerance=RESTART_STEP_TOLERANCE,
     coarse_step_tolerance=COARSE_STEP_TOLERANCE, coarse_samples=COARSE_SAMPLES,
     coarse_iterations=COARSE_ITERATIONS, cost_tolerance=COST_TOLERANCE, max_step=MAX_STEP,
+    contraction=True,
 )
