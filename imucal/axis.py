@@ -512,19 +512,21 @@ def _offset_profile(g2, rate):
         thin = slice(None, None, max(1, first.samples_used // OFFSET_SAMPLES))
         d1, times = first.gyr1[thin], first.sample_index[thin] / rate
         x = np.concatenate([first.j1, first.j2])
-        return lambda deltas: np.stack([_refit_residuals(d1, read2(times + d), x)
-                                        for d in deltas])
+        return lambda deltas: _refit_residuals(d1, read2(times + deltas[:, None]), x)
     return profile
 
 
 def _refit_residuals(d1, d2, x) -> np.ndarray:
-    """Residuals of eq. (1) after ``OFFSET_STEPS`` plain Gauss-Newton steps from ``x``:
-    the profile cost of one offset candidate, without the solver's restart machinery."""
+    """(D, M) residuals of eq. (1) after ``OFFSET_STEPS`` plain Gauss-Newton steps from
+    ``x`` (6,), for each of D offset candidates at once (``d2`` (D, M, 3)): the profile
+    cost of each, without the solver's restart machinery."""
+    x = np.repeat(x[None, :], d2.shape[0], axis=0)
     for _ in range(OFFSET_STEPS):
-        e, jac = _residual_and_jacobian(d1, d2, x)
-        step = np.linalg.lstsq(jac, -e, rcond=None)[0]
-        x = _retract(x[None, :], step[None, :])[0]
-    return _residual_and_jacobian(d1, d2, x)[0]
+        e, jac = _residuals_and_jacobians(d1, d2, x)
+        jt = np.swapaxes(jac, 1, 2)
+        step = -np.linalg.solve(jt @ jac, (jt @ e[..., None]))[..., 0]
+        x = _retract(x, step)
+    return _residuals_and_jacobians(d1, d2, x)[0]
 
 
 def _diagnose(p: Prepared, q: dict, decision) -> tuple[list[str], list[str]]:
@@ -829,15 +831,22 @@ class _HingeProblem:
 
 def _residual_and_jacobian(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
     """e (N,) and J (N, 4) of one state ``x`` (6,) on all samples (for quality)."""
-    j = x.reshape(2, 3)
+    e, jac = _residuals_and_jacobians(g1, g2[None], x[None])
+    return e[0], jac[0]
+
+
+def _residuals_and_jacobians(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
+    """e (D, N) and J (D, N, 4) of eq. (1) for D states ``x`` (D, 6), each with its own
+    second sensor's rates ``g2`` (D, N, 3) and the first sensor's ``g1`` (N, 3)."""
+    j = x.reshape(-1, 3)  # rows j1, j2, j1, j2, ...
     u = _tangent_basis(j)
-    b1, b2 = np.column_stack([j[0], u[0]]), np.column_stack([j[1], u[1]])
-    d1, d2 = g1 @ b1, g2 @ b2  # (N, 3): g.j, g.u, g.v
-    n1 = np.sqrt(np.maximum(np.sum(g1 * g1, axis=1) - d1[:, 0] ** 2, 0.0))
-    n2 = np.sqrt(np.maximum(np.sum(g2 * g2, axis=1) - d2[:, 0] ** 2, 0.0))
-    s1 = -d1[:, :1] * d1[:, 1:] / np.maximum(n1, 1e-12)[:, None]
-    s2 = d2[:, :1] * d2[:, 1:] / np.maximum(n2, 1e-12)[:, None]
-    return n1 - n2, np.concatenate([s1, s2], axis=1)
+    b = np.concatenate([j[:, :, None], u], axis=2)  # (2D, 3, 3): columns j, u, v
+    d1, d2 = g1 @ b[0::2], g2 @ b[1::2]  # (D, N, 3): g.j, g.u, g.v
+    n1 = np.sqrt(np.maximum(np.sum(g1 * g1, axis=-1) - d1[..., 0] ** 2, 0.0))
+    n2 = np.sqrt(np.maximum(np.sum(g2 * g2, axis=-1) - d2[..., 0] ** 2, 0.0))
+    s1 = -d1[..., :1] * d1[..., 1:] / np.maximum(n1, 1e-12)[..., None]
+    s2 = d2[..., :1] * d2[..., 1:] / np.maximum(n2, 1e-12)[..., None]
+    return n1 - n2, np.concatenate([s1, s2], axis=-1)
 
 
 def _retract(x: np.ndarray, step: np.ndarray) -> np.ndarray:
