@@ -71,7 +71,7 @@ from .restarts import (
 )
 from .result import EstimateResult
 from .selection import MAX_SAMPLES
-from .settings import AxisSettings
+from .settings import MAX_ITERATIONS, SUBSET_FRACTION, AxisSettings
 from .settings import resolve as resolve_settings
 from .sign import (
     MAX_KNEE_SPAN_DEG,
@@ -80,11 +80,10 @@ from .sign import (
     perpendicular,
     plane_test,
 )
-from .time_offset import SEARCH_S, fit_with_offset, reader
+from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, fit_with_offset, reader
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
-MAX_ITERATIONS = 50
 #: The estimate is polished until its estimated distance to the minimum (tangent-plane
 #: step x rho / (1 - rho), see :func:`imucal.gauss_newton.gauss_newton`) is below this,
 #: rad (about 6e-4 deg).
@@ -103,8 +102,6 @@ COARSE_ITERATIONS = 6
 COST_TOLERANCE = 1e-12
 #: Largest tangent step per iteration, rad (norm over both axes).
 MAX_STEP = 1.0
-#: Fraction of the samples each restart sees (the paper's "different subsets").
-SUBSET_FRACTION = 0.5
 #: Below this many samples (after subsampling) the 4-parameter fit is meaningless.
 MIN_SAMPLES = 20
 #: Relative residual (against the angular-rate magnitude) above which restarts that
@@ -122,11 +119,6 @@ MAX_RELATIVE_RESIDUAL = 0.5
 MODEL_DEG_PER_RESIDUAL = 60.0
 #: A 1-sigma axis uncertainty above this is not good enough for joint angles, deg.
 MAX_UNCERTAINTY_DEG = 5.0
-#: The offset's profile refits use about this many of the samples, and this many
-#: Gauss-Newton steps from the first estimate (an offset of tens of milliseconds moves
-#: the axis by a few degrees: the refits start next to their minimum).
-OFFSET_SAMPLES = 1500
-OFFSET_STEPS = 2
 #: Below this RMS flexion rate (j2.g2 - j1.g1 at the estimate) the joint did not bend,
 #: deg/s: a rigid joint fits every pair j1 = R j2. Voluntary knee motion is 50-400 deg/s.
 MIN_FLEXION_RATE_DEG_S = 5.0

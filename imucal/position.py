@@ -73,16 +73,15 @@ from .restarts import (
 )
 from .result import EstimateResult
 from .selection import MAX_SAMPLES
-from .settings import JOINTS, PositionSettings  # noqa: F401 (JOINTS: imported from here)
+from .settings import JOINTS, MAX_ITERATIONS, SUBSET_FRACTION, PositionSettings  # noqa: F401 (JOINTS: imported from here)
 from .settings import resolve as resolve_settings
-from .time_offset import SEARCH_S, fit_with_offset, reader
+from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, fit_with_offset, reader
 
 #: Two estimates agree when both o1 and o2 are within this distance, m.
 AGREEMENT_M = 0.01
 #: Initial offsets are uniform in [-INIT_BOX_M, INIT_BOX_M]^3 per sensor, m: a sensor
 #: strapped to a thigh, shank or foot sits well within half a metre of the joint.
 INIT_BOX_M = 0.5
-MAX_ITERATIONS = 50
 #: The estimate is polished (double precision) until the step is below this, m (0.01 mm).
 STEP_TOLERANCE = 1e-5
 #: The restarts (single precision, on their subsets and refined) stop at this step, m:
@@ -99,7 +98,6 @@ COST_TOLERANCE = 1e-9
 SENSITIVITY_FACTORS = (0.75, 1.5)
 #: Largest step per iteration, m.
 MAX_STEP = 0.5
-SUBSET_FRACTION = 0.5
 MIN_SAMPLES = 30
 MAX_RELATIVE_RESIDUAL = 0.25
 #: A singular value of the Jacobian at the estimate below this fraction of the largest is
@@ -109,10 +107,6 @@ MAX_RELATIVE_RESIDUAL = 0.25
 MIN_SINGULAR_RATIO = 0.04
 #: A 1-sigma position uncertainty above this is not good enough for kinematics, mm.
 MAX_UNCERTAINTY_MM = 10.0
-#: The offset's profile refits use about this many samples and this many Gauss-Newton
-#: steps from the first estimate (see :data:`imucal.axis.OFFSET_SAMPLES`).
-OFFSET_SAMPLES = 1500
-OFFSET_STEPS = 2
 #: A sensor strapped to a thigh, shank or foot is never this far from the joint, m.
 MAX_PLAUSIBLE_OFFSET_M = 1.0
 

@@ -30,6 +30,10 @@ MIN_MAX_SAMPLES = 100
 MAX_TIME_OFFSET_S = 10.0
 #: Default search range of the automatic time offset, +- s.
 OFFSET_SEARCH_S = 0.2
+#: Default iteration limit per restart and stage, both estimators.
+MAX_ITERATIONS = 50
+#: Default fraction of the samples each restart sees (the paper's "different subsets").
+SUBSET_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -70,10 +74,10 @@ class AxisSettings:
     seed: int | None = None
     cutoff: float | None = None
     subsample: int | None = None
-    subset: float = 0.5
+    subset: float = SUBSET_FRACTION
     start: float | None = None
     end: float | None = None
-    max_iterations: int = 50
+    max_iterations: int = MAX_ITERATIONS
     sign: str = "auto"
     j2_sign: str = "auto"
     select: bool = True

@@ -32,6 +32,11 @@ from .quality import block_masks, jackknife_sigma
 from .settings import OFFSET_SEARCH_S as SEARCH_S  # noqa: F401
 from .settings import check_time_offset  # noqa: F401
 
+#: The profile refits use about this many of the samples and this many plain
+#: Gauss-Newton steps from the first estimate (an offset of tens of milliseconds moves
+#: the estimate a little: the refits start next to their minimum); both estimators.
+OFFSET_SAMPLES = 1500
+OFFSET_STEPS = 2
 #: A shift also lowers the residual a little where the model is wrong rather than the
 #: clocks (soft tissue lags the bone; a knee is no perfect hinge): on the shared real
 #: recording the knees' best shifts are -31 ms (0-55 s) and -115 ms (55-100 s), which no
