@@ -21,48 +21,58 @@ joint angle changes during the recording (with a rigid joint every pair j1 = R j
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from functools import partial
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .errors import InputError
-from .gauss_newton import BatchResult, chain, gauss_newton
+from .multistart import (
+    SENSITIVITY_ITERATIONS,
+    SYMMETRIC,
+    Multistart,
+    Stages,
+    multistart,
+    one_blas_thread,
+    safe_newton,
+)
 from .preprocess import (
     FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
+    Prepared,
     check_pair,
     check_rate,
     default_cutoff,
     lowpass,
-    resolve_subsample,
+    prepare,
     stillness_warning,
     unit_doubts,
-    window_slice,
 )
 from .quality import (
-    Verdict,
     block_masks,
+    cutoff_shifts,
     jackknife_sigma,
+    rms,
     robust_covariance,
     sensitivity_cutoffs,
     singular_values,
     smooth_residual_rms,
-    total_sigma,
+    uncertainty_totals,
     uncertainty_warning,
 )
 from .restarts import (
-    agreeing,
-    best_restart,
-    check_restarts,
+    MIN_AGREEING_FRACTION,
     competing_agreement,
+    disagreement_warning,
     equal_minima,
+    equal_minima_blocking,
     resolve_seed,
     settled,
     subset_mask,
 )
+from .result import EstimateResult
 from .selection import MAX_SAMPLES
-from .selection import select as select_samples
+from .settings import MAX_ITERATIONS, SUBSET_FRACTION, AxisSettings
+from .settings import resolve as resolve_settings
 from .sign import (
     MAX_KNEE_SPAN_DEG,
     RANGE_BLOCK_S,
@@ -70,11 +80,10 @@ from .sign import (
     perpendicular,
     plane_test,
 )
-from .time_offset import SEARCH_S, check_time_offset, fit_with_offset, reader, shifted
+from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, fit_with_offset, reader
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
-MAX_ITERATIONS = 50
 #: The estimate is polished until its estimated distance to the minimum (tangent-plane
 #: step x rho / (1 - rho), see :func:`imucal.gauss_newton.gauss_newton`) is below this,
 #: rad (about 6e-4 deg).
@@ -89,20 +98,12 @@ COARSE_SAMPLES = 600
 #: The coarse stage stops after this many steps; restarts still moving go on on their
 #: subsets (a few restarts in flat valleys would otherwise run long on little data).
 COARSE_ITERATIONS = 6
-#: Precision of the restarts' arithmetic: single precision halves the time of the
-#: element-wise work and resolves the axis to about 1e-5 rad, far below
-#: ``RESTART_STEP_TOLERANCE``; the estimate itself is polished in double precision.
-RESTART_DTYPE = np.float32
 #: Stop when a step lowers the mean squared residual by less than this fraction.
 COST_TOLERANCE = 1e-12
 #: Largest tangent step per iteration, rad (norm over both axes).
 MAX_STEP = 1.0
-#: Fraction of the samples each restart sees (the paper's "different subsets").
-SUBSET_FRACTION = 0.5
 #: Below this many samples (after subsampling) the 4-parameter fit is meaningless.
 MIN_SAMPLES = 20
-#: Fewer restarts than this fraction reaching the estimate is not confident.
-MIN_AGREEING_FRACTION = 0.8
 #: Relative residual (against the angular-rate magnitude) above which restarts that
 #: disagree mean "not a hinge": simulated hinges at SNR 30-300 stay below 0.03, simulated
 #: spheroidal ankles fitted as a hinge lie above 0.15.
@@ -118,14 +119,6 @@ MAX_RELATIVE_RESIDUAL = 0.5
 MODEL_DEG_PER_RESIDUAL = 60.0
 #: A 1-sigma axis uncertainty above this is not good enough for joint angles, deg.
 MAX_UNCERTAINTY_DEG = 5.0
-#: Iteration limit of the cut-off refits: they start at the estimate, and a shift is
-#: only reported to a fraction of a degree.
-SENSITIVITY_ITERATIONS = 10
-#: The offset's profile refits use about this many of the samples, and this many
-#: Gauss-Newton steps from the first estimate (an offset of tens of milliseconds moves
-#: the axis by a few degrees: the refits start next to their minimum).
-OFFSET_SAMPLES = 1500
-OFFSET_STEPS = 2
 #: Below this RMS flexion rate (j2.g2 - j1.g1 at the estimate) the joint did not bend,
 #: deg/s: a rigid joint fits every pair j1 = R j2. Voluntary knee motion is 50-400 deg/s.
 MIN_FLEXION_RATE_DEG_S = 5.0
@@ -136,16 +129,17 @@ MIN_SINGULAR_RATIO = 0.04
 MIN_SIGN_EVIDENCE = 1.5
 
 
-@dataclass
-class AxisResult(Verdict):
-    """Result of :func:`estimate_axis`.
+@dataclass(kw_only=True)
+class AxisResult(EstimateResult):
+    """Result of :func:`estimate_axis`: the fields of
+    :class:`imucal.result.EstimateResult` and the axis' own.
 
     Attributes
     ----------
     j1, j2 : (3,) unit hinge axis in the first / second sensor's frame, pointing the same
         physical way (see ``sign_evidence``); overall sign: j1's largest component > 0,
         or as ``settings["sign_convention"]`` pins it.
-    rms_residual : RMS of e(t) over all used samples at the estimate, rad/s.
+    rms_residual : RMS of e(t) of eq. (1) over all used samples at the estimate, rad/s.
     relative_residual : ``rms_residual`` over the RMS angular-rate magnitude of both
         sensors, dimensionless (0 = perfect hinge).
     sign_evidence : how much better the data's relative sign explains the data than the
@@ -153,91 +147,33 @@ class AxisResult(Verdict):
         against it (>= 1; below 1.5 the data barely decide; :mod:`imucal.sign`).
     sign_tests : each test's evidence, whether it favours the reported j2, and the
         numbers behind it for the reported and the flipped j2 (:mod:`imucal.sign`).
-    singular_ratio : smallest / largest singular value of the Jacobian of eq. (1) at the
-        estimate (near 0: some direction of (j1, j2) is not determined by the data, e.g.
-        a joint that did not move).
-    singular_values : singular values of that Jacobian over sqrt(samples), rad/s per rad.
+    singular_values : singular values of the Jacobian of eq. (1) over sqrt(samples),
+        rad/s per rad (a joint that did not move leaves one near 0).
     uncertainty_deg : {"j1", "j2"} 1-sigma angle uncertainty, deg: the larger of the
-        curvature's and the time blocks' with the cut-off shift added in quadrature
-        (:func:`imucal.quality.total_sigma`).
-    uncertainty_components : the parts of it, each {"j1", "j2"} in deg: "curvature" (the
-        cost's curvature, robust to correlated residuals,
-        :func:`imucal.quality.robust_covariance`), "time_blocks" (delete-one-block
-        jackknife over contiguous time blocks, :func:`imucal.quality.block_masks`),
-        "cutoff_shift" (the largest shift of the cut-off refits), "model" (a bias bound
-        in proportion to the smooth part of the residual,
-        :func:`imucal.quality.smooth_residual_rms`).
+        curvature's and the time blocks' with the cut-off shift and the model bound added
+        in quadrature (:func:`imucal.quality.total_sigma`); its parts, in deg, are
+        ``uncertainty_components``.
     excitation : RMS flexion rate j2.g2 - j1.g1 and RMS joint-plane rate |g_i x j_i| of
         each segment over the samples used, deg/s.
     sensitivity : cut-offs of two refits (halved and doubled; without a filter: 1 and 2
         times the default) and the angles the axes moved, deg.
-    convergence_fraction : fraction of restarts that reached the estimate: whose final
-        value, refined on all samples, lies within ``AGREEMENT_DEG`` of it. The estimate
-        is the refined result with the lowest cost.
-    competing_agreement : the same fraction among restarts whose RMS residual is within
-        1.25 x the best (clearly worse local minima do not count).
-    equal_minima : restarts that ended elsewhere at an RMS residual within
-        :data:`imucal.restarts.EQUAL_RMS_FACTOR` of the best: "count", the largest angle
-        to the estimate "max_distance_deg" and the largest "max_rms_ratio" (a second
-        answer outside the reported 1-sigma blocks the estimate).
-    reached : (R,) which restarts did.
     spread_deg : RMS angle between the agreeing restarts' subset results and the
         estimate, per axis, deg: how much the answer depends on the data (subset fits
         stuck in a local minimum left out, :func:`imucal.restarts.settled`).
-    batch : the restarts on their subsets (initial states ``batch.path[0]``, costs,
-        iterations), the coarse stage's steps first (see :func:`_multistart`).
-    refined : each restart's result refined on all samples; the estimate is the one with
-        the lowest cost.
-    time_offset : the second sensor's clock lateness: "time_offset_s" applied (s),
-        "mode" ("auto" or "given"), and with "auto" the estimate "estimated_s", its
-        "sigma_s", "cost_ratio" (cost at 0 over cost at the estimate), "search_s" and
-        "at_edge" (:class:`imucal.time_offset.Offset`).
-    warnings : plain-language reasons to use the estimate with care; empty when fine.
-    blocking : reasons the data cannot identify the axis at all (``verdict`` "not
-        identifiable"; the command line exits 1).
-    settings : every setting used, including the seed.
-    samples_used : samples after window, subsampling and informative-sample selection.
-    window : (start, end) in seconds from the first sample.
-    time_ranges : (K, 2) stretches the selection used, s from the first sample.
     gyr1, gyr2 : the filtered, windowed, subsampled rates used (M, 3), rad/s.
-    sample_index : (M,) index of each sample used in the recording passed in.
     """
 
     j1: np.ndarray
     j2: np.ndarray
-    rms_residual: float
-    relative_residual: float
     sign_evidence: float
     sign_tests: dict
-    singular_ratio: float
-    singular_values: np.ndarray
     uncertainty_deg: dict
-    uncertainty_components: dict
-    excitation: dict
-    sensitivity: dict
-    convergence_fraction: float
-    competing_agreement: float
-    equal_minima: dict
-    reached: np.ndarray
     spread_deg: dict
-    batch: BatchResult
-    refined: BatchResult
-    settings: dict
-    samples_used: int
-    window: tuple[float, float]
-    time_ranges: np.ndarray
     gyr1: np.ndarray
     gyr2: np.ndarray
-    sample_index: np.ndarray
-    warnings: list[str] = field(default_factory=list)
-    blocking: list[str] = field(default_factory=list)
-    time_offset: dict = field(default_factory=dict)
-
-    @property
-    def iterations(self) -> np.ndarray:
-        return self.batch.iterations
 
 
+@one_blas_thread
 def estimate_axis(
     gyr1: np.ndarray,
     gyr2: np.ndarray,
@@ -259,6 +195,7 @@ def estimate_axis(
     max_samples: int | None = MAX_SAMPLES,
     time_offset: float | str = "auto",
     offset_search: float = SEARCH_S,
+    settings: AxisSettings | None = None,
 ) -> AxisResult:
     """Estimate the hinge axis seen by two gyroscopes.
 
@@ -313,130 +250,225 @@ def estimate_axis(
     select, max_samples
         Informative-sample selection (:mod:`imucal.selection`): drop still stretches and
         thin to at most ``max_samples`` (None: no cap). ``select=False`` fits every sample.
+    settings
+        All of the above (``restarts`` to ``offset_search``) as one
+        :class:`imucal.settings.AxisSettings`, instead of keyword arguments (giving both,
+        with keyword values other than the defaults, is an InputError).
+
+    Returns
+    -------
+    AxisResult
+        j1, j2 (unit, each in its sensor's frame), the quality report (uncertainty,
+        identifiability, ``verdict``, ``warnings``) and every restart. An axis the data
+        cannot identify is still returned, with ``blocking`` reasons.
+
+    Raises
+    ------
+    InputError
+        Invalid settings (before any data are used), arrays not (N, 3) of finite numbers
+        or of different lengths, a sample rate outside 1-10000 Hz, a window outside the
+        recording, or fewer than ``MIN_SAMPLES`` samples left to fit.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. II-A, III-B/C
+    and IV (eq. 1 and 2, the restarts on data subsets).
+
+    Examples
+    --------
+    >>> import imucal
+    >>> rec = imucal.load_recording("sample_data/circling.h5")
+    >>> r = imucal.estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr,
+    ...                          rate=rec.rate, seed=1)
+    >>> r.verdict, r.j1.round(2)
+    ('good', array([-0.42, -0.35,  0.84]))
     """
+    s = resolve_settings(
+        AxisSettings, settings, restarts=restarts, seed=seed, cutoff=cutoff,
+        subsample=subsample, subset=subset, start=start, end=end,
+        max_iterations=max_iterations, sign=sign, j2_sign=j2_sign, select=select,
+        max_samples=max_samples, time_offset=time_offset, offset_search=offset_search)
     g1, g2 = check_pair(gyr1, gyr2)
-    offset = check_time_offset(time_offset)
-    if offset == "auto":
-        seed = resolve_seed(seed)  # both fits must see the same restarts
-        again = partial(estimate_axis, g1, g2, rate=rate, restarts=restarts, seed=seed,
-                        cutoff=cutoff, subsample=subsample, subset=subset, start=start,
-                        end=end, max_iterations=max_iterations, sign=sign, j2_sign=j2_sign,
-                        acc1=acc1, acc2=acc2, select=select, max_samples=max_samples,
-                        offset_search=offset_search)
-        return fit_with_offset(again, _offset_profile(g2, rate), rate, offset_search)
+    rate = check_rate(rate)
+    acc1, acc2 = _check_acc(g1, acc1, acc2)
+    if s.time_offset == "auto":
+        return _with_auto_offset(g1, g2, acc1, acc2, rate, s)
+    s = replace(s, seed=resolve_seed(s.seed))
+    prepared = prepare((g1, acc1), (g2, acc2), rate, s, cutoff=s.cutoff or 0.0,
+                       fit_signals=lambda sensor, c: (lowpass(sensor[0], rate, c),),
+                       min_samples=MIN_SAMPLES, what="axis")
+    fit = _fit(prepared, s)
+    j1, j2, decision, applied = _signs(prepared, fit, s)
+    quality = _quality(prepared, fit, np.concatenate([j1, j2]))
+    warnings, blocking = _diagnose(prepared, quality, decision)
+    warnings += _sign_warnings(decision, applied, s.j2_sign != "auto")
+    return _result(prepared, s, fit, j1, j2, decision, applied, quality, warnings, blocking)
+
+
+def _check_acc(g1, acc1, acc2):
+    """The optional specific forces, checked like the rates (both or neither)."""
     if (acc1 is None) != (acc2 is None):
         raise InputError("give both acc1 and acc2, or neither")
-    if acc1 is not None:
-        acc1, acc2 = check_pair(acc1, acc2)
-        if acc1.shape != g1.shape:
-            raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, "
-                             f"{acc1.shape[0]})")
-    rate = check_rate(rate)
-    restarts = check_restarts(restarts)
-    seed = resolve_seed(seed)
-    flip_axis = _check_sign(sign)
-    pin_j2 = _check_sign(j2_sign, "j2_sign")
-    if offset:  # the second sensor read at t + offset, over the whole recording
-        g2 = shifted(g2, rate, offset)
-        acc2 = None if acc2 is None else shifted(acc2, rate, offset)
-    cutoff = 0.0 if cutoff is None else float(cutoff)
-    step = resolve_subsample(rate, cutoff, subsample)
+    if acc1 is None:
+        return None, None
+    acc1, acc2 = check_pair(acc1, acc2)
+    if acc1.shape != g1.shape:
+        raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, "
+                         f"{acc1.shape[0]})")
+    return acc1, acc2
 
-    win = window_slice(g1.shape[0], rate, start, end)
-    f1 = lowpass(g1, rate, cutoff)[win][::step]
-    f2 = lowpass(g2, rate, cutoff)[win][::step]
-    sel = select_samples(f1, f2, rate / step, max_samples=max_samples,
-                         min_samples=MIN_SAMPLES, enabled=select)
-    d1, d2 = f1[sel.index], f2[sel.index]
-    n = d1.shape[0]
-    if n < MIN_SAMPLES:
-        raise InputError(
-            f"only {n} samples left after window and subsampling; the axis needs at least "
-            f"{MIN_SAMPLES} (about {MIN_SAMPLES * step / rate:.1f} s of motion)"
-        )
 
-    rng = np.random.default_rng(seed)
-    x0 = np.concatenate([_random_unit(rng, restarts), _random_unit(rng, restarts)], axis=1)
-    batch, refined, best, reached = _multistart(d1, d2, subset_mask(n, restarts, subset, rng),
-                                                x0, max_iterations, rng)
-    j1, j2 = _unit(refined.x[best, :3]), _unit(refined.x[best, 3:])
+def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
+    """The estimate with the clock offset found from eq. (1) itself
+    (:func:`imucal.time_offset.fit_with_offset`)."""
+    s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
 
+    def again(seconds):
+        return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
+                             settings=replace(s, time_offset=seconds))
+    return fit_with_offset(again, _offset_profile(g2, rate), rate, s.offset_search)
+
+
+def _fit(p: Prepared, s: AxisSettings) -> Multistart:
+    """The staged multistart of eq. (1) from axes uniform on the sphere (Sec. IV)."""
+    rng = np.random.default_rng(s.seed)
+    x0 = np.concatenate([_random_unit(rng, s.restarts), _random_unit(rng, s.restarts)],
+                        axis=1)
+    return multistart(HINGE, p.data, subset_mask(p.samples, s.restarts, s.subset, rng), x0,
+                      s.max_iterations, rng)
+
+
+def _signs(p: Prepared, fit: Multistart, s: AxisSettings):
+    """(j1, j2, decision, applied): the estimate oriented by the sign tests or pins."""
+    j1, j2 = unit(fit.estimate[:3]), unit(fit.estimate[3:])
     # The sign tests follow the rates sample by sample: they need the full rate and a
     # smooth signal, so they always see low-passed rates.
-    sign_cutoff = cutoff or default_cutoff(rate)
-    decision = decide_relative_sign(g1, g2, j1, j2, rate, acc1, acc2, cutoff=sign_cutoff,
-                                    window=win)
-    j1, j2, applied = _orient(j1, j2, decision.sign, sign, flip_axis, j2_sign, pin_j2)
-    evidence = decision.evidence
+    decision = decide_relative_sign(p.first[0], p.second[0], j1, j2, p.rate, p.first[1],
+                                    p.second[1], cutoff=_sign_cutoff(p), window=p.window)
+    j1, j2, applied = _orient(j1, j2, decision.sign, s.sign, _sign_index(s.sign), s.j2_sign,
+                              _sign_index(s.j2_sign))
+    return j1, j2, decision, applied
 
-    x = np.concatenate([j1, j2])
+
+def _sign_cutoff(p: Prepared) -> float:
+    return p.cutoff or default_cutoff(p.rate)
+
+
+def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
+    """Residual, identifiability, uncertainty and restart agreement at the estimate ``x``
+    (j1, j2)."""
+    d1, d2 = p.data
     e, jac = _residual_and_jacobian(d1, d2, x)
-    n1 = np.linalg.norm(np.cross(d1, j1), axis=1)
-    n2 = np.linalg.norm(np.cross(d2, j2), axis=1)
-    rms = float(np.sqrt(np.mean(e**2)))
+    rms_e = float(np.sqrt(np.mean(e**2)))
     # Relative to the angular rates, so recordings of different intensity compare. Not
     # to the joint-plane rates |g x j| that eq. (1) compares: those vanish exactly when a
     # joint flexes cleanly about its axis, which would make the best data look worst.
     scale = float(np.sqrt(np.mean((np.sum(d1 * d1, axis=1) + np.sum(d2 * d2, axis=1)) / 2)))
-    relative = rms / scale if scale > 0 else float("inf")
-
     cov = robust_covariance(e, jac)
-    curvature = {
-        "j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),
-        "j2": float(np.degrees(np.sqrt(cov[2, 2] + cov[3, 3]))),
-    }
     sv = singular_values(jac)
-    singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
-    thetadot = d2 @ j2 - d1 @ j1
-    excitation = {
+    sensitivity = _cutoff_sensitivity(p, x)
+    # a smooth residual is a model error every time block shares (soft tissue moving the
+    # sensors in step with the gait cycle): a bias bound in proportion to it
+    model = MODEL_DEG_PER_RESIDUAL * smooth_residual_rms(e) / scale if scale > 0 else 0.0
+    components = {
+        "curvature": {"j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),
+                      "j2": float(np.degrees(np.sqrt(cov[2, 2] + cov[3, 3])))},
+        "time_blocks": _block_jackknife(d1, d2, x),
+        "cutoff_shift": cutoff_shifts(sensitivity, ("j1", "j2"), "deg"),
+        "model": {"j1": model, "j2": model},
+    }
+    keep = settled(fit.batch.final_cost, fit.reached)
+    return {
+        "rms": rms_e,
+        "relative": rms_e / scale if scale > 0 else float("inf"),
+        "singular_values": sv,
+        "singular_ratio": float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
+        "excitation": _excitation(d1, d2, x),
+        "sensitivity": sensitivity,
+        "components": components,
+        "uncertainty": uncertainty_totals(components),
+        "fraction": float(fit.reached.mean()),
+        "agreement": competing_agreement(fit.refined.final_cost, fit.reached),
+        "spread": {k: rms(_angle_deg(fit.batch.x[keep, sl], x[sl]))
+                   for k, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6)))},
+        "minima": equal_minima(fit.refined.x, fit.refined.final_cost, fit.best, fit.reached,
+                               _axis_distance),
+    }
+
+
+def _excitation(d1, d2, x) -> dict:
+    """RMS flexion rate and joint-plane rates over the samples used, deg/s."""
+    thetadot = d2 @ x[3:] - d1 @ x[:3]
+    n1, n2 = joint_plane_rate(d1, x[:3]), joint_plane_rate(d2, x[3:])
+    return {
         "flexion_rate_rms_deg_s": float(np.degrees(np.sqrt(np.mean(thetadot**2)))),
         "joint_plane_rate_rms_deg_s": [float(np.degrees(np.sqrt(np.mean(n1**2)))),
                                        float(np.degrees(np.sqrt(np.mean(n2**2))))],
     }
 
-    sensitivity = _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, sel.index, x)
-    blocks = _block_jackknife(d1, d2, x)
-    # a smooth residual is a model error every time block shares (soft tissue moving the
-    # sensors in step with the gait cycle): a bias bound in proportion to it
-    model = MODEL_DEG_PER_RESIDUAL * smooth_residual_rms(e) / scale if scale > 0 else 0.0
-    components = {"curvature": curvature, "time_blocks": blocks,
-                  "cutoff_shift": {k: max(sensitivity[f"{k}_shift_deg"])
-                                   for k in ("j1", "j2")},
-                  "model": {"j1": model, "j2": model}}
-    uncertainty = {k: total_sigma(curvature[k], blocks[k], components["cutoff_shift"][k],
-                                  model) for k in ("j1", "j2")}
 
-    fraction = float(reached.mean())
-    agreement = competing_agreement(refined.final_cost, reached)
-    spread = {}
-    keep = settled(batch.final_cost, reached)
-    for name, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6))):
-        ang = _angle_deg(batch.x[keep, sl], (j1 if name == "j1" else j2))
-        spread[name] = float(np.sqrt(np.mean(ang**2))) if ang.size else float("nan")
+def joint_plane_rate(g: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """|g x j| per sample: the rate's part in the joint plane of the unit axis ``j``
+    (eq. 1), via |g|^2 - (g.j)^2 (no cross product)."""
+    return np.sqrt(np.maximum(np.sum(g * g, axis=1) - (g @ j) ** 2, 0.0))
 
-    minima = equal_minima(refined.x, refined.final_cost, best, reached, _axis_distance)
-    equal = {"count": minima[0], "max_distance_deg": minima[1], "max_rms_ratio": minima[2]}
-    warnings, blocking = _diagnose(
-        d1, d2, excitation["flexion_rate_rms_deg_s"], singular_ratio, relative, fraction,
-        agreement, minima, uncertainty, components, decision,
+
+def _result(p: Prepared, s: AxisSettings, fit: Multistart, j1, j2, decision, applied,
+            q: dict, warnings: list[str], blocking: list[str]) -> AxisResult:
+    minima = q["minima"]
+    return AxisResult(
+        j1=j1,
+        j2=j2,
+        rms_residual=q["rms"],
+        relative_residual=q["relative"],
+        sign_evidence=decision.evidence,
+        sign_tests={name: t.report(applied) for name, t in decision.tests.items()},
+        singular_ratio=q["singular_ratio"],
+        singular_values=q["singular_values"],
+        uncertainty_deg=q["uncertainty"],
+        uncertainty_components=q["components"],
+        excitation=q["excitation"],
+        sensitivity=q["sensitivity"],
+        convergence_fraction=q["fraction"],
+        competing_agreement=q["agreement"],
+        equal_minima={"count": minima[0], "max_distance_deg": minima[1],
+                      "max_rms_ratio": minima[2]},
+        reached=fit.reached,
+        spread_deg=q["spread"],
+        batch=fit.batch,
+        refined=fit.refined,
+        settings=_settings_record(p, s, decision),
+        samples_used=p.samples,
+        window=p.span_s,
+        time_ranges=p.time_ranges,
+        gyr1=p.data[0],
+        gyr2=p.data[1],
+        sample_index=p.sample_index,
+        warnings=warnings,
+        blocking=blocking,
+        time_offset={"mode": "given", "time_offset_s": s.time_offset},
     )
-    warnings += _sign_warnings(decision, applied, pin_j2 is not None)
 
-    settings = {
-        "restarts": restarts,
-        "seed": seed,
-        "cutoff_hz": cutoff,
-        "filter": f"Butterworth order {FILTER_ORDER} low-pass, zero phase" if cutoff else None,
-        "sign_test_cutoff_hz": sign_cutoff,
-        "sign_convention": sign,
-        "j2_sign": j2_sign,
+
+def _settings_record(p: Prepared, s: AxisSettings, decision) -> dict:
+    """Every setting used, for the result (``settings``)."""
+    return {
+        "restarts": s.restarts,
+        "seed": s.seed,
+        "cutoff_hz": p.cutoff,
+        "filter": (f"Butterworth order {FILTER_ORDER} low-pass, zero phase" if p.cutoff
+                   else None),
+        "sign_test_cutoff_hz": _sign_cutoff(p),
+        "sign_convention": s.sign,
+        "j2_sign": s.j2_sign,
         "sign_tests": sorted(decision.tests),
-        "time_offset": offset,
-        "subsample": step,
-        "select": select,
-        "max_samples": max_samples if select else None,
-        "subset_fraction": subset,
-        "max_iterations": max_iterations,
+        "time_offset": s.time_offset,
+        "subsample": p.step,
+        "select": s.select,
+        "max_samples": s.max_samples if s.select else None,
+        "subset_fraction": s.subset,
+        "max_iterations": s.max_iterations,
         "step_tolerance_rad": STEP_TOLERANCE,
         "restart_step_tolerance_rad": RESTART_STEP_TOLERANCE,
         "coarse_samples": COARSE_SAMPLES,
@@ -445,55 +477,17 @@ def estimate_axis(
         "agreement_deg": AGREEMENT_DEG,
         "initial_values": "j1, j2 uniform on the unit sphere",
     }
-    t0 = win.start / rate
-    return AxisResult(
-        j1=j1,
-        j2=j2,
-        rms_residual=rms,
-        relative_residual=relative,
-        sign_evidence=evidence,
-        sign_tests={name: t.report(applied) for name, t in decision.tests.items()},
-        singular_ratio=singular_ratio,
-        singular_values=sv,
-        uncertainty_deg=uncertainty,
-        uncertainty_components=components,
-        excitation=excitation,
-        sensitivity=sensitivity,
-        convergence_fraction=fraction,
-        competing_agreement=agreement,
-        equal_minima=equal,
-        reached=reached,
-        spread_deg=spread,
-        batch=batch,
-        refined=refined,
-        settings=settings,
-        samples_used=n,
-        window=(t0, win.stop / rate),
-        time_ranges=t0 + sel.ranges * 1.0,
-        gyr1=d1,
-        gyr2=d2,
-        sample_index=win.start + sel.index * step,
-        warnings=warnings,
-        blocking=blocking,
-        time_offset={"mode": "given", "time_offset_s": offset},
-    )
 
 
-def _cutoff_sensitivity(g1, g2, rate, cutoff, win, step, index, x) -> dict:
+def _cutoff_sensitivity(p: Prepared, x: np.ndarray) -> dict:
     """Refit from the estimate ``x`` with the cut-off halved and doubled (no filter: the
     default cut-off and twice it); the shifts show how much the answer rests on the filter.
     """
-    pair = sensitivity_cutoffs(cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
-    data = [[lowpass(h, rate, c)[win][::step][index] for h in (g1, g2)] for c in pair]
-    # Both refits as one batch of two restarts, each on its own half of the stacked
-    # samples: one pass of the solver's fixed costs instead of two.
-    m = data[0][0].shape[0]
-    own = np.zeros((2, 2 * m))
-    own[0, :m] = own[1, m:] = 1.0
-    problem = _HingeProblem(np.concatenate([data[0][0], data[1][0]]),
-                            np.concatenate([data[0][1], data[1][1]]), own, RESTART_DTYPE,
-                            newton=True)
-    y = _solve(problem, np.stack([x, x]), SENSITIVITY_ITERATIONS, RESTART_STEP_TOLERANCE).x
+    rate = p.rate
+    pair = sensitivity_cutoffs(p.cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
+    data = [tuple(lowpass(h, rate, c)[p.window][::p.step][p.selection.index]
+                  for h in (p.first[0], p.second[0])) for c in pair]
+    y = HINGE.refit_each(data, x, SENSITIVITY_ITERATIONS)
     shifts = {"j1": [float(a) for a in _angle_deg(y[:, :3], x[:3])],
               "j2": [float(a) for a in _angle_deg(y[:, 3:], x[3:])]}
     return {"cutoffs_hz": list(pair), "j1_shift_deg": shifts["j1"],
@@ -510,98 +504,91 @@ def _offset_profile(g2, rate):
         thin = slice(None, None, max(1, first.samples_used // OFFSET_SAMPLES))
         d1, times = first.gyr1[thin], first.sample_index[thin] / rate
         x = np.concatenate([first.j1, first.j2])
-        return lambda deltas: np.stack([_refit_residuals(d1, read2(times + d), x)
-                                        for d in deltas])
+        return lambda deltas: _refit_residuals(d1, read2(times + deltas[:, None]), x)
     return profile
 
 
 def _refit_residuals(d1, d2, x) -> np.ndarray:
-    """Residuals of eq. (1) after ``OFFSET_STEPS`` plain Gauss-Newton steps from ``x``:
-    the profile cost of one offset candidate, without the solver's restart machinery."""
+    """(D, M) residuals of eq. (1) after ``OFFSET_STEPS`` plain Gauss-Newton steps from
+    ``x`` (6,), for each of D offset candidates at once (``d2`` (D, M, 3)): the profile
+    cost of each, without the solver's restart machinery."""
+    x = np.repeat(x[None, :], d2.shape[0], axis=0)
     for _ in range(OFFSET_STEPS):
-        e, jac = _residual_and_jacobian(d1, d2, x)
-        step = np.linalg.lstsq(jac, -e, rcond=None)[0]
-        x = _retract(x[None, :], step[None, :])[0]
-    return _residual_and_jacobian(d1, d2, x)[0]
+        e, jac = _residuals_and_jacobians(d1, d2, x)
+        jt = np.swapaxes(jac, 1, 2)
+        step = -np.linalg.solve(jt @ jac, (jt @ e[..., None]))[..., 0]
+        x = _retract(x, step)
+    return _residuals_and_jacobians(d1, d2, x)[0]
 
 
-def _diagnose(d1, d2, flex, singular_ratio, relative, fraction, agreement, minima,
-              uncertainty, components, decision) -> tuple[list[str], list[str]]:
+def _diagnose(p: Prepared, q: dict, decision) -> tuple[list[str], list[str]]:
     """(warnings, blocking) of an axis estimate; thresholds and their reasons in
     docs/quality.md."""
-    blocking = stillness_warning(d1, d2)
-    doubts = unit_doubts((d1, d2))
+    doubts = unit_doubts(p.data)
+    blocking = _blocking(p, q, decision, doubts)
+    relative, sigma = q["relative"], max(q["uncertainty"].values())
     warnings = list(doubts)
-    if not blocking and flex < MIN_FLEXION_RATE_DEG_S:
-        blocking.append(
-            f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
-            f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this recording; "
-            "record the joint flexing and extending"
-        )
-    elif not blocking and singular_ratio < MIN_SINGULAR_RATIO:
-        blocking.append(
-            f"the data leave one direction of the axes undetermined (singular ratio "
-            f"{singular_ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not "
-            "identifiable from this recording; record more varied motion"
-        )
-    if not blocking and fraction < MIN_AGREEING_FRACTION and relative > POOR_FIT_RESIDUAL:
-        blocking.append(
-            f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge model "
-            f"fits poorly (residual {relative:.0%} of the signal): the joint does not move "
-            "like a hinge (a spheroidal joint such as the ankle?), so no axis is identifiable"
-        )
-    count, far, ratio = minima
-    sigma = max(uncertainty.values())
-    # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
-    if not blocking and count and far > max(sigma, 2 * AGREEMENT_DEG):
-        blocking.append(
-            f"two different axes fit equally well ({count} restarts ended {far:.0f} deg from "
-            f"the estimate at {ratio:.2f} x its RMS residual): the data do not single out "
-            "one axis"
-        )
-    span = decision.tests["range"].detail["span_deg"]
-    # rates in the wrong units scale the span, too: then the unit warning is the finding
-    if not blocking and not doubts and min(span) > MAX_KNEE_SPAN_DEG:
-        blocking.append(
-            f"the angle about this axis, integrated from j2.g2 - j1.g1, spans {min(span):.0f} "
-            f"deg within {RANGE_BLOCK_S:g} s (more than the {MAX_KNEE_SPAN_DEG:g} deg a joint "
-            "can flex) with either relative sign: the segments do not move as a hinge here "
-            "(soft tissue, impacts, or a joint that is not a hinge)"
-        )
-    if not blocking and agreement < MIN_AGREEING_FRACTION:
-        warnings.append(
-            f"restarts disagree: of the restarts that fit almost as well as the best, only "
-            f"{agreement:.0%} reached the estimate: the answer depends on the starting point; "
-            "the joint may have moved too little or not as a hinge"
-        )
+    if not blocking:
+        warnings += disagreement_warning(
+            q["agreement"], "; the joint may have moved too little or not as a hinge")
     if relative > MAX_RELATIVE_RESIDUAL:
         warnings.append(
             f"the hinge model fits poorly (residual {relative:.0%} of the signal; real knees "
             "leave 35-45 %): the joint may not be a hinge, or the sensors moved on the skin"
         )
     if sigma > MAX_UNCERTAINTY_DEG:
-        warnings.append(uncertainty_warning(uncertainty, components, "deg"))
+        warnings.append(uncertainty_warning(q["uncertainty"], q["components"], "deg"))
     return warnings, blocking
+
+
+def _blocking(p: Prepared, q: dict, decision, doubts: list[str]) -> list[str]:
+    """The first reason, if any, why the data cannot identify the axis."""
+    blocking = stillness_warning(*p.data)
+    if blocking:
+        return blocking
+    flex, ratio = q["excitation"]["flexion_rate_rms_deg_s"], q["singular_ratio"]
+    if flex < MIN_FLEXION_RATE_DEG_S:
+        return [f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
+                f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this "
+                "recording; record the joint flexing and extending"]
+    if ratio < MIN_SINGULAR_RATIO:
+        return [f"the data leave one direction of the axes undetermined (singular ratio "
+                f"{ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not identifiable "
+                "from this recording; record more varied motion"]
+    fraction, relative = q["fraction"], q["relative"]
+    if fraction < MIN_AGREEING_FRACTION and relative > POOR_FIT_RESIDUAL:
+        return [f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge "
+                f"model fits poorly (residual {relative:.0%} of the signal): the joint does not "
+                "move like a hinge (a spheroidal joint such as the ankle?), so no axis is "
+                "identifiable"]
+    # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
+    blocking = equal_minima_blocking(q["minima"], max(q["uncertainty"].values()),
+                                     2 * AGREEMENT_DEG, "deg", "different axes", "axis")
+    if blocking:
+        return blocking
+    span = min(decision.tests["range"].detail["span_deg"])
+    # rates in the wrong units scale the span, too: then the unit warning is the finding
+    if not doubts and span > MAX_KNEE_SPAN_DEG:
+        return [f"the angle about this axis, integrated from j2.g2 - j1.g1, spans {span:.0f} "
+                f"deg within {RANGE_BLOCK_S:g} s (more than the {MAX_KNEE_SPAN_DEG:g} deg a "
+                "joint can flex) with either relative sign: the segments do not move as a "
+                "hinge here (soft tissue, impacts, or a joint that is not a hinge)"]
+    return []
 
 
 def _block_jackknife(d1, d2, x) -> dict:
     """{"j1", "j2"}: delete-one-block jackknife 1-sigma, deg; every refit starts at the
     estimate ``x`` and leaves out one contiguous time block of the samples used."""
     masks = block_masks(d1.shape[0])
-    problem = _HingeProblem(d1, d2, masks, RESTART_DTYPE, newton=True)
-    y = _solve(problem, np.repeat(x[None, :], masks.shape[0], axis=0), MAX_ITERATIONS,
-               RESTART_STEP_TOLERANCE).x
+    y = HINGE.refit((d1, d2), masks, np.repeat(x[None, :], masks.shape[0], axis=0),
+                    MAX_ITERATIONS)
     return {"j1": jackknife_sigma(_angle_deg(y[:, :3], x[:3])),
             "j2": jackknife_sigma(_angle_deg(y[:, 3:], x[3:]))}
 
 
-def _check_sign(sign: str, what: str = "sign") -> int | None:
-    """Index of the component a sign convention pins; None for "auto"."""
-    if sign == "auto":
-        return None
-    if isinstance(sign, str) and len(sign) == 2 and sign[0] in "+-" and sign[1] in "xyz":
-        return "xyz".index(sign[1])
-    raise InputError(f"{what} must be auto, +x, -x, +y, -y, +z or -z, got '{sign}'")
+def _sign_index(sign: str) -> int | None:
+    """Index of the component a (checked) sign convention pins; None for "auto"."""
+    return None if sign == "auto" else "xyz".index(sign[1])
 
 
 def _pin(v: np.ndarray, k: int | None, convention: str) -> float:
@@ -657,13 +644,6 @@ def joint_plane_projection(g: np.ndarray, j: np.ndarray) -> np.ndarray:
     u = perpendicular(j)
     return np.stack([g @ u, g @ np.cross(j, u)], axis=1)
 
-
-#: Entry (i, k) of a symmetric 3 x 3 matrix stored as its upper triangle (6,).
-_SYMMETRIC = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
-
-#: Newton steps only where the Hessian's smallest eigenvalue exceeds this fraction of
-#: the trace of J^T J (else Gauss-Newton): a nearly singular Hessian gives wild steps.
-MIN_HESSIAN_EIGENVALUE = 1e-3
 
 #: Smallest |g x j|^2 / |g|^2 used, per precision: a little above the relative rounding
 #: error of |g|^2 - (g.j)^2 (|g x j| >= 1e-3 |g| in single, 1e-7 |g| in double precision).
@@ -816,8 +796,8 @@ class _HingeProblem:
             grad[1] += tmp @ self.g2[sl]
             total += np.einsum("ij,ij->i", e, e)
         grad[0] *= -1.0
-        s11 = sums[0][:, _SYMMETRIC]
-        s22 = sums[1][:, _SYMMETRIC]
+        s11 = sums[0][:, SYMMETRIC]
+        s22 = sums[1][:, SYMMETRIC]
         s12 = -np.concatenate(sums[2:], axis=1).reshape(r, 3, 3)
         both = _tangent_basis(x.reshape(2 * r, 3))  # rows j1, j2, j1, j2, ...
         b1, b2 = both[0::2], both[1::2]
@@ -835,91 +815,30 @@ class _HingeProblem:
         # e = n1 - n2: the second sensor's curvature enters with the opposite sign
         hess = jtj.copy()
         eye = np.eye(2)
-        hess[:, :2, :2] += (-(b1t @ curv[0][:, _SYMMETRIC] @ b1)
+        hess[:, :2, :2] += (-(b1t @ curv[0][:, SYMMETRIC] @ b1)
                             + shift[0][:, None, None] * eye)
-        hess[:, 2:, 2:] += b2t @ curv[1][:, _SYMMETRIC] @ b2 - shift[1][:, None, None] * eye
-        # Far from a minimum the Hessian can be indefinite: there Gauss-Newton's J^T J
-        # (always positive semi-definite) gives a descent direction instead.
-        scale = np.trace(jtj, axis1=1, axis2=2)
-        finite = np.isfinite(hess).all(axis=(1, 2))
-        # eigvalsh fails for the whole batch on one non-finite matrix; such a row keeps
-        # Gauss-Newton (the solver drops it if J^T J is not finite either).
-        lowest = np.linalg.eigvalsh(np.where(finite[:, None, None], hess, np.eye(4)))[:, 0]
-        safe = finite & (lowest > MIN_HESSIAN_EIGENVALUE * scale)
-        return cost, np.where(safe[:, None, None], hess, jtj), jte
+        hess[:, 2:, 2:] += b2t @ curv[1][:, SYMMETRIC] @ b2 - shift[1][:, None, None] * eye
+        return cost, safe_newton(jtj, hess), jte
 
 
 def _residual_and_jacobian(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
     """e (N,) and J (N, 4) of one state ``x`` (6,) on all samples (for quality)."""
-    j = x.reshape(2, 3)
+    e, jac = _residuals_and_jacobians(g1, g2[None], x[None])
+    return e[0], jac[0]
+
+
+def _residuals_and_jacobians(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
+    """e (D, N) and J (D, N, 4) of eq. (1) for D states ``x`` (D, 6), each with its own
+    second sensor's rates ``g2`` (D, N, 3) and the first sensor's ``g1`` (N, 3)."""
+    j = x.reshape(-1, 3)  # rows j1, j2, j1, j2, ...
     u = _tangent_basis(j)
-    b1, b2 = np.column_stack([j[0], u[0]]), np.column_stack([j[1], u[1]])
-    d1, d2 = g1 @ b1, g2 @ b2  # (N, 3): g.j, g.u, g.v
-    n1 = np.sqrt(np.maximum(np.sum(g1 * g1, axis=1) - d1[:, 0] ** 2, 0.0))
-    n2 = np.sqrt(np.maximum(np.sum(g2 * g2, axis=1) - d2[:, 0] ** 2, 0.0))
-    s1 = -d1[:, :1] * d1[:, 1:] / np.maximum(n1, 1e-12)[:, None]
-    s2 = d2[:, :1] * d2[:, 1:] / np.maximum(n2, 1e-12)[:, None]
-    return n1 - n2, np.concatenate([s1, s2], axis=1)
-
-
-def _multistart(d1, d2, mask, x0, max_iterations, rng):
-    """Every restart fitted on its subset, then refined on all samples (Sec. IV).
-
-    Returns the subset stage ``batch``, the ``refined`` results, the index of the best
-    refined restart (the estimate) and which restarts reached it. What keeps 100
-    restarts cheaper than one start of a plain solver, without changing what is
-    reported:
-
-    - a coarse stage runs every restart on its subset of a shared random sample of
-      ``COARSE_SAMPLES``: the first, large steps from a random start only have to find
-      the basin, and there they cost a fraction of a step on the whole subset;
-    - near the minimum, Newton steps (:meth:`_HingeProblem.normal`) instead of
-      Gauss-Newton's linear convergence;
-    - the restarts compute in single precision and stop at ``RESTART_STEP_TOLERANCE``,
-      far finer than anything reported about them (agreement within 2 deg, spreads of
-      tenths of a degree and more); only the best one is polished in double precision
-      to ``STEP_TOLERANCE``.
-    """
-    n = d1.shape[0]
-    batch = None
-    if n >= 2 * COARSE_SAMPLES:
-        cols = np.sort(rng.choice(n, COARSE_SAMPLES, replace=False))
-        coarse = _HingeProblem(d1[cols], d2[cols], None if mask is None else mask[:, cols],
-                               RESTART_DTYPE)
-        batch = _solve(coarse, x0, min(max_iterations, COARSE_ITERATIONS),
-                       COARSE_STEP_TOLERANCE)
-    subset = _HingeProblem(d1, d2, mask, RESTART_DTYPE, newton=True)
-    fitted = _solve(subset, x0 if batch is None else batch.x, max_iterations,
-                    RESTART_STEP_TOLERANCE)
-    batch = fitted if batch is None else chain(batch, fitted)
-
-    # Refine every restart on all samples: the refined costs are comparable, so the
-    # lowest is the least-squares answer and the share of restarts reaching it measures
-    # independence from the start; the subset finals (``batch.x``) show how much the
-    # answer depends on the data (Sec. IV).
-    everything = _HingeProblem(d1, d2, None, RESTART_DTYPE, newton=True)
-    refined = _solve(everything, batch.x, max_iterations, RESTART_STEP_TOLERANCE)
-    best, _ = best_restart(refined.x, refined.final_cost, _axis_distance, AGREEMENT_DEG)
-    polished = _solve(_HingeProblem(d1, d2, None, newton=True), refined.x[best][None, :],
-                      max_iterations, STEP_TOLERANCE)
-    refined = chain(refined, polished, np.array([best]))
-    # best is not chosen again: the other restarts' costs are single precision
-    return batch, refined, best, agreeing(refined.x, best, _axis_distance, AGREEMENT_DEG)
-
-
-def _solve(problem: _HingeProblem, x0: np.ndarray, max_iterations: int,
-           step_tolerance: float = STEP_TOLERANCE) -> BatchResult:
-    return gauss_newton(
-        problem.normal,
-        problem.cost,
-        _retract,
-        x0,
-        max_iterations=max_iterations,
-        step_tolerance=step_tolerance,
-        cost_tolerance=COST_TOLERANCE,
-        max_step=MAX_STEP,
-        contraction=True,
-    )
+    b = np.concatenate([j[:, :, None], u], axis=2)  # (2D, 3, 3): columns j, u, v
+    d1, d2 = g1 @ b[0::2], g2 @ b[1::2]  # (D, N, 3): g.j, g.u, g.v
+    n1 = np.sqrt(np.maximum(np.sum(g1 * g1, axis=-1) - d1[..., 0] ** 2, 0.0))
+    n2 = np.sqrt(np.maximum(np.sum(g2 * g2, axis=-1) - d2[..., 0] ** 2, 0.0))
+    s1 = -d1[..., :1] * d1[..., 1:] / np.maximum(n1, 1e-12)[..., None]
+    s2 = d2[..., :1] * d2[..., 1:] / np.maximum(n2, 1e-12)[..., None]
+    return n1 - n2, np.concatenate([s1, s2], axis=-1)
 
 
 def _retract(x: np.ndarray, step: np.ndarray) -> np.ndarray:
@@ -969,5 +888,23 @@ def _random_unit(rng: np.random.Generator, n: int) -> np.ndarray:
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
+def unit(v) -> np.ndarray:
+    """``v`` scaled to length 1, as float64."""
+    v = np.asarray(v, dtype=np.float64)
     return v / np.linalg.norm(v)
+
+
+def _hinge_problem(data, mask, dtype, newton) -> _HingeProblem:
+    return _HingeProblem(data[0], data[1], mask, dtype, newton)
+
+
+#: Eq. (1) in the staged multistart (:mod:`imucal.multistart`). In single precision the
+#: restarts resolve the axis to about 1e-5 rad, far below ``RESTART_STEP_TOLERANCE``.
+HINGE = Stages(
+    problem=_hinge_problem, retract=_retract, distance=_axis_distance,
+    agreement=AGREEMENT_DEG, step_tolerance=STEP_TOLERANCE,
+    restart_step_tolerance=RESTART_STEP_TOLERANCE,
+    coarse_step_tolerance=COARSE_STEP_TOLERANCE, coarse_samples=COARSE_SAMPLES,
+    coarse_iterations=COARSE_ITERATIONS, cost_tolerance=COST_TOLERANCE, max_step=MAX_STEP,
+    contraction=True,
+)

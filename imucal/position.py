@@ -20,66 +20,85 @@ Schauer 2014), with the axis from the same recording.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
 
-from .axis import AxisResult, estimate_axis
+from .axis import AxisResult, estimate_axis, unit
 from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton
+from .multistart import (
+    SENSITIVITY_ITERATIONS,
+    SYMMETRIC,
+    Multistart,
+    Stages,
+    multistart,
+    one_blas_thread,
+    safe_newton,
+)
 from .preprocess import (
     JOINT_FILTER_ORDER,
     MAX_CUTOFF_FRACTION,
+    Prepared,
     check_pair,
     check_rate,
     default_joint_cutoff,
     derivative,
     lowpass,
-    resolve_subsample,
+    prepare,
     rms_rate_deg_s,
     spectral_cutoff,
     stillness_warning,
     unit_doubts,
-    window_slice,
 )
 from .quality import (
-    Verdict,
     block_masks,
+    cutoff_shifts,
     jackknife_sigma,
+    rms,
     robust_covariance,
+    sensitivity_cutoffs,
     singular_values,
-    total_sigma,
+    uncertainty_totals,
     uncertainty_warning,
 )
 from .restarts import (
-    best_restart,
-    check_restarts,
     competing_agreement,
+    disagreement_warning,
     equal_minima,
+    equal_minima_blocking,
     resolve_seed,
     settled,
     subset_mask,
 )
+from .result import EstimateResult
 from .selection import MAX_SAMPLES
-from .selection import select as select_samples
-from .time_offset import SEARCH_S, check_time_offset, fit_with_offset, reader, shifted
+from .settings import JOINTS, MAX_ITERATIONS, SUBSET_FRACTION, PositionSettings  # noqa: F401 (JOINTS: imported from here)
+from .settings import resolve as resolve_settings
+from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, fit_with_offset, reader
 
-JOINTS = ("spheroidal", "hinge")
 #: Two estimates agree when both o1 and o2 are within this distance, m.
 AGREEMENT_M = 0.01
 #: Initial offsets are uniform in [-INIT_BOX_M, INIT_BOX_M]^3 per sensor, m: a sensor
 #: strapped to a thigh, shank or foot sits well within half a metre of the joint.
 INIT_BOX_M = 0.5
-MAX_ITERATIONS = 50
-#: Stop when the step is below this, m (0.01 mm).
+#: The estimate is polished (double precision) until the step is below this, m (0.01 mm).
 STEP_TOLERANCE = 1e-5
+#: The restarts (single precision, on their subsets and refined) stop at this step, m:
+#: a hundredth of ``AGREEMENT_M``, and below the spreads and sigmas reported (mm).
+RESTART_STEP_TOLERANCE = 1e-4
+#: The coarse stage only has to find each restart's basin, m.
+COARSE_STEP_TOLERANCE = 1e-3
+#: Samples shared by all restarts in the coarse stage, and its step limit (see
+#: :mod:`imucal.multistart`).
+COARSE_SAMPLES = 150
+COARSE_ITERATIONS = 6
 COST_TOLERANCE = 1e-9
+#: The cut-off sensitivity refits use the cut-off times these factors.
+SENSITIVITY_FACTORS = (0.75, 1.5)
 #: Largest step per iteration, m.
 MAX_STEP = 0.5
-SUBSET_FRACTION = 0.5
 MIN_SAMPLES = 30
-MIN_AGREEING_FRACTION = 0.8
 MAX_RELATIVE_RESIDUAL = 0.25
 #: A singular value of the Jacobian at the estimate below this fraction of the largest is
 #: a direction of (o1, o2) the data barely determine (simulated: a point that slides along
@@ -88,90 +107,54 @@ MAX_RELATIVE_RESIDUAL = 0.25
 MIN_SINGULAR_RATIO = 0.04
 #: A 1-sigma position uncertainty above this is not good enough for kinematics, mm.
 MAX_UNCERTAINTY_MM = 10.0
-#: The offset's profile refits use about this many samples and this many Gauss-Newton
-#: steps from the first estimate (see :data:`imucal.axis.OFFSET_SAMPLES`).
-OFFSET_SAMPLES = 1500
-OFFSET_STEPS = 2
 #: A sensor strapped to a thigh, shank or foot is never this far from the joint, m.
 MAX_PLAUSIBLE_OFFSET_M = 1.0
 
 
-@dataclass
-class PositionResult(Verdict):
-    """Result of :func:`estimate_position`.
+@dataclass(kw_only=True)
+class PositionResult(EstimateResult):
+    """Result of :func:`estimate_position`: the fields of
+    :class:`imucal.result.EstimateResult` and the position's own.
 
     Attributes
     ----------
     o1, o2 : (3,) vector from the joint centre to the first / second sensor's origin, in
         that sensor's frame, m.
     joint : "spheroidal" or "hinge".
-    rms_residual : RMS of e(t) at the estimate, m/s^2.
+    rms_residual : RMS of e(t) of eq. (3) at the estimate, m/s^2.
     relative_residual : ``rms_residual`` over the RMS of |a_i - Gamma_i(o_i)|.
-    singular_ratio : smallest / largest singular value of the Jacobian at the estimate
-        (near 0: the position is only known along a line); for a hinge, of the directions
-        across the axis.
+    singular_ratio : as in :class:`imucal.result.EstimateResult`; for a hinge, of the
+        directions across the axis.
     singular_values : singular values of that Jacobian over sqrt(samples), 1/s^2.
     uncertainty_mm : {"o1", "o2"} 1-sigma, mm (for a hinge: across the axis line): the
         larger of the curvature's and the time blocks' with the cut-off shift added in
-        quadrature (:func:`imucal.quality.total_sigma`).
-    uncertainty_components : its parts, each {"o1", "o2"} in mm, as in
-        :class:`imucal.axis.AxisResult`.
+        quadrature (:func:`imucal.quality.total_sigma`); its parts, in mm, are
+        ``uncertainty_components``.
     excitation : RMS angular rate of each sensor, deg/s, and the Jacobian's singular
         values over sqrt(samples), 1/s^2.
-    sensitivity : cut-offs of two refits (halved and doubled) and the shifts, mm.
-    competing_agreement : as in :class:`imucal.axis.AxisResult`.
-    equal_minima : as in :class:`imucal.axis.AxisResult`, distance in mm
+    sensitivity : cut-offs of two refits (times 0.75 and 1.5) and the shifts, mm.
+    equal_minima : as in :class:`imucal.result.EstimateResult`, distance in mm
         ("max_distance_mm").
-    convergence_fraction : fraction of restarts whose final value, refined on all samples,
-        lies within ``AGREEMENT_M`` of the estimate, the refined result with the lowest
-        cost (for a hinge: after moving each to its closest point on the axis).
-    reached : (R,) which restarts did.
+    convergence_fraction : as in :class:`imucal.result.EstimateResult`, within
+        ``AGREEMENT_M`` (for a hinge: after moving each restart to its closest point on
+        the axis).
     spread_mm : RMS distance of the agreeing restarts' subset results from the estimate
         per vector, mm: how much the answer depends on the data (subset fits stuck in a
         local minimum left out, :func:`imucal.restarts.settled`).
-    batch : the restarts on their subsets.
-    refined : each restart's result refined on all samples.
     axis : for ``joint="hinge"`` with an estimated axis, its :class:`AxisResult`.
     line : for ``joint="hinge"``, the (j1, j2) used, else None.
-    warnings, blocking, settings, samples_used, window, time_ranges : as in
-        :class:`imucal.axis.AxisResult`.
-    sample_index, time_offset : as in :class:`imucal.axis.AxisResult`.
     """
 
     o1: np.ndarray
     o2: np.ndarray
     joint: str
-    rms_residual: float
-    relative_residual: float
-    singular_ratio: float
-    singular_values: np.ndarray
     uncertainty_mm: dict
-    uncertainty_components: dict
-    excitation: dict
-    sensitivity: dict
-    convergence_fraction: float
-    competing_agreement: float
-    equal_minima: dict
-    reached: np.ndarray
     spread_mm: dict
-    batch: BatchResult
-    refined: BatchResult
-    settings: dict
-    samples_used: int
-    window: tuple[float, float]
-    time_ranges: np.ndarray
-    sample_index: np.ndarray
     axis: AxisResult | None = None
     line: np.ndarray | None = None
-    warnings: list[str] = field(default_factory=list)
-    blocking: list[str] = field(default_factory=list)
-    time_offset: dict = field(default_factory=dict)
-
-    @property
-    def iterations(self) -> np.ndarray:
-        return self.batch.iterations
 
 
+@one_blas_thread
 def estimate_position(
     gyr1: np.ndarray,
     acc1: np.ndarray,
@@ -195,6 +178,7 @@ def estimate_position(
     j2_sign: str = "auto",
     time_offset: float | str = "auto",
     offset_search: float = SEARCH_S,
+    settings: PositionSettings | None = None,
 ) -> PositionResult:
     """Estimate the joint centre seen by two IMUs.
 
@@ -236,140 +220,173 @@ def estimate_position(
     time_offset, offset_search
         The second sensor's clock lateness, s, as in :func:`imucal.estimate_axis`, found
         here from eq. (3) (for a hinge, the axis is fitted with the same offset).
+    settings
+        All of the above but ``axis`` as one :class:`imucal.settings.PositionSettings`,
+        instead of keyword arguments (giving both, with keyword values other than the
+        defaults, is an InputError).
+
+    Returns
+    -------
+    PositionResult
+        o1, o2 (m, each in its sensor's frame; for a hinge the point of the axis closest
+        to both sensors), the quality report (uncertainty, identifiability, ``verdict``,
+        ``warnings``) and every restart. A position the data cannot identify is still
+        returned, with ``blocking`` reasons.
+
+    Raises
+    ------
+    InputError
+        Invalid settings (before any data are used), arrays not (N, 3) of finite numbers
+        or of different lengths, a sample rate outside 1-10000 Hz, a window outside the
+        recording, or fewer than ``MIN_SAMPLES`` samples left to fit.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. II-B, III-B
+    (eq. 3 and 4); Seel, Raisch, Schauer (2014), "IMU-based joint angle measurement for
+    gait analysis", Sensors 14 (the point of a hinge axis closest to both sensors).
+
+    Examples
+    --------
+    >>> import imucal
+    >>> rec = imucal.load_recording("sample_data/circling.h5")
+    >>> shank, foot = rec.sensor("shank"), rec.sensor("foot")
+    >>> r = imucal.estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc,
+    ...                              rate=rec.rate, seed=1)
+    >>> r.verdict, (1000 * r.o1).round()  # mm
+    ('good', array([101.,  40.,  17.]))
     """
-    if joint not in JOINTS:
-        raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{joint}'")
+    s = resolve_settings(
+        PositionSettings, settings, restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
+        subsample=subsample, subset=subset, start=start, end=end,
+        max_iterations=max_iterations, select=select, max_samples=max_samples, sign=sign,
+        j2_sign=j2_sign, time_offset=time_offset, offset_search=offset_search)
     g1, g2 = check_pair(gyr1, gyr2)
     a1, a2 = check_pair(acc1, acc2)
     if g1.shape != a1.shape:
         raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, {a1.shape[0]})")
-    offset = check_time_offset(time_offset)
-    if offset == "auto":
-        seed = resolve_seed(seed)  # both fits must see the same restarts
-        again = partial(estimate_position, g1, a1, g2, a2, rate=rate, restarts=restarts,
-                        seed=seed, joint=joint, axis=axis, cutoff=cutoff, subsample=subsample,
-                        subset=subset, start=start, end=end, max_iterations=max_iterations,
-                        select=select, max_samples=max_samples, sign=sign, j2_sign=j2_sign,
-                        offset_search=offset_search)
-        return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate), rate,
-                               offset_search)
     rate = check_rate(rate)
-    restarts = check_restarts(restarts)
-    seed = resolve_seed(seed)
-    if offset:  # the second sensor read at t + offset, over the whole recording
-        g2, a2 = shifted(g2, rate, offset), shifted(a2, rate, offset)
-    win0 = window_slice(g1.shape[0], rate, start, end)
-    cutoff = (spectral_cutoff((g1[win0], g2[win0]), rate) if cutoff is None
-              else float(cutoff))
-    step = resolve_subsample(rate, cutoff, subsample)
+    if s.time_offset == "auto":
+        return _with_auto_offset(g1, a1, g2, a2, rate, axis, s)
+    s = replace(s, seed=resolve_seed(s.seed))
+    prepared = prepare(
+        (g1, a1), (g2, a2), rate, s,
+        cutoff=(lambda w1, w2: spectral_cutoff((w1, w2), rate)) if s.cutoff is None
+        else float(s.cutoff),
+        fit_signals=lambda sensor, c: _filtered(*sensor, rate, c),
+        min_samples=MIN_SAMPLES, what="joint position")
+    axis_result, line = _axis_line(prepared, s, axis)
+    fit = _fit(prepared, s, line)
+    quality = _quality(prepared, s, fit, line)
+    warnings, blocking = _diagnose(prepared, s, fit.estimate, quality, line)
+    if axis_result is not None:
+        blocking.extend(f"axis: {w}" for w in axis_result.blocking)
+        warnings.extend(f"axis: {w}" for w in axis_result.warnings)
+    return _result(prepared, s, fit, quality, axis_result, line, warnings, blocking)
 
-    win = window_slice(g1.shape[0], rate, start, end)
-    sensors = [tuple(arr[win][::step] for arr in _filtered(g, a, rate, cutoff))
-               for g, a in ((g1, a1), (g2, a2))]
-    sel = select_samples(sensors[0][0], sensors[1][0], rate / step, max_samples=max_samples,
-                         min_samples=MIN_SAMPLES, enabled=select)
-    sensors = [tuple(arr[sel.index] for arr in parts) for parts in sensors]
-    n = sensors[0][0].shape[0]
-    if n < MIN_SAMPLES:
-        raise InputError(
-            f"only {n} samples left after window and subsampling; the joint position needs "
-            f"at least {MIN_SAMPLES} (about {MIN_SAMPLES * step / rate:.1f} s of motion)"
-        )
 
-    line = None
+def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> PositionResult:
+    """The estimate with the clock offset found from eq. (3) itself
+    (:func:`imucal.time_offset.fit_with_offset`)."""
+    s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
+
+    def again(seconds):
+        return estimate_position(g1, a1, g2, a2, rate=rate, axis=axis,
+                                 settings=replace(s, time_offset=seconds))
+    return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate), rate,
+                           s.offset_search)
+
+
+def _axis_line(p: Prepared, s: PositionSettings, axis):
+    """(axis result or None, the hinge line (j1, j2) or None) for ``s.joint``."""
+    if s.joint != "hinge":
+        return None, None
     axis_result = None
-    if joint == "hinge":
-        if axis is None:
-            axis_result = estimate_axis(
-                g1, g2, rate=rate, restarts=restarts, seed=seed, subset=subset,
-                start=start, end=end, max_iterations=max_iterations, select=select,
-                max_samples=max_samples, acc1=a1, acc2=a2, sign=sign, j2_sign=j2_sign,
-                time_offset=0.0,  # g2, a2 are already aligned
-            )
-            line = np.concatenate([axis_result.j1, axis_result.j2])
-        elif isinstance(axis, AxisResult):
-            axis_result = axis
-            line = np.concatenate([axis.j1, axis.j2])
-        else:
-            line = np.concatenate([np.asarray(axis[0], float), np.asarray(axis[1], float)])
-        line = np.concatenate([_unit(line[:3]), _unit(line[3:])])
+    if axis is None:
+        axis_result = estimate_axis(
+            p.first[0], p.second[0], rate=p.rate, restarts=s.restarts, seed=s.seed,
+            subset=s.subset, start=s.start, end=s.end, max_iterations=s.max_iterations,
+            select=s.select, max_samples=s.max_samples, acc1=p.first[1], acc2=p.second[1],
+            sign=s.sign, j2_sign=s.j2_sign,
+            time_offset=0.0,  # the second sensor is already aligned
+        )
+        axis = (axis_result.j1, axis_result.j2)
+    elif isinstance(axis, AxisResult):
+        axis_result = axis
+        axis = (axis.j1, axis.j2)
+    return axis_result, np.concatenate([unit(axis[0]), unit(axis[1])])
 
-    rng = np.random.default_rng(seed)
-    x0 = rng.uniform(-INIT_BOX_M, INIT_BOX_M, size=(restarts, 6))
-    mask = subset_mask(n, restarts, subset, rng)
-    batch = _solve(_SpheroidalProblem(*sensors[0], *sensors[1], mask), x0, max_iterations)
 
-    # As for the axis: refine every restart on all samples, agree on the refined values,
-    # measure the data dependence on the subset values.
-    full = _SpheroidalProblem(*sensors[0], *sensors[1], None)
-    refined = _solve(full, batch.x, max_iterations)
-    finals = refined.x if line is None else closest_point_on_axis(refined.x, line)
-    subset_finals = batch.x if line is None else closest_point_on_axis(batch.x, line)
+def _fit(p: Prepared, s: PositionSettings, line) -> Multistart:
+    """The staged multistart of eq. (3) from offsets uniform in the box (Sec. IV)."""
+    rng = np.random.default_rng(s.seed)
+    x0 = rng.uniform(-INIT_BOX_M, INIT_BOX_M, size=(s.restarts, 6))
+    mask = subset_mask(p.samples, s.restarts, s.subset, rng)
     # On a hinge every point of the line has the same cost, so comparing the projected
     # points with the lowest-cost one is fair.
-    best, reached = best_restart(finals, refined.final_cost, _position_distance, AGREEMENT_M)
-    x = finals[best]
+    stages = SPHEROIDAL if line is None else replace(
+        SPHEROIDAL, project=partial(closest_point_on_axis, line=line))
+    return multistart(stages, p.data, mask, x0, s.max_iterations, rng)
 
+
+def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
+    """Residual, identifiability, uncertainty and restart agreement at the estimate."""
+    x = fit.estimate
+    full = _SpheroidalProblem(*p.data, None)
     e, jac = full.linearise(x[None, :])
     e, jac = e[0], jac[0]
     r1 = full.joint_acceleration_norm(0, x[:3])
     r2 = full.joint_acceleration_norm(1, x[3:])
-    rms = float(np.sqrt(np.mean(e**2)))
+    rms_e = float(np.sqrt(np.mean(e**2)))
     # Relative to the joint-centre accelerations the residual compares.
     scale = float(np.sqrt(np.mean((r1**2 + r2**2) / 2)))
-    relative = rms / scale if scale > 0 else float("inf")
-
     # On a hinge the direction along the axis is invisible by construction; what is
     # identifiable is the point across it.
     free = np.eye(6) if line is None else _across(line)
     sv = singular_values(jac @ free)
-    singular_ratio = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
     cov = free @ robust_covariance(e, jac @ free) @ free.T
-    curvature = {"o1": float(1000 * np.sqrt(np.trace(cov[:3, :3]))),
-                 "o2": float(1000 * np.sqrt(np.trace(cov[3:, 3:])))}
-    excitation = {
-        "rate_rms_deg_s": [rms_rate_deg_s(sensors[0][0]), rms_rate_deg_s(sensors[1][0])],
-        "singular_values_1_s2": sv,
+    sensitivity = _cutoff_sensitivity(p, x, line)
+    components = {
+        "curvature": {"o1": float(1000 * np.sqrt(np.trace(cov[:3, :3]))),
+                      "o2": float(1000 * np.sqrt(np.trace(cov[3:, 3:])))},
+        "time_blocks": _block_jackknife(p.data, x, line, s.max_iterations),
+        "cutoff_shift": cutoff_shifts(sensitivity, ("o1", "o2"), "mm"),
     }
-    sensitivity = _cutoff_sensitivity(
-        (g1, a1, g2, a2), rate, cutoff, win, step, sel.index, x, line, max_iterations
-    )
-    blocks = _block_jackknife(sensors, x, line, max_iterations)
-    components = {"curvature": curvature, "time_blocks": blocks,
-                  "cutoff_shift": {k: max(sensitivity[f"{k}_shift_mm"])
-                                   for k in ("o1", "o2")}}
-    uncertainty = {k: total_sigma(curvature[k], blocks[k], components["cutoff_shift"][k])
-                   for k in ("o1", "o2")}
+    subset_finals = fit.batch.x if line is None else closest_point_on_axis(fit.batch.x, line)
+    keep = settled(fit.batch.final_cost, fit.reached)
+    count, apart, ratio = equal_minima(fit.finals, fit.refined.final_cost, fit.best,
+                                       fit.reached, _position_distance)
+    return {
+        "rms": rms_e,
+        "relative": rms_e / scale if scale > 0 else float("inf"),
+        "singular_values": sv,
+        "singular_ratio": float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
+        "excitation": {"rate_rms_deg_s": [rms_rate_deg_s(p.data[0]),
+                                          rms_rate_deg_s(p.data[3])],
+                       "singular_values_1_s2": sv},
+        "sensitivity": sensitivity,
+        "components": components,
+        "uncertainty": uncertainty_totals(components),
+        "fraction": float(fit.reached.mean()),
+        "agreement": competing_agreement(fit.refined.final_cost, fit.reached),
+        "spread": {k: rms(np.linalg.norm(subset_finals[keep, sl] - x[sl], axis=1) * 1000)
+                   for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))},
+        "minima": (count, 1000 * apart, ratio),  # distance in mm
+    }
 
-    fraction = float(reached.mean())
-    agreement = competing_agreement(refined.final_cost, reached)
-    spread = {}
-    keep = settled(batch.final_cost, reached)
-    for name, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6))):
-        d = np.linalg.norm(subset_finals[keep, sl] - x[sl], axis=1) * 1000
-        spread[name] = float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
 
-    blocking = stillness_warning(sensors[0][0], sensors[1][0])
-    if not blocking:
-        # both scales enter eq. (3): wrong units give a confident-looking wrong point
-        blocking += unit_doubts((sensors[0][0], sensors[1][0]), (sensors[0][2], sensors[1][2]))
-    warnings = []
-    far = max(np.linalg.norm(x[:3]), np.linalg.norm(x[3:]))
+def _diagnose(p: Prepared, s: PositionSettings, x: np.ndarray, q: dict,
+              line) -> tuple[list[str], list[str]]:
+    """(warnings, blocking) of a joint position; thresholds and their reasons in
+    docs/quality.md."""
+    sv = q["singular_values"]
     # Each singular value far below the largest is a direction of (o1, o2) the data
     # barely see: one is the line of a hinge or of planar motion; three (the point's
     # every coordinate) mean the joint did not move at all.
     weak = int(np.sum(sv < MIN_SINGULAR_RATIO * sv[0])) if sv[0] > 0 else sv.size
-    if not blocking and weak >= 3:
-        blocking.append(
-            f"the joint barely moved ({weak} of {sv.size} directions of the joint position "
-            "are undetermined): the joint position is not identifiable from this recording; "
-            "record the joint moving in all directions"
-        )
-    if not blocking and far > MAX_PLAUSIBLE_OFFSET_M:
-        blocking.append(
-            f"the estimate puts the joint {far:.2f} m from a sensor, implausible on a limb: "
-            "the data do not determine the joint position"
-        )
+    blocking = _blocking(p, x, q, weak)
+    warnings: list[str] = []
     if not blocking and weak and line is None:
         warnings.append(
             "motion stays in one plane (or the joint is a hinge): the joint position is only "
@@ -381,84 +398,105 @@ def estimate_position(
     elif not blocking and weak:
         warnings.append(f"{weak} directions of the point across the hinge axis are barely "
                         "determined")
-    count, apart, ratio = equal_minima(finals, refined.final_cost, best, reached,
-                                       _position_distance)
-    equal = {"count": count, "max_distance_mm": 1000 * apart, "max_rms_ratio": ratio}
-    worst = max(uncertainty.values())
-    # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
-    if not blocking and count and 1000 * apart > max(worst, 2000 * AGREEMENT_M):
-        blocking.append(
-            f"two joint positions fit equally well ({count} restarts ended "
-            f"{1000 * apart:.0f} mm from the estimate at {ratio:.2f} x its RMS residual): the "
-            "data do not single out one joint centre"
-        )
-    if agreement < MIN_AGREEING_FRACTION:
+    if not blocking:
+        # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
+        blocking = equal_minima_blocking(q["minima"], max(q["uncertainty"].values()),
+                                         2000 * AGREEMENT_M, "mm", "joint positions",
+                                         "joint centre")
+    warnings += disagreement_warning(q["agreement"])
+    if q["relative"] > MAX_RELATIVE_RESIDUAL:
         warnings.append(
-            f"restarts disagree: of the restarts that fit almost as well as the best, only "
-            f"{agreement:.0%} reached the estimate: the answer depends on the starting point"
+            f"the {s.joint} joint model fits poorly (residual {q['relative']:.0%} of the "
+            "signal)"
         )
-    if relative > MAX_RELATIVE_RESIDUAL:
-        warnings.append(
-            f"the {joint} joint model fits poorly (residual {relative:.0%} of the signal)"
-        )
-    if worst > MAX_UNCERTAINTY_MM:
-        warnings.append(uncertainty_warning(uncertainty, components, "mm"))
-    if axis_result is not None:
-        blocking.extend(f"axis: {w}" for w in axis_result.blocking)
-        warnings.extend(f"axis: {w}" for w in axis_result.warnings)
+    if max(q["uncertainty"].values()) > MAX_UNCERTAINTY_MM:
+        warnings.append(uncertainty_warning(q["uncertainty"], q["components"], "mm"))
+    return warnings, blocking
 
-    settings = {
-        "restarts": restarts,
-        "seed": seed,
-        "joint": joint,
-        "cutoff_hz": cutoff,
-        "filter": (f"Butterworth order {JOINT_FILTER_ORDER} low-pass, zero phase"
-                   if cutoff else None),
-        "sensitivity": "refits with the cut-off x 0.75 and x 1.5",
-        "gdot": "central difference of the filtered gyroscope signal",
-        "subsample": step,
-        "select": select,
-        "max_samples": max_samples if select else None,
-        "subset_fraction": subset,
-        "max_iterations": max_iterations,
-        "axis_sign_convention": sign if joint == "hinge" else None,
-        "j2_sign": j2_sign if joint == "hinge" else None,
-        "time_offset": offset,
-        "step_tolerance_m": STEP_TOLERANCE,
-        "cost_tolerance": COST_TOLERANCE,
-        "agreement_mm": AGREEMENT_M * 1000,
-        "initial_values": f"o1, o2 uniform in [-{INIT_BOX_M}, {INIT_BOX_M}]^3 m",
-    }
+
+def _blocking(p: Prepared, x: np.ndarray, q: dict, weak: int) -> list[str]:
+    """The first reason, if any, why the data cannot identify the joint position (the
+    equal minima come after the warnings about weak directions, :func:`_diagnose`)."""
+    g1, _, a1, g2, _, a2 = p.data
+    # both scales enter eq. (3): wrong units give a confident-looking wrong point
+    blocking = stillness_warning(g1, g2) or unit_doubts((g1, g2), (a1, a2))
+    if blocking:
+        return blocking
+    if weak >= 3:
+        return [f"the joint barely moved ({weak} of {q['singular_values'].size} directions of "
+                "the joint position are undetermined): the joint position is not "
+                "identifiable from this recording; record the joint moving in all directions"]
+    far = max(np.linalg.norm(x[:3]), np.linalg.norm(x[3:]))
+    if far > MAX_PLAUSIBLE_OFFSET_M:
+        return [f"the estimate puts the joint {far:.2f} m from a sensor, implausible on a "
+                "limb: the data do not determine the joint position"]
+    return []
+
+
+def _result(p: Prepared, s: PositionSettings, fit: Multistart, q: dict, axis_result, line,
+            warnings: list[str], blocking: list[str]) -> PositionResult:
+    x = fit.estimate
+    count, apart, ratio = q["minima"]
     return PositionResult(
         o1=x[:3].copy(),
         o2=x[3:].copy(),
-        joint=joint,
-        rms_residual=rms,
-        relative_residual=relative,
-        singular_ratio=singular_ratio,
-        singular_values=sv,
-        uncertainty_mm=uncertainty,
-        uncertainty_components=components,
-        excitation=excitation,
-        sensitivity=sensitivity,
-        convergence_fraction=fraction,
-        competing_agreement=agreement,
-        equal_minima=equal,
-        reached=reached,
-        spread_mm=spread,
-        batch=batch,
-        refined=refined,
-        settings=settings,
-        samples_used=n,
-        window=(win.start / rate, win.stop / rate),
-        time_ranges=win.start / rate + sel.ranges,
-        sample_index=win.start + sel.index * step,
-        time_offset={"mode": "given", "time_offset_s": offset},
-        axis=axis_result if joint == "hinge" else None,
+        joint=s.joint,
+        rms_residual=q["rms"],
+        relative_residual=q["relative"],
+        singular_ratio=q["singular_ratio"],
+        singular_values=q["singular_values"],
+        uncertainty_mm=q["uncertainty"],
+        uncertainty_components=q["components"],
+        excitation=q["excitation"],
+        sensitivity=q["sensitivity"],
+        convergence_fraction=q["fraction"],
+        competing_agreement=q["agreement"],
+        equal_minima={"count": count, "max_distance_mm": apart, "max_rms_ratio": ratio},
+        reached=fit.reached,
+        spread_mm=q["spread"],
+        batch=fit.batch,
+        refined=fit.refined,
+        settings=_settings_record(p, s),
+        samples_used=p.samples,
+        window=p.span_s,
+        time_ranges=p.time_ranges,
+        sample_index=p.sample_index,
+        time_offset={"mode": "given", "time_offset_s": s.time_offset},
+        axis=axis_result,
         line=line,
         warnings=warnings,
         blocking=blocking,
     )
+
+
+def _settings_record(p: Prepared, s: PositionSettings) -> dict:
+    """Every setting used, for the result (``settings``)."""
+    hinge = s.joint == "hinge"
+    return {
+        "restarts": s.restarts,
+        "seed": s.seed,
+        "joint": s.joint,
+        "cutoff_hz": p.cutoff,
+        "filter": (f"Butterworth order {JOINT_FILTER_ORDER} low-pass, zero phase"
+                   if p.cutoff else None),
+        "sensitivity": "refits with the cut-off x 0.75 and x 1.5",
+        "gdot": "central difference of the filtered gyroscope signal",
+        "subsample": p.step,
+        "select": s.select,
+        "max_samples": s.max_samples if s.select else None,
+        "subset_fraction": s.subset,
+        "max_iterations": s.max_iterations,
+        "axis_sign_convention": s.sign if hinge else None,
+        "j2_sign": s.j2_sign if hinge else None,
+        "time_offset": s.time_offset,
+        "step_tolerance_m": STEP_TOLERANCE,
+        "restart_step_tolerance_m": RESTART_STEP_TOLERANCE,
+        "coarse_samples": COARSE_SAMPLES,
+        "coarse_iterations": COARSE_ITERATIONS,
+        "cost_tolerance": COST_TOLERANCE,
+        "agreement_mm": AGREEMENT_M * 1000,
+        "initial_values": f"o1, o2 uniform in [-{INIT_BOX_M}, {INIT_BOX_M}]^3 m",
+    }
 
 
 def _across(line: np.ndarray) -> np.ndarray:
@@ -467,23 +505,21 @@ def _across(line: np.ndarray) -> np.ndarray:
     return np.linalg.svd(np.eye(6) - np.outer(along, along))[0][:, :5]
 
 
-def _cutoff_sensitivity(signals, rate, cutoff, win, step, index, x, line, max_iterations):
-    """Refit from the estimate ``x`` with the cut-off times 0.75 and 1.5; shifts in mm."""
+def _cutoff_sensitivity(p: Prepared, x: np.ndarray, line) -> dict:
+    """Refit from the estimate ``x`` with the cut-off times 0.75 and 1.5 (no filter: the
+    default cut-off and 1.5 times it); shifts in mm."""
     # With the flat joint filter, half the cut-off (6 Hz) would cut the stride's own
     # harmonics: the refits move it by a quarter down and a half up instead.
-    base = cutoff or default_joint_cutoff(rate)
-    top = MAX_CUTOFF_FRACTION * rate
-    pair = (0.75 * base, min(1.5 * base, top)) if cutoff else (base, min(1.5 * base, top))
-    shifts = {"o1": [], "o2": []}
-    for c in pair:
-        parts = []
-        for g, a in (signals[:2], signals[2:]):
-            parts += [arr[win][::step][index] for arr in _filtered(g, a, rate, c)]
-        y = _solve(_SpheroidalProblem(*parts, None), x[None, :], max_iterations).x[0]
-        if line is not None:
-            y = closest_point_on_axis(y, line)
-        shifts["o1"].append(float(1000 * np.linalg.norm(y[:3] - x[:3])))
-        shifts["o2"].append(float(1000 * np.linalg.norm(y[3:] - x[3:])))
+    rate = p.rate
+    pair = sensitivity_cutoffs(p.cutoff, default_joint_cutoff(rate), MAX_CUTOFF_FRACTION * rate,
+                               factors=SENSITIVITY_FACTORS)
+    data = [tuple(arr[p.window][::p.step][p.selection.index] for sensor in (p.first, p.second)
+                  for arr in _filtered(*sensor, rate, c)) for c in pair]
+    y = SPHEROIDAL.refit_each(data, x, SENSITIVITY_ITERATIONS)
+    if line is not None:
+        y = closest_point_on_axis(y, line)
+    shifts = {k: [float(d) for d in 1000 * np.linalg.norm(y[:, sl] - x[sl], axis=1)]
+              for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
     return {"cutoffs_hz": list(pair), "o1_shift_mm": shifts["o1"],
             "o2_shift_mm": shifts["o2"], "max_shift_mm": max(shifts["o1"] + shifts["o2"])}
 
@@ -501,21 +537,36 @@ def closest_point_on_axis(x: np.ndarray, line: np.ndarray) -> np.ndarray:
 
 
 class _SpheroidalProblem:
-    """Residual (3) and the Gauss-Newton normal equations of eq. (4) for many restarts.
+    """Residual (3) and the normal equations of eq. (4) for many restarts at once.
 
     ``Gamma_g(o) = (g g^T - |g|^2 I + [gdot]x) o`` is linear in ``o``: each sample's 3x3
     matrix is built once, and every restart's ``a - Gamma(o)`` is one matrix product
     (restarts x 3 samples). Data subsets are 0/1 weights, so no per-restart copies.
     """
 
-    def __init__(self, g1, gdot1, a1, g2, gdot2, a2, mask):
-        """``mask`` (R, N): 1 where restart r uses sample n; None: all samples for all."""
-        self.mask = mask
-        self.count = float(g1.shape[0]) if mask is None else mask.sum(axis=1)
+    def __init__(self, g1, gdot1, a1, g2, gdot2, a2, mask, dtype=np.float64,
+                 newton: bool = False):
+        """``mask`` (R, N): 1 where restart r uses sample n; None: all samples for all.
+        ``dtype``: precision of the element-wise work; ``newton``: :meth:`normal` returns
+        the exact Hessian where it is safely positive definite."""
+        self.dtype = dtype
+        self.newton = newton
+        self.mask = None if mask is None else mask.astype(dtype)
+        self.count = float(g1.shape[0]) if mask is None else mask.sum(axis=1,
+                                                                       dtype=np.float64)
         # Component-major layouts (3, N), so every sum over x, y, z adds three
         # contiguous rows instead of reducing a short inner axis.
-        self.sensors = [(self._gamma(g, gdot), np.ascontiguousarray(a.T))
-                        for g, gdot, a in ((g1, gdot1, a1), (g2, gdot2, a2))]
+        self.sensors = []
+        for g, gdot, a in ((g1, gdot1, a1), (g2, gdot2, a2)):
+            gam = self._gamma(g, gdot)
+            flat = np.ascontiguousarray(gam.transpose(1, 0, 2).reshape(3, -1))
+            self.sensors.append((gam.astype(dtype), np.ascontiguousarray(a.T, dtype=dtype),
+                                 flat.astype(dtype)))
+        if newton:  # (N, 6) upper triangles of Gamma^T Gamma per sample
+            up = np.triu_indices(3)
+            self.gtg = [np.ascontiguousarray(np.einsum("kin,kjn->nij", gam, gam)[:, up[0],
+                                                                                up[1]])
+                        .astype(dtype) for gam, _, _ in self.sensors]
         self._work = None
 
     @staticmethod
@@ -534,31 +585,31 @@ class _SpheroidalProblem:
         return m
 
     def _r(self, k, o):
-        """a - Gamma(o) for sensor k and offsets o (r, 3): (r, 3, N), and G."""
-        gam, at = self.sensors[k]
+        """a - Gamma(o) for sensor k and offsets o (r, 3): (r, 3, N)."""
+        _, at, flat = self.sensors[k]
         n = at.shape[1]
         # (r, 3) @ (3, 3N): row r holds (Gamma_n o_r)_k for every component k, sample n
-        flat = o @ gam.transpose(1, 0, 2).reshape(3, 3 * n)
-        return at - flat.reshape(o.shape[0], 3, n), gam
+        return at - (o.astype(self.dtype, copy=False) @ flat).reshape(o.shape[0], 3, n)
 
     @staticmethod
     def _norm(r):
         return np.sqrt(r[:, 0] ** 2 + r[:, 1] ** 2 + r[:, 2] ** 2)
 
     def _weights(self, rows):
-        return None if self.mask is None else self.mask[rows]
+        if self.mask is None:
+            return None
+        return self.mask if rows.size == self.mask.shape[0] else self.mask[rows]
 
     def _count(self, rows):
         return self.count if self.mask is None else self.count[rows]
 
     def joint_acceleration_norm(self, k: int, o: np.ndarray) -> np.ndarray:
         """|a_k - Gamma(o)| per sample for one offset ``o`` (3,), m/s^2."""
-        r, _ = self._r(k, o[None, :])
-        return self._norm(r)[0]
+        return self._norm(self._r(k, o[None, :]))[0]
 
     def residual(self, x):
         """e (r, N) for states ``x`` (r, 6)."""
-        return self._norm(self._r(0, x[:, :3])[0]) - self._norm(self._r(1, x[:, 3:])[0])
+        return self._norm(self._r(0, x[:, :3])) - self._norm(self._r(1, x[:, 3:]))
 
     def cost(self, x, rows):
         e = self.residual(x)
@@ -566,26 +617,25 @@ class _SpheroidalProblem:
         w = self._weights(rows)
         if w is not None:
             e *= w
-        return e.sum(axis=1) / self._count(rows)
+        return e.sum(axis=1, dtype=np.float64) / self._count(rows)
 
     def _buffers(self, r: int):
         """Work arrays for ``r`` restarts, reused across iterations: fresh large
         temporaries cost more (page faults) than the arithmetic on them."""
         n = self.sensors[0][1].shape[1]
         if self._work is None or self._work[0].shape[0] < r:
-            self._work = (np.empty((r, 6, n)), np.empty((r, 6, n)), np.empty((r, 3, n)),
-                          np.empty((r, 3, n)), np.empty((3, r, n)))
+            self._work = (np.empty((r, 6, n), self.dtype), np.empty((r, 6, n), self.dtype),
+                          np.empty((r, 3, n), self.dtype), np.empty((r, 3, n), self.dtype),
+                          np.empty((2, r, n), self.dtype))
         return [w[:r] for w in self._work[:4]] + [self._work[4][:, :r]]
 
     def _linearise(self, x):
-        """e (r, N) and Jacobian (r, 6, N) of eq. (4); the Jacobian is a reused buffer."""
+        """e (r, N), Jacobian (r, 6, N) of eq. (4) (a reused buffer) and |r_k| (2, r, N)."""
         r = x.shape[0]
-        jac, wj, res, tmp, norms = self._buffers(r)
-        n = res.shape[2]
-        for k, sign in ((0, -1.0), (1, 1.0)):
-            gam, at = self.sensors[k]
-            flat = x[:, 3 * k:3 * k + 3] @ gam.transpose(1, 0, 2).reshape(3, 3 * n)
-            np.subtract(at, flat.reshape(r, 3, n), out=res)
+        jac, _, res, tmp, norms = self._buffers(r)
+        for k in (0, 1):
+            gam = self.sensors[k][0]
+            np.copyto(res, self._r(k, x[:, 3 * k:3 * k + 3]))
             nr = norms[k]
             np.multiply(res[:, 0], res[:, 0], out=nr)
             nr += res[:, 1] ** 2
@@ -598,37 +648,44 @@ class _SpheroidalProblem:
             for c in (1, 2):
                 np.multiply(res[:, c, None, :], gam[c][None], out=tmp)
                 out += tmp
-            if sign < 0:
+            if k == 0:
                 np.negative(out, out=out)
-        return norms[0] - norms[1], jac
+        return norms[0] - norms[1], jac, norms
 
     def linearise(self, x):
         """e (r, N) and Jacobian (r, N, 6) of eq. (4)."""
-        e, jac = self._linearise(x)
+        e, jac, _ = self._linearise(x)
         return e, np.swapaxes(jac, 1, 2).copy()
 
     def normal(self, x, rows):
-        e, jac = self._linearise(x)  # jac (r, 6, N)
+        """Cost (r,), J^T J (r, 6, 6) and J^T e (r, 6); with ``newton`` the first matrix
+        is the exact Hessian J^T J + sum e H_e where it is safely positive definite.
+
+        The Hessian of |r| = |a - Gamma o| is Gamma^T (I - u u^T) Gamma / |r| with
+        u = r / |r|; Gamma^T u is the Jacobian block, so the term is a fixed per-sample
+        table Gamma^T Gamma weighted by e / |r|, minus the Jacobian's weighted outer
+        products. Gauss-Newton alone converges linearly where the residuals stay large.
+        """
+        e, jac, norms = self._linearise(x)  # jac (r, 6, N)
         w = self._weights(rows)
         wj = jac
         if w is not None:
             wj = self._buffers(x.shape[0])[1]
             np.multiply(jac, w[:, None, :], out=wj)
-        cost = np.sum((e * e) * (1.0 if w is None else w), axis=1) / self._count(rows)
-        return cost, wj @ np.swapaxes(jac, 1, 2), (wj @ e[..., None])[..., 0]
-
-
-def _solve(problem: _SpheroidalProblem, x0: np.ndarray, max_iterations: int) -> BatchResult:
-    return gauss_newton(
-        problem.normal,
-        problem.cost,
-        lambda x, step: x + step,
-        x0,
-        max_iterations=max_iterations,
-        step_tolerance=STEP_TOLERANCE,
-        cost_tolerance=COST_TOLERANCE,
-        max_step=MAX_STEP,
-    )
+        we = e if w is None else e * w
+        cost = np.einsum("ij,ij->i", we, e, dtype=np.float64) / self._count(rows)
+        jtj = (wj @ np.swapaxes(jac, 1, 2)).astype(np.float64)
+        jte = (wj @ e[..., None])[..., 0].astype(np.float64)
+        if not self.newton:
+            return cost, jtj, jte
+        hess = jtj.copy()
+        for k, sign in ((0, 1.0), (1, -1.0)):  # e = |r1| - |r2|
+            c = we / np.maximum(norms[k], 1e-12)
+            blk = slice(3 * k, 3 * k + 3)
+            part = (c @ self.gtg[k]).astype(np.float64)[:, SYMMETRIC]
+            part -= ((jac[:, blk] * c[:, None, :]) @ np.swapaxes(jac[:, blk], 1, 2))
+            hess[:, blk, blk] += sign * part
+        return cost, safe_newton(jtj, hess), jte
 
 
 def _offset_profile(signals, rate):
@@ -666,20 +723,16 @@ def _filtered(g, a, rate, cutoff):
     return gf, derivative(gf, rate), lowpass(a, rate, cutoff, JOINT_FILTER_ORDER)
 
 
-def _block_jackknife(sensors, x, line, max_iterations) -> dict:
+def _block_jackknife(data, x, line, max_iterations) -> dict:
     """{"o1", "o2"}: delete-one-block jackknife 1-sigma, mm; every refit starts at the
     estimate ``x`` and leaves out one contiguous time block of the samples used."""
-    masks = block_masks(sensors[0][0].shape[0])
-    problem = _SpheroidalProblem(*sensors[0], *sensors[1], masks)
-    y = _solve(problem, np.repeat(x[None, :], masks.shape[0], axis=0), max_iterations).x
+    masks = block_masks(data[0].shape[0])
+    y = SPHEROIDAL.refit(data, masks,
+                         np.repeat(x[None, :], masks.shape[0], axis=0), max_iterations)
     if line is not None:
         y = closest_point_on_axis(y, line)
     return {k: jackknife_sigma(1000 * np.linalg.norm(y[:, sl] - x[sl], axis=1))
             for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return np.asarray(v, dtype=np.float64) / np.linalg.norm(v)
 
 
 def _position_distance(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -688,3 +741,18 @@ def _position_distance(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         np.linalg.norm(x[..., :3] - y[..., :3], axis=-1),
         np.linalg.norm(x[..., 3:] - y[..., 3:], axis=-1),
     )
+
+
+def _spheroidal_problem(data, mask, dtype, newton) -> _SpheroidalProblem:
+    return _SpheroidalProblem(*data, mask, dtype, newton)
+
+
+#: Eq. (3) in the staged multistart (:mod:`imucal.multistart`).
+SPHEROIDAL = Stages(
+    problem=_spheroidal_problem, retract=lambda x, step: x + step,
+    distance=_position_distance, agreement=AGREEMENT_M, step_tolerance=STEP_TOLERANCE,
+    restart_step_tolerance=RESTART_STEP_TOLERANCE,
+    coarse_step_tolerance=COARSE_STEP_TOLERANCE, coarse_samples=COARSE_SAMPLES,
+    coarse_iterations=COARSE_ITERATIONS, cost_tolerance=COST_TOLERANCE, max_step=MAX_STEP,
+    contraction=True,
+)

@@ -1,4 +1,5 @@
-"""Signal preparation shared by both estimators: low-pass, derivative, window, subsample.
+"""Signal preparation shared by both estimators: low-pass, derivative, window, subsample,
+and the ``prepare`` stage that applies them (:func:`prepare`).
 
 The defaults follow Sec. III-B and IV of Seel, Schauer, Raisch (2012): a non-causal
 (zero-phase) low-pass filter, a difference quotient for the angular acceleration
@@ -8,6 +9,8 @@ motion carry almost the same information. docs/method.md explains the choices.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -15,6 +18,9 @@ from scipy import signal
 
 from .errors import InputError
 from .recording import ACC_LOOKS_LIKE_G, MAX_LIMB_RATE, MAX_RATE_HZ, MIN_RATE_HZ
+from .selection import Selection
+from .selection import select as select_samples
+from .time_offset import shifted
 
 #: Default low-pass cut-off in Hz. Voluntary leg motion (circling, gait) has almost all
 #: its energy below 6 Hz; 10 Hz keeps it and removes sensor noise and soft-tissue ringing.
@@ -234,3 +240,89 @@ def unit_doubts(gyr: tuple, acc: tuple = ()) -> list[str]:
                           "m/s^2, about 1 g in g units: the accelerometer data look like g "
                           "read as m/s^2")
     return doubts
+
+
+@dataclass
+class Prepared:
+    """The ``prepare`` stage's output: the samples a fit uses and where they came from.
+
+    Attributes
+    ----------
+    first, second : each sensor's full-length signals as given (the second's read at
+        t + the time offset), e.g. (gyr, acc), for what needs more than the fit's samples
+        (sign tests, cut-off refits).
+    data : the per-sample arrays entering the fit, the first sensor's then the second's,
+        (M, 3) each: filtered, windowed, subsampled and selected.
+    rate : sample rate of the recording, Hz.
+    cutoff : low-pass cut-off used, Hz (0: none).
+    step : subsampling step k.
+    window : the recording's window as a slice of samples.
+    selection : the informative samples chosen, indices into the subsampled window.
+    """
+
+    first: tuple
+    second: tuple
+    data: tuple
+    rate: float
+    cutoff: float
+    step: int
+    window: slice
+    selection: Selection
+
+    @property
+    def samples(self) -> int:
+        """M, the number of samples entering the fit."""
+        return self.data[0].shape[0]
+
+    @property
+    def sample_index(self) -> np.ndarray:
+        """(M,) index of each sample used in the recording passed in."""
+        return self.window.start + self.selection.index * self.step
+
+    @property
+    def span_s(self) -> tuple[float, float]:
+        """(start, end) of the window, s from the first sample."""
+        return self.window.start / self.rate, self.window.stop / self.rate
+
+    @property
+    def time_ranges(self) -> np.ndarray:
+        """(K, 2) stretches the selection used, s from the first sample."""
+        return self.window.start / self.rate + self.selection.ranges * 1.0
+
+
+def prepare(first: tuple, second: tuple, rate: float, settings, *,
+            cutoff: float | Callable[[np.ndarray, np.ndarray], float],
+            fit_signals: Callable[[tuple, float], tuple], min_samples: int,
+            what: str) -> Prepared:
+    """The ``prepare`` stage of every estimator: the second sensor's clock offset
+    applied, the window cut, the signals filtered by ``fit_signals(sensor, cutoff)`` (on
+    the whole recording first, so the window has no filter transients), subsampled and
+    the informative samples selected (:mod:`imucal.selection`, on the gyroscopes: the
+    first array ``fit_signals`` returns).
+
+    ``first``, ``second``: each sensor's full-length (N, 3) signals; ``settings``: an
+    :class:`imucal.settings.AxisSettings` with a number for ``time_offset``; ``cutoff``:
+    the cut-off to use, Hz, or a rule giving it from both gyroscopes' windows (after the
+    offset). Raises InputError when fewer than ``min_samples`` samples are
+    left (``what`` names the estimate in the message).
+    """
+    if settings.time_offset:  # the second sensor read at t + offset, over the whole recording
+        second = tuple(None if x is None else shifted(x, rate, settings.time_offset)
+                       for x in second)
+    win = window_slice(first[0].shape[0], rate, settings.start, settings.end)
+    if callable(cutoff):
+        cutoff = cutoff(first[0][win], second[0][win])
+    step = resolve_subsample(rate, cutoff, settings.subsample)
+    parts = [tuple(x[win][::step] for x in fit_signals(sensor, cutoff))
+             for sensor in (first, second)]
+    sel = select_samples(parts[0][0], parts[1][0], rate / step,
+                         max_samples=settings.max_samples, min_samples=min_samples,
+                         enabled=settings.select)
+    data = tuple(x[sel.index] for x in (*parts[0], *parts[1]))
+    n = data[0].shape[0]
+    if n < min_samples:
+        raise InputError(
+            f"only {n} samples left after window and subsampling; the {what} needs at least "
+            f"{min_samples} (about {min_samples * step / rate:.1f} s of motion)"
+        )
+    return Prepared(first, second, data, rate, cutoff, step, win, sel)

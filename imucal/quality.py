@@ -51,11 +51,14 @@ class Verdict:
         return not (self.warnings or self.blocking)
 
 
-def sensitivity_cutoffs(cutoff: float, default: float, top: float) -> tuple[float, float]:
-    """The two cut-offs, Hz, of the sensitivity refits: ``cutoff`` halved and doubled, or
-    without a filter (``cutoff`` 0) the ``default`` and twice it; never above ``top``."""
+def sensitivity_cutoffs(cutoff: float, default: float, top: float,
+                        factors: tuple[float, float] = (0.5, 2.0)) -> tuple[float, float]:
+    """The two cut-offs, Hz, of the cut-off sensitivity refits of every estimator:
+    ``cutoff`` times ``factors`` (down, up), or without a filter (``cutoff`` 0) the
+    ``default`` and ``default`` times the upper factor; never above ``top``."""
+    down, up = factors
     base = cutoff if cutoff else default
-    return (base / 2, min(2 * base, top)) if cutoff else (base, min(2 * base, top))
+    return (down * base, min(up * base, top)) if cutoff else (base, min(up * base, top))
 
 
 def newey_west_lags(m: int) -> int:
@@ -175,3 +178,22 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
             f"because {why} (curvature {parts['curvature']:.1f}, time blocks "
             f"{parts['time_blocks']:.1f}, cut-off shift {parts['cutoff_shift']:.1f}"
             + (f", model {parts['model']:.1f}" if "model" in parts else "") + f" {unit})")
+
+
+def cutoff_shifts(sensitivity: dict, names: tuple[str, str], unit: str) -> dict:
+    """{name: the larger of the two cut-off refits' shifts} (``unit`` "deg" or "mm")."""
+    return {k: max(sensitivity[f"{k}_shift_{unit}"]) for k in names}
+
+
+def uncertainty_totals(components: dict) -> dict:
+    """{name: :func:`total_sigma`} of each vector from its uncertainty ``components``
+    ("curvature", "time_blocks", "cutoff_shift" and, where there is one, "model")."""
+    model = components.get("model", {})
+    return {k: total_sigma(components["curvature"][k], components["time_blocks"][k],
+                           components["cutoff_shift"][k], model.get(k, 0.0))
+            for k in components["curvature"]}
+
+
+def rms(values: np.ndarray) -> float:
+    """RMS of ``values``; NaN when there are none (e.g. no restart settled)."""
+    return float(np.sqrt(np.mean(values**2))) if values.size else float("nan")

@@ -32,13 +32,13 @@ MAX_LIMB_RATE = 35.0
 #: in g: the data are most likely in g, not m/s^2.
 ACC_LOOKS_LIKE_G = (0.5, 2.0)
 
+#: Plausible sample rates of body-worn IMUs, Hz.
+MIN_RATE_HZ = 1.0
+MAX_RATE_HZ = 10_000.0
 #: Largest relative deviation of one sampling interval from the median interval that is
 #: still treated as regular sampling (timestamps of wireless sensors jitter a little).
 #: Beyond it loading stops: imucal never resamples, because a resampled gap would be
 #: invented data that the estimate then fits.
-#: Plausible sample rates of body-worn IMUs, Hz.
-MIN_RATE_HZ = 1.0
-MAX_RATE_HZ = 10_000.0
 TIME_JITTER_TOLERANCE = 0.1
 
 #: Longest run of non-finite samples (NaN or Inf: a dropped packet) inside a recording that

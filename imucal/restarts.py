@@ -25,14 +25,6 @@ def resolve_seed(seed: int | None) -> int:
     return seed
 
 
-def check_restarts(restarts) -> int:
-    """A restart count of at least 1, else InputError."""
-    restarts = int(restarts)
-    if restarts < 1:
-        raise InputError(f"restarts must be at least 1, got {restarts}")
-    return restarts
-
-
 def subset_mask(
     n: int, restarts: int, fraction: float, rng: np.random.Generator
 ) -> np.ndarray | None:
@@ -139,3 +131,32 @@ def equal_minima(
         return 0, 0.0, 1.0
     far = distance(finals[equal], finals[best])
     return int(equal.sum()), float(far.max()), float((rms[equal] / rms[best]).max())
+
+
+#: Fewer of the competing restarts than this fraction reaching the estimate is not
+#: confident (both estimators).
+MIN_AGREEING_FRACTION = 0.8
+
+
+def disagreement_warning(agreement: float, why: str = "") -> list[str]:
+    """The "restarts disagree" warning when fewer than ``MIN_AGREEING_FRACTION`` of the
+    competing restarts (:func:`competing_agreement`) reached the estimate; ``why`` adds
+    the estimator's likely reason."""
+    if agreement >= MIN_AGREEING_FRACTION:
+        return []
+    return [f"restarts disagree: of the restarts that fit almost as well as the best, only "
+            f"{agreement:.0%} reached the estimate: the answer depends on the starting point"
+            + why]
+
+
+def equal_minima_blocking(minima: tuple[int, float, float], sigma: float, floor: float,
+                          unit: str, answers: str, answer: str) -> list[str]:
+    """The blocking reason for an equally good answer (:func:`equal_minima`) farther from
+    the estimate than both the reported 1-sigma ``sigma`` and ``floor`` (``unit``): the
+    sigma cannot cover it. ``answers`` / ``answer`` name them ("different axes", "axis")."""
+    count, far, ratio = minima
+    if not count or far <= max(sigma, floor):
+        return []
+    return [f"two {answers} fit equally well ({count} restarts ended {far:.0f} {unit} from "
+            f"the estimate at {ratio:.2f} x its RMS residual): the data do not single out "
+            f"one {answer}"]

@@ -45,16 +45,10 @@ class Selection:
     index : (M,) sorted sample indices into the signals passed to :func:`select`.
     ranges : (K, 2) start and end of each used stretch, s from the first sample passed
         (``start`` inclusive, ``end`` exclusive).
-    moving : number of samples above the motion threshold (before thinning).
-    step : thinning step k applied to the moving samples (1: none).
-    applied : False when selection was off or fell back to all samples.
     """
 
     index: np.ndarray
     ranges: np.ndarray
-    moving: int
-    step: int
-    applied: bool
 
 
 def select(
@@ -74,20 +68,17 @@ def select(
     n = gyr1.shape[0]
     everything = np.arange(n)
     if not enabled or n == 0:
-        return Selection(everything, _ranges(np.ones(n, bool), rate), n, 1, False)
+        return Selection(everything, _ranges(np.ones(n, bool), rate))
     energy = 0.5 * (np.sum(gyr1 * gyr1, axis=1) + np.sum(gyr2 * gyr2, axis=1))
     width = max(1, int(round(WINDOW_S * rate)))
     windowed = uniform_filter1d(energy, size=width, mode="nearest")
     moving = windowed >= np.radians(MIN_RATE_DEG_S) ** 2
-    n_moving = int(moving.sum())
-    if n_moving < max(min_samples, 1):
-        return Selection(everything, _ranges(np.ones(n, bool), rate), n_moving, 1, False)
+    if int(moving.sum()) < max(min_samples, 1):
+        return Selection(everything, _ranges(np.ones(n, bool), rate))
     index = np.flatnonzero(moving)
-    step = 1
     if max_samples is not None and index.size > max_samples:
-        step = int(np.ceil(index.size / max_samples))
-        index = index[::step]
-    return Selection(index, _ranges(moving, rate), n_moving, step, n_moving < n or step > 1)
+        index = index[::int(np.ceil(index.size / max_samples))]
+    return Selection(index, _ranges(moving, rate))
 
 
 def _ranges(mask: np.ndarray, rate: float) -> np.ndarray:

@@ -14,7 +14,7 @@ Example::
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
 from .errors import InputError
 from .selection import MAX_SAMPLES
@@ -30,6 +30,10 @@ MIN_MAX_SAMPLES = 100
 MAX_TIME_OFFSET_S = 10.0
 #: Default search range of the automatic time offset, +- s.
 OFFSET_SEARCH_S = 0.2
+#: Default iteration limit per restart and stage, both estimators.
+MAX_ITERATIONS = 50
+#: Default fraction of the samples each restart sees (the paper's "different subsets").
+SUBSET_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -70,10 +74,10 @@ class AxisSettings:
     seed: int | None = None
     cutoff: float | None = None
     subsample: int | None = None
-    subset: float = 0.5
+    subset: float = SUBSET_FRACTION
     start: float | None = None
     end: float | None = None
-    max_iterations: int = 50
+    max_iterations: int = MAX_ITERATIONS
     sign: str = "auto"
     j2_sign: str = "auto"
     select: bool = True
@@ -98,7 +102,8 @@ class AxisSettings:
             if getattr(self, name) is not None:
                 _check_number(self, name, low=0.0)
         if self.start is not None and self.end is not None and self.end <= self.start:
-            raise InputError(f"end ({self.end:g} s) must be after start ({self.start:g} s)")
+            raise InputError(f"window end {self.end:g} s must be after its start "
+                             f"{self.start:g} s")
         for name in ("sign", "j2_sign"):
             if getattr(self, name) not in SIGNS:
                 raise InputError(f"{name} must be one of {', '.join(SIGNS)}, got "
@@ -128,6 +133,27 @@ class PositionSettings(AxisSettings):
         super().__post_init__()
         if self.joint not in JOINTS:
             raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{self.joint}'")
+
+
+def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) -> AxisSettings:
+    """The settings an estimator runs with: ``settings`` itself, or ``cls(**kwargs)`` built
+    (and so checked) from the estimator's keyword arguments.
+
+    Raises
+    ------
+    InputError
+        ``settings`` is not a ``cls``, or it comes with keyword arguments that differ
+        from their defaults (which of the two would win is not obvious).
+    """
+    if settings is None:
+        return cls(**kwargs)
+    if not isinstance(settings, cls):
+        raise InputError(f"settings must be a {cls.__name__}, got {type(settings).__name__}")
+    defaults = {f.name: f.default for f in fields(cls)}
+    both = sorted(k for k, v in kwargs.items() if v is not defaults[k] and v != defaults[k])
+    if both:
+        raise InputError(f"give settings or keyword arguments, not both ({', '.join(both)})")
+    return settings
 
 
 def check_time_offset(value) -> float | str:

@@ -25,11 +25,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
-from .errors import InputError
 from .quality import block_masks, jackknife_sigma
 
-#: Default search range, s: wireless sensors' offsets are tens of milliseconds.
-SEARCH_S = 0.2
+# the search range and the offset check live with the settings; imported here for the
+# callers of their old home
+from .settings import OFFSET_SEARCH_S as SEARCH_S  # noqa: F401
+from .settings import check_time_offset  # noqa: F401
+
+#: The profile refits use about this many of the samples and this many plain
+#: Gauss-Newton steps from the first estimate (an offset of tens of milliseconds moves
+#: the estimate a little: the refits start next to their minimum); both estimators.
+OFFSET_SAMPLES = 1500
+OFFSET_STEPS = 2
 #: A shift also lowers the residual a little where the model is wrong rather than the
 #: clocks (soft tissue lags the bone; a knee is no perfect hinge): on the shared real
 #: recording the knees' best shifts are -31 ms (0-55 s) and -115 ms (55-100 s), which no
@@ -78,23 +85,6 @@ class Offset:
         size = abs(self.delta_s)
         return (not self.significant(rate) and not self.at_edge
                 and size >= SUSPICIOUS_S and size > 2 * self.sigma_s)
-
-
-def check_time_offset(value) -> float | str:
-    """``"auto"`` or a number of seconds (the second sensor's lateness), else InputError."""
-    if isinstance(value, str):
-        if value.strip().lower() == "auto":
-            return "auto"
-        try:
-            value = float(value)
-        except ValueError:
-            raise InputError(f"time offset must be auto or a number of seconds, got "
-                             f"'{value}'") from None
-    value = float(value)
-    if not np.isfinite(value) or abs(value) > 10.0:
-        raise InputError(f"time offset must be auto or a finite number of seconds within "
-                         f"+-10 s, got {value:g}")
-    return value
 
 
 def shifted(x: np.ndarray, rate: float, delta: float) -> np.ndarray:
@@ -160,15 +150,15 @@ def reader(x: np.ndarray, rate: float) -> Callable[[np.ndarray], np.ndarray]:
 def fit_with_offset(fit, profile, rate: float, search: float):
     """The "auto" clock offset around any estimator.
 
-    ``fit(time_offset=seconds)`` runs the estimator with the second sensor read at
+    ``fit(seconds)`` runs the estimator with the second sensor read at
     t + seconds; ``profile(first)`` returns the ``residuals(deltas)`` function of
     :func:`estimate_offset` around the first, synchronised fit. Fits again with the
     offset where it is significant (:meth:`Offset.significant`) and records it in the
     result's ``time_offset``, ``settings`` and ``warnings``.
     """
-    first = fit(time_offset=0.0)
+    first = fit(0.0)
     found = estimate_offset(profile(first), rate, search)
-    result = fit(time_offset=found.delta_s) if found.significant(rate) else first
+    result = fit(found.delta_s) if found.significant(rate) else first
     result.time_offset = offset_report(found, rate)
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(found, rate))

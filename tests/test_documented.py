@@ -6,12 +6,17 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import re
+from pathlib import Path
 
 import pytest
+from conftest import simulated
 
+from imucal import report
 from imucal.axis import AxisResult, estimate_axis
 from imucal.gauss_newton import BatchResult
 from imucal.position import PositionResult, estimate_position
+from imucal.result import EstimateResult
+from imucal.settings import AxisSettings, PositionSettings
 
 
 def _documented_names(doc: str) -> set[str]:
@@ -25,10 +30,10 @@ def _documented_names(doc: str) -> set[str]:
     return names
 
 
-@pytest.mark.parametrize("cls", [AxisResult, PositionResult, BatchResult])
-def test_every_result_attribute_is_documented(cls):
-    missing = {f.name for f in dataclasses.fields(cls)} - _documented_names(cls.__doc__)
-    assert not missing, f"{cls.__name__}: undocumented {sorted(missing)}"
+def test_every_solver_result_attribute_is_documented():
+    missing = {f.name for f in dataclasses.fields(BatchResult)} - _documented_names(
+        BatchResult.__doc__)
+    assert not missing, f"BatchResult: undocumented {sorted(missing)}"
 
 
 @pytest.mark.parametrize("func", [estimate_axis, estimate_position])
@@ -36,3 +41,67 @@ def test_every_parameter_is_documented(func):
     params = set(inspect.signature(func).parameters)
     missing = params - _documented_names(func.__doc__)
     assert not missing, f"{func.__name__}: undocumented {sorted(missing)}"
+
+
+def _class_docs(cls) -> set[str]:
+    """Names documented by ``cls`` or any result class it builds on."""
+    return set().union(*(_documented_names(c.__doc__ or "") for c in cls.__mro__))
+
+
+@pytest.mark.parametrize("cls", [AxisResult, PositionResult, EstimateResult])
+def test_every_field_is_documented_with_inherited_ones(cls):
+    missing = {f.name for f in dataclasses.fields(cls)} - _class_docs(cls)
+    assert not missing, f"{cls.__name__}: undocumented {sorted(missing)}"
+
+
+@pytest.mark.parametrize("cls", [AxisSettings, PositionSettings])
+def test_every_setting_is_documented_and_a_keyword_of_its_estimator(cls):
+    names = {f.name for f in dataclasses.fields(cls)}
+    assert not names - _class_docs(cls), f"{cls.__name__}: undocumented"
+    estimator = estimate_axis if cls is AxisSettings else estimate_position
+    assert names <= set(inspect.signature(estimator).parameters)
+    assert set(cls().as_kwargs()) == names  # the keys the runner passes on
+
+
+def _keys(doc: dict) -> set[str]:
+    """Every key of the JSON blocks below (nested), without the array entries."""
+    keys = set()
+    for key, value in doc.items():
+        keys.add(key)
+        if isinstance(value, dict):
+            keys |= _keys(value)
+    return keys
+
+
+@pytest.fixture(scope="module")
+def reports():
+    rec, _ = simulated(1)
+    th, sh, ft = (rec.sensor(n) for n in ("thigh", "shank", "foot"))
+    axis = estimate_axis(th.gyr, sh.gyr, rate=rec.rate, restarts=4, seed=1)
+    spheroidal = estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=rec.rate,
+                                   restarts=4, seed=1)
+    hinge = estimate_position(th.gyr, th.acc, sh.gyr, sh.acc, rate=rec.rate, restarts=4,
+                              seed=1, joint="hinge", axis=axis)
+    info = {"path": "x.h5", "sensors": ["a", "b"]}
+    return [report.axis_report(axis, input_info=info),
+            report.position_report(spheroidal, input_info=info),
+            report.position_report(hinge, input_info=info)]
+
+
+@pytest.mark.parametrize("block", ["settings", "quality", "convergence", "time_offset"])
+def test_every_json_key_is_in_docs_json(reports, block):
+    text = (Path(__file__).resolve().parents[1] / "docs" / "json.md").read_text()
+    # names inside code spans: `quality.verdict`, `j1_uncertainty_deg`, `equal_minima.count`
+    documented = {word for span in re.findall(r"`([^`]+)`", text)
+                  for word in re.findall(r"[A-Za-z_][A-Za-z_0-9]*", span)}
+    keys = set().union(*(_keys(r[block]) for r in reports if isinstance(r.get(block), dict)))
+    keys |= {k for r in reports for k in r}  # top-level keys
+    missing = keys - documented
+    assert not missing, f"docs/json.md does not mention {sorted(missing)}"
+
+
+@pytest.mark.parametrize("func", [estimate_axis, estimate_position])
+def test_public_estimators_have_numpydoc_sections(func):
+    for section in ("Parameters", "Returns", "Raises", "References", "Examples"):
+        assert re.search(rf"^\s*{section}\n\s*-+\n", func.__doc__, re.M), \
+            f"{func.__name__}: no {section} section"

@@ -117,3 +117,36 @@ def test_spread_leaves_out_subset_fits_stuck_in_a_local_minimum():
     costs = np.array([1.0, 1.1, 0.9, 300.0, 1.0, np.nan])
     reached = np.array([True, True, True, True, False, True])
     assert settled(costs, reached).tolist() == [True, True, True, False, False, False]
+
+
+def test_spheroidal_newton_matrix_is_the_exact_hessian():
+    """The position's Newton steps use the cost's exact Hessian: it matches central
+    differences of (1/2) sum e^2 where Gauss-Newton's J^T J is 20 % off (large residuals),
+    and J^T e matches the gradient."""
+    from imucal.position import _SpheroidalProblem
+
+    rng = np.random.default_rng(3)
+    n = 200
+    g1, g2 = 3 * rng.standard_normal((n, 3)), 3 * rng.standard_normal((n, 3))
+    gd1, gd2 = 10 * rng.standard_normal((n, 3)), 10 * rng.standard_normal((n, 3))
+    a1, a2 = 5 * rng.standard_normal((n, 3)), 5 * rng.standard_normal((n, 3))
+    newton = _SpheroidalProblem(g1, gd1, a1, g2, gd2, a2, None, np.float64, True)
+    plain = _SpheroidalProblem(g1, gd1, a1, g2, gd2, a2, None, np.float64, False)
+    x = np.array([0.1, -0.2, 0.05, 0.2, 0.1, -0.1])
+    rows = np.arange(1)
+
+    def half_sum(y):
+        return 0.5 * n * newton.cost(y[None, :], rows)[0]
+
+    h, eye = 1e-4, np.eye(6) * 1e-4
+    hess_fd = np.array([[(half_sum(x + eye[i] + eye[j]) - half_sum(x + eye[i] - eye[j])
+                          - half_sum(x - eye[i] + eye[j]) + half_sum(x - eye[i] - eye[j]))
+                         / (4 * h * h) for j in range(6)] for i in range(6)])
+    grad_fd = np.array([(half_sum(x + eye[i]) - half_sum(x - eye[i])) / (2 * h)
+                        for i in range(6)])
+    _, hess, jte = newton.normal(x[None, :], rows)
+    _, jtj, _ = plain.normal(x[None, :], rows)
+    scale = np.abs(hess_fd).max()
+    assert np.abs(hess[0] - hess_fd).max() < 1e-5 * scale
+    assert np.abs(jtj[0] - hess_fd).max() > 0.1 * scale  # the test can tell them apart
+    assert np.abs(jte[0] - grad_fd).max() < 1e-5 * np.abs(grad_fd).max()

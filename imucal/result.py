@@ -1,0 +1,95 @@
+"""What every estimate reports besides its own parameters: one result base.
+
+The axis (:class:`imucal.axis.AxisResult`) and the joint position
+(:class:`imucal.position.PositionResult`) add their parameters, uncertainties and
+spreads in their own units to these fields.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .gauss_newton import BatchResult
+from .quality import Verdict
+
+
+@dataclass(kw_only=True)
+class EstimateResult(Verdict):
+    """Fields every estimator's result has.
+
+    Attributes
+    ----------
+    rms_residual : RMS of the constraint's residual e(t) over all used samples at the
+        estimate, in the residual's units (rad/s for the axis, m/s^2 for the position).
+    relative_residual : ``rms_residual`` over the RMS of what the residual compares,
+        dimensionless (0 = the model fits exactly).
+    singular_ratio : smallest / largest singular value of the Jacobian at the estimate
+        (near 0: some direction of the parameters is not determined by the data).
+    singular_values : singular values of that Jacobian over sqrt(samples).
+    uncertainty_components : the parts of the 1-sigma uncertainty, each per vector in the
+        result's units: "curvature" (the cost's curvature, robust to correlated
+        residuals, :func:`imucal.quality.robust_covariance`), "time_blocks"
+        (delete-one-block jackknife over contiguous time blocks,
+        :func:`imucal.quality.block_masks`), "cutoff_shift" (the largest shift of the
+        cut-off refits), "model" (the axis' bias bound in proportion to the smooth part
+        of the residual, :func:`imucal.quality.smooth_residual_rms`; 0 for a position).
+    excitation : how much the joint moved over the samples used (per estimator).
+    sensitivity : cut-offs of the two refits from the estimate, "cutoffs_hz", and how far
+        each vector moved (":math:`v`\\_shift_deg" or "..._shift_mm", and the maximum).
+    convergence_fraction : fraction of restarts that reached the estimate: whose final
+        value, refined on all samples, lies within the agreement distance of it. The
+        estimate is the refined result with the lowest cost.
+    competing_agreement : the same fraction among restarts whose RMS residual is within
+        1.25 x the best (clearly worse local minima do not count).
+    equal_minima : restarts that ended elsewhere at an RMS residual within
+        :data:`imucal.restarts.EQUAL_RMS_FACTOR` of the best: "count", the largest
+        distance to the estimate ("max_distance_deg" or "max_distance_mm") and the largest
+        "max_rms_ratio" (a second answer outside the reported 1-sigma blocks the
+        estimate).
+    reached : (R,) which restarts reached the estimate.
+    batch : the restarts on their subsets (initial states ``batch.path[0]``, costs,
+        iterations), the coarse stage's steps first (:mod:`imucal.multistart`).
+    refined : each restart's result refined on all samples; the estimate is the one with
+        the lowest cost, polished in double precision.
+    settings : every setting used, including the seed.
+    samples_used : samples after window, subsampling and informative-sample selection.
+    window : (start, end) in seconds from the first sample.
+    time_ranges : (K, 2) stretches the selection used, s from the first sample.
+    sample_index : (M,) index of each sample used in the recording passed in.
+    warnings : plain-language reasons to use the estimate with care; empty when fine.
+    blocking : reasons the data cannot identify the estimate at all (``verdict`` "not
+        identifiable"; the command line exits 1).
+    time_offset : the second sensor's clock lateness: "time_offset_s" applied (s),
+        "mode" ("auto" or "given"), and with "auto" the estimate "estimated_s", its
+        "sigma_s", "applied", "cost_ratio" (cost at 0 over cost at the estimate),
+        "search_s" and "at_edge" (:class:`imucal.time_offset.Offset`).
+    """
+
+    rms_residual: float
+    relative_residual: float
+    singular_ratio: float
+    singular_values: np.ndarray
+    uncertainty_components: dict
+    excitation: dict
+    sensitivity: dict
+    convergence_fraction: float
+    competing_agreement: float
+    equal_minima: dict
+    reached: np.ndarray
+    batch: BatchResult
+    refined: BatchResult
+    settings: dict
+    samples_used: int
+    window: tuple[float, float]
+    time_ranges: np.ndarray
+    sample_index: np.ndarray
+    warnings: list[str] = field(default_factory=list)
+    blocking: list[str] = field(default_factory=list)
+    time_offset: dict = field(default_factory=dict)
+
+    @property
+    def iterations(self) -> np.ndarray:
+        """(R,) iterations of each restart on its subset (coarse stage included)."""
+        return self.batch.iterations
