@@ -5,7 +5,8 @@ machine, ``dask worker tcp://host:8786`` on each machine that computes); each wo
 runs :func:`imucal.study.work`, the function a local ``--jobs`` study runs, and the
 entries come back here, where they are written in input order exactly as a local study
 writes them. Workers read the recordings by the paths given, so every worker must see
-the files under the same paths (a shared file system) and have imucal installed.
+the files under the same paths (a shared file system), and the workers and the scheduler
+need imucal installed (Dask unpickles the tasks on the scheduler too).
 
 Dask is optional (``pip install 'imucal-joints[dask]'``); this module imports it only
 when a study asks for a cluster.
@@ -13,6 +14,7 @@ when a study asks for a cluster.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterator, Sequence
 
 from .errors import InputError
@@ -57,20 +59,25 @@ class Cluster:
 
         from .study import entry
 
+        # Relative paths mean the same as here: the workers resolve them against this
+        # process's working directory (which they must see under the same path).
+        cwd = os.getcwd()
         futures = self.client.map(_work, [(i, job, f) for i, f in enumerate(files)],
-                                  pure=False)
+                                  cwd=cwd, pure=False)
         index = {future.key: i for i, future in enumerate(futures)}
         ready: dict[int, object] = {}
         next_index = done = failed = 0
         try:
-            for future in as_completed(futures):
+            for future in as_completed(futures, loop=self.client.loop):
                 i = index[future.key]
                 try:
                     result = future.result()
                 except Exception as err:  # fails one recording, not the study
+                    # One line, as every error: Dask's messages run over several.
+                    first = (str(err).strip().splitlines() or [""])[0]
                     result = entry(i, files[i], INTERNAL_ERROR,
                                    f"{files[i]}: the Dask task failed: {type(err).__name__}: "
-                                   f"{err}", None, [])
+                                   f"{first}", None, [])
                 ready[i] = result
                 done += 1
                 failed += result.exit_code != 0
@@ -126,8 +133,9 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
     return Cluster(client)
 
 
-def _work(task):
-    """:func:`imucal.study.work` with one BLAS/OpenMP thread, as in a local study.
+def _work(task, cwd: str):
+    """:func:`imucal.study.work` in the study's working directory ``cwd``, with one
+    BLAS/OpenMP thread, as in a local study.
 
     A Dask worker loaded numpy long before this task, so the thread variables a local
     study sets before the workers start would come too late here; threadpoolctl limits
@@ -135,7 +143,18 @@ def _work(task):
     """
     from threadpoolctl import threadpool_limits
 
-    from .study import work
+    from .study import entry, work
 
-    with threadpool_limits(limits=1):
-        return work(task)
+    index, _, file = task
+    before = os.getcwd()
+    try:
+        os.chdir(cwd)
+    except OSError as err:
+        return entry(index, file, 2, f"{file}: the study's folder {cwd} is not there on this "
+                     f"Dask worker ({err.strerror}); the workers must see the files under "
+                     "the same paths", None, [])
+    try:
+        with threadpool_limits(limits=1):
+            return work(task)
+    finally:
+        os.chdir(before)
