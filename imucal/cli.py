@@ -1,7 +1,11 @@
-"""The ``imucal`` command line: wires loaders, estimators, reports and plots together.
+"""The ``imucal`` command line: parses options, runs, prints (docs/architecture.md).
 
-Data (JSON) goes to stdout or ``--out``; progress, summaries and errors go to stderr.
-Exit status: 0 success, 2 bad input or usage, 1 the data cannot answer.
+``axis`` and ``position`` turn their options into a settings object and a
+:class:`imucal.runner.Job` before any file is read (a bad value is a usage error), hand
+them to :func:`imucal.runner.run` for one recording or :func:`imucal.study.run_study` for
+several, and print the outcome. Data (JSON) goes to stdout or ``--out``; progress,
+summaries and errors go to stderr. Exit status: 0 success, 1 the data cannot answer,
+2 bad input or usage, 3 internal error (docs/errors.md).
 """
 
 from __future__ import annotations

@@ -15,6 +15,7 @@ when a study asks for a cluster.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable, Iterator, Sequence
 
 from .errors import InputError
@@ -105,8 +106,9 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
     Raises
     ------
     InputError
-        Dask is not installed (the message says how to install it), the scheduler does
-        not answer within ``timeout`` s, or it has no worker by then.
+        ``address`` is not HOST:PORT with an optional scheme, Dask is not installed
+        (the message says how to install it), the scheduler does not answer within
+        ``timeout`` s, or it has no worker by then.
 
     Examples
     --------
@@ -114,6 +116,9 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
     >>> cluster.workers                                               # doctest: +SKIP
     2
     """
+    if not re.fullmatch(r"(\w+://)?[^\s/]+:\d+", address):
+        raise InputError(f"--scheduler {address}: not a scheduler address; expected "
+                         "tcp://HOST:PORT (dask scheduler prints it)")
     try:
         import distributed
     except ImportError:

@@ -72,7 +72,23 @@ class Entry:
 
 
 def resolve_jobs(jobs: int, n_files: int) -> int:
-    """Worker processes to use: ``jobs`` (0: one per available core), at most one per file."""
+    """Worker processes to use: ``jobs`` (0: one per available core), at most one per file.
+
+    Returns
+    -------
+    int
+        At least 1, at most ``n_files``.
+
+    Raises
+    ------
+    InputError
+        ``jobs`` is negative.
+
+    Examples
+    --------
+    >>> resolve_jobs(4, 2)
+    2
+    """
     if jobs < 0:
         raise InputError(f"--jobs must be 0 (one per core) or a positive number, got {jobs}")
     if jobs == 0:

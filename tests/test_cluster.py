@@ -68,3 +68,12 @@ def test_scheduler_without_dask_names_the_extra(files):
     assert run.returncode == 2 and run.stdout == b""
     assert run.stderr.decode() == ("imucal: error: --scheduler needs Dask, which is not "
                                    "installed: pip install 'imucal-joints[dask]'\n")
+
+
+def test_a_bad_scheduler_address_is_refused_before_anything_runs(files):
+    folder, _ = files
+    run = imucal("axis", "a.h5", "b.h5", "--scheduler", "head-node", cwd=folder)
+    assert run.returncode == 2 and run.stdout == b""
+    assert run.stderr.decode() == ("imucal: error: --scheduler head-node: not a scheduler "
+                                   "address; expected tcp://HOST:PORT (dask scheduler prints "
+                                   "it)\n")
