@@ -178,7 +178,7 @@ def axis(
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force, trace=trace)
         raise typer.Exit(_estimate(job, rec, out=out, plot=plot, jobs=jobs,
-                                   scheduler=scheduler, quiet=quiet, debug=debug))
+                                   scheduler=scheduler, quiet=quiet))
 
 
 @app.command(
@@ -238,7 +238,7 @@ def position(
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force, trace=trace)
         raise typer.Exit(_estimate(job, rec, out=out, plot=plot, jobs=jobs,
-                                   scheduler=scheduler, quiet=quiet, debug=debug))
+                                   scheduler=scheduler, quiet=quiet))
 
 
 @app.command(
@@ -448,7 +448,7 @@ def _usage_error(ctx: typer.Context, text: str) -> typer.BadParameter:
     return typer.BadParameter(text, ctx=ctx)
 
 
-def _estimate(job, recs, *, out, plot, jobs, scheduler, quiet, debug) -> int:
+def _estimate(job, recs, *, out, plot, jobs, scheduler, quiet) -> int:
     """Run ``job`` on one recording (print its document) or a study; the exit status."""
     if len(recs) > 1:
         from .study import run_study
