@@ -289,6 +289,7 @@ def simulate(
     soft_tissue_mm: float = 0.0,
     clock_offset: Mapping[str, float] | None = None,
     gyr_bias: float | Mapping[str, float | tuple[float, float, float]] | None = None,
+    mounting_seed: int | None = None,
 ) -> tuple[Recording, dict]:
     """Simulate thigh, shank and foot IMUs on a leg with a knee hinge and a spheroidal ankle.
 
@@ -331,6 +332,13 @@ def simulate(
         that magnitude in a random direction (seeded), a 3-vector gives every sensor that
         vector; a mapping gives some sensors a magnitude (random direction) or a 3-vector,
         e.g. ``{"shank": (0.01, 0, -0.02)}``.
+    mounting_seed
+        Seed of the mounting alone (segment lengths, sensor positions and orientations):
+        recordings with different ``seed`` (motion, noise, ...) but one ``mounting_seed``
+        show the same sensors strapped on the same leg, e.g. a calibration trial and a
+        walking trial of one session; another ``mounting_seed`` is a re-strapped (or
+        another) leg. ``None`` (default): the mounting follows ``seed`` as before. The
+        mounting with ``mounting_seed=m`` equals the one of ``seed=m``.
 
     Returns
     -------
@@ -341,7 +349,7 @@ def simulate(
     rec, truth, _ = _simulate_with_internals(
         seed=seed, rate=rate, duration=duration, snr=snr, motion=motion, gyr_noise=gyr_noise,
         acc_noise=acc_noise, soft_tissue_deg=soft_tissue_deg, soft_tissue_mm=soft_tissue_mm,
-        clock_offset=clock_offset, gyr_bias=gyr_bias,
+        clock_offset=clock_offset, gyr_bias=gyr_bias, mounting_seed=mounting_seed,
     )
     return rec, truth
 
@@ -351,7 +359,8 @@ def simulate(
 
 def _simulate_with_internals(*, seed, rate, duration, snr="auto", motion="circling",
                              gyr_noise=None, acc_noise=None, soft_tissue_deg=0.0,
-                             soft_tissue_mm=0.0, clock_offset=None, gyr_bias=None):
+                             soft_tissue_mm=0.0, clock_offset=None, gyr_bias=None,
+                             mounting_seed=None):
     """:func:`simulate` plus internals for tests: clean signals, knee angle, sensor poses."""
     seed, rate, duration, snr, motion = _check_args(seed, rate, duration, snr, motion,
                                                     gyr_noise, acc_noise)
@@ -366,6 +375,10 @@ def _simulate_with_internals(*, seed, rate, duration, snr="auto", motion="circli
     # Streams 0-2 as before (placement, motion, noise), so existing seeds keep their data;
     # soft tissue and bias directions get streams of their own.
     geo_ss, motion_ss, noise_ss, tissue_ss, bias_ss = np.random.SeedSequence(seed).spawn(5)
+    if mounting_seed is not None:
+        mounting_seed = _check_seed(mounting_seed, "mounting_seed")
+        # the placement stream of seed=mounting_seed: "mounting m" is "the mounting of seed m"
+        geo_ss = np.random.SeedSequence(mounting_seed).spawn(5)[0]
     geo = _draw_geometry(np.random.default_rng(geo_ss))
     mot = _draw_motion(np.random.default_rng(motion_ss), motion)
     bias = _gyr_bias(gyr_bias, np.random.default_rng(bias_ss))
@@ -414,6 +427,8 @@ def _simulate_with_internals(*, seed, rate, duration, snr="auto", motion="circli
         "clock_offset": {k: clock[k] for k in SENSORS if clock.get(k, 0.0) != 0.0},
         "gyr_bias": _bias_setting(gyr_bias),
     }
+    if mounting_seed is not None:  # only when given, so earlier truth files keep their bytes
+        settings["mounting_seed"] = mounting_seed
     truth = _truth(geo, mot, settings)
     truth.update(_realism_truth(mot, t, clock, bias, noise_std, tissue, knee_angle,
                                 soft_tissue_deg, soft_tissue_mm))
@@ -440,9 +455,7 @@ def _check_args(seed, rate, duration, snr, motion, gyr_noise=None, acc_noise=Non
         raise InputError(f"simulate: unknown motion '{motion}'; use one of {', '.join(MOTIONS)}")
     if seed is None:
         seed = int(np.random.SeedSequence().entropy % (2**32))
-    elif isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"simulate: seed must be a non-negative integer, got {seed!r}")
-    seed = int(seed)
+    seed = _check_seed(seed, "seed")
     for label, value in (("rate", rate), ("duration", duration)):
         try:
             value = float(value)
@@ -469,6 +482,12 @@ def _check_args(seed, rate, duration, snr, motion, gyr_noise=None, acc_noise=Non
             raise InputError("simulate: give either snr or gyr_noise/acc_noise (physical "
                              f"units), not both (snr={snr:g})")
     return seed, rate, duration, snr, motion
+
+
+def _check_seed(seed, label: str) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"simulate: {label} must be a non-negative integer, got {seed!r}")
+    return int(seed)
 
 
 def _check_level(label: str, value, unit: str) -> float | None:

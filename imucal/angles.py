@@ -1,0 +1,717 @@
+"""Knee flexion over time from a calibration (Seel, Raisch, Schauer 2014, Sensors 14:6891).
+
+For a hinge with axis ``j1`` (first sensor's frame) and ``j2`` (second sensor's frame),
+both pointing the same physical way, and the joint centre ``o1``, ``o2`` on that axis:
+
+* **gyro angle**: ``theta_g(t) = integral of (j2.g2 - j1.g1) dt``, the rotation of the second
+  segment relative to the first about the axis (rad). Exact up to a constant, but a gyro
+  bias makes it drift linearly (0.02 rad/s is 69 deg per minute).
+* **acc angle**: the joint centre's acceleration seen from either sensor,
+  ``c_i = a_i - Gamma_gi(o_i)`` with ``Gamma_g(o) = g x (g x o) + gdot x o``, is one
+  physical vector; projected into each joint plane (orthogonal to ``j_i``), the angle
+  between the projections is the same rotation plus a constant set by the in-plane
+  reference directions (:func:`plane_basis`). It is noisy but does not drift.
+* **fusion** (offline, the whole recording): the offset ``d(t) = theta_a(t) - theta_g(t)``
+  is a constant plus the slow drift of the integrated bias plus noise. A local-linear
+  Gaussian-kernel regression of ``d`` (zero-phase, weighted by the in-plane acceleration
+  squared, exact for a drift that is linear within the kernel, also at the recording's
+  ends) gives ``d_hat``; the angle is ``theta_g + d_hat``. Everything is a few
+  convolutions (``scipy.ndimage.gaussian_filter1d``), no loop over samples.
+
+The flexion angle is ``sign * (theta - zero)`` in degrees: the sign makes flexion positive,
+the zero is an anatomical convention (docs/angles.md). The calibration and its file are in
+:mod:`imucal.calibration`; :func:`joint_angles` applies one to a recording.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+from scipy.ndimage import gaussian_filter1d
+
+from .errors import InputError
+from .preprocess import derivative, lowpass
+from .rest import STILL_MIN_S, STILL_RATE, gravity_check, gravity_warning, still_periods
+
+if TYPE_CHECKING:
+    from .calibration import Calibration
+
+#: Half-width (1-sigma of the Gaussian kernel) of the fusion, s. The kernel removes the
+#: acc angle's noise and its stride-locked errors (soft tissue, an imperfect o: a stride
+#: lasts about 1 s, and a 3 s kernel passes < 1e-15 of 1 Hz) while following any gyro
+#: bias that changes over tens of seconds; a bias that is constant is followed exactly.
+SMOOTHING_S = 3.0
+#: Ridge of the local-linear fit's slope, as a fraction of the kernel's sigma: a drift
+#: that is linear within the kernel is still followed to within 4 % of its slope.
+RIDGE = 0.2
+#: The offset is fitted where the kernel holds at least this share of the usable weight
+#: it typically holds; across longer stretches without usable acceleration (standing
+#: with the axis along gravity, free fall) it is interpolated between their ends.
+MIN_KERNEL_SHARE = 0.1
+#: Low-pass before the acc angle (4th-order zero-phase Butterworth, Hz): gdot is a
+#: derivative of the gyro and amplifies its noise; human motion lies below it.
+ACC_ANGLE_CUTOFF_HZ = 12.0
+#: The acc angle is not used where the in-plane part of c_i is below this in either
+#: sensor (m/s^2): its direction is then mostly noise (free fall, an axis along gravity).
+MIN_INPLANE_ACC = 2.0
+#: Sign decisions with |evidence| below this (see :func:`sign_evidence`) are weak.
+SIGN_EVIDENCE_MIN = 0.15
+#: Samples turning slower than this (rad/s, both sensors' mean in-plane rate) are left
+#: out of the hinge residual: at rest it would be noise over noise.
+MOVING_RATE = 0.5
+#: The "still fits" check: a recording's hinge residual and acc-gyro disagreement may
+#: exceed the calibration trial's by this factor plus the floors below before the
+#: calibration is said not to fit (docs/angles.md#does-the-calibration-still-fit).
+FIT_FACTOR = 2.0
+FIT_FLOOR_RESIDUAL = 0.1
+FIT_FLOOR_DEG = 2.0
+#: On the calibration trial, an RMS disagreement of the acc and gyro angles above this
+#: (deg) means the acc angle cannot be trusted to correct drift (simulated: 0.3-2 deg).
+ACC_AGREEMENT_DEG = 10.0
+#: Walking: at least this many flexion peaks of this prominence (deg), spaced by strides
+#: of 0.6-2 s that vary by at most GAIT_MAX_CV.
+GAIT_MIN_CYCLES = 4
+GAIT_PROMINENCE_DEG = 20.0
+GAIT_STRIDE_S = (0.6, 2.0)
+GAIT_MAX_CV = 0.25
+
+FLEXION_COLUMN = "{joint}_flexion_deg"
+SIGMA_COLUMN = "{joint}_flexion_sigma_deg"
+
+
+# ----------------------------------------------------------------------------- signals
+
+
+def plane_basis(j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """In-plane reference directions ``x``, ``y = j x x`` of the joint plane orthogonal to
+    the unit axis ``j`` (sensor frame): ``x`` is the sensor axis least aligned with ``j``,
+    made orthogonal to it. Fixed by ``j`` alone, so the acc angle's constant is fixed by
+    the calibration (the zero convention then replaces it)."""
+    j = np.asarray(j, dtype=float)
+    e = np.zeros(3)
+    e[int(np.argmin(np.abs(j)))] = 1.0
+    x = e - (e @ j) * j
+    x /= np.linalg.norm(x)
+    return x, np.cross(j, x)
+
+
+def joint_centre_acc(g: np.ndarray, a: np.ndarray, o: np.ndarray, rate: float) -> np.ndarray:
+    """``c = a - (g x (g x o) + gdot x o)`` (N, 3), m/s^2, sensor frame: the joint centre's
+    specific force, with ``o`` the vector from the joint centre to the sensor (m)."""
+    gdot = derivative(g, rate)
+    return a - (np.cross(g, np.cross(g, o)) + np.cross(gdot, o))
+
+
+@dataclass(frozen=True)
+class HingeSignals:
+    """Per-sample ingredients of the flexion angle of one hinge (all (N,) arrays).
+
+    rate : j2.g2 - j1.g1, rad/s. theta_gyro : its integral from 0, rad.
+    theta_acc : the acc angle, rad, wrapped to (-pi, pi]. inplane : the smaller of the two
+    in-plane magnitudes of c_i, m/s^2. weight : fusion weight (inplane^2, 0 where unusable).
+    discrepancy : |g1 x j1| - |g2 x j2|, rad/s: the rates across the axis that a rigid
+    hinge would make equal (soft tissue, a joint that is no hinge, a wrong axis).
+    """
+
+    rate: np.ndarray
+    theta_gyro: np.ndarray
+    theta_acc: np.ndarray
+    inplane: np.ndarray
+    weight: np.ndarray
+    discrepancy: np.ndarray
+
+
+def hinge_signals(g1, a1, g2, a2, *, rate: float, j1, j2, o1, o2) -> HingeSignals:
+    """The gyro and acc angles of a hinge (module docstring); inputs in rad/s, m/s^2, m."""
+    j1, j2 = (np.asarray(v, float) / np.linalg.norm(v) for v in (j1, j2))
+    w = j2 @ np.asarray(g2, float).T - j1 @ np.asarray(g1, float).T
+    dt = 1.0 / rate
+    theta_g = cumulative_trapezoid(w, dx=dt, initial=0.0)
+    cut = min(ACC_ANGLE_CUTOFF_HZ, 0.4 * rate)
+    angles, mags = [], []
+    for g, a, j, o in ((g1, a1, j1, o1), (g2, a2, j2, o2)):
+        gf, af = lowpass(np.asarray(g, float), rate, cut, 4), lowpass(np.asarray(a, float),
+                                                                       rate, cut, 4)
+        c = joint_centre_acc(gf, af, np.asarray(o, float), rate)
+        x, y = plane_basis(j)
+        cx, cy = c @ x, c @ y
+        angles.append(np.arctan2(cy, cx))
+        mags.append(np.hypot(cx, cy))
+    # c2 = Rot(j, phi)^T c1 in aligned plane coordinates: phi = angle(c1) - angle(c2).
+    theta_a = np.angle(np.exp(1j * (angles[0] - angles[1])))
+    inplane = np.minimum(mags[0], mags[1])
+    weight = np.where(inplane >= MIN_INPLANE_ACC, inplane**2, 0.0)
+    g1, g2 = np.asarray(g1, float), np.asarray(g2, float)
+    disc = (np.linalg.norm(np.cross(g1, j1), axis=1) - np.linalg.norm(np.cross(g2, j2), axis=1))
+    return HingeSignals(w, theta_g, theta_a, inplane, weight, disc)
+
+
+# ----------------------------------------------------------------------------- fusion
+
+
+@dataclass(frozen=True)
+class Fusion:
+    """Result of :func:`fuse` (rad, (N,) arrays): ``theta`` the fused angle, ``offset`` the
+    smoothed acc-minus-gyro offset, ``residual`` the acc angle's deviation from ``theta``
+    (NaN where unused), ``sigma`` the 1-sigma of ``theta`` (module docstring and
+    docs/angles.md), ``disagreement`` the weighted RMS of ``residual`` (rad) and
+    ``correlation_samples`` the residual's correlation length used for ``sigma``."""
+
+    theta: np.ndarray
+    offset: np.ndarray
+    residual: np.ndarray
+    sigma: np.ndarray
+    disagreement: float
+    correlation_samples: float
+
+
+def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
+    return gaussian_filter1d(x, sigma, mode="constant", cval=0.0, truncate=4.0)
+
+
+def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fusion:
+    """Gyro angle plus a zero-phase local-linear estimate of the acc-minus-gyro offset."""
+    n = sig.theta_gyro.shape[0]
+    w = sig.weight
+    if not np.any(w > 0):
+        raise InputError("the joint centre's acceleration never lies in the joint plane "
+                         f"(in-plane part below {MIN_INPLANE_ACC:g} m/s^2 throughout): no "
+                         "accelerometer angle to correct the gyro drift")
+    s = smoothing_s * rate  # kernel sigma in samples
+    raw = np.angle(np.exp(1j * (sig.theta_acc - sig.theta_gyro)))
+    # The offset drifts through +-pi with a bias: unwrap a smoothed circular mean, then
+    # put every sample within pi of it.
+    # Unwrapped over the usable samples only: between them the smoothed mean is noise.
+    zc = _smooth(w * np.exp(1j * raw).real, s) + 1j * _smooth(w * np.exp(1j * raw).imag, s)
+    use = np.flatnonzero(w > 0)
+    coarse = np.interp(np.arange(n), use, np.unwrap(np.angle(zc[use])))
+    d = coarse + np.angle(np.exp(1j * (raw - coarse)))
+    offset, var_unit = _local_linear(d, w, s)
+    residual = np.where(w > 0, d - offset, np.nan)
+    r0 = np.nan_to_num(residual)
+    # The local mean square, shrunk towards the recording's where the kernel holds few
+    # usable samples (a fit to a handful of samples leaves a residual that is too small).
+    mass = _smooth(w, s)
+    prior = MIN_KERNEL_SHARE * np.median(mass[w > 0])
+    overall = float(np.sum(w * r0**2) / np.sum(w))
+    local_ms = (_smooth(w * r0**2, s) + prior * overall) / (mass + prior)
+    tau = _correlation_samples(r0, w)
+    sigma_offset = np.sqrt(np.maximum(local_ms, 0.0) * var_unit * tau)
+    # What the offset cannot correct: the gyro angle's own error within the kernel. Its
+    # size is estimated from the rates across the axis that a hinge would make equal:
+    # their integral, less its slow part (which the fusion would absorb), local RMS.
+    ones = np.ones(n)
+    walk = cumulative_trapezoid(sig.discrepancy, dx=1.0 / rate, initial=0.0)
+    fast = walk - _local_linear(walk, ones, s)[0]
+    sigma_shape = np.sqrt(_smooth(fast**2, s) / _smooth(ones, s))
+    sigma = np.hypot(sigma_offset, sigma_shape)
+    disagreement = math.sqrt(float(np.sum(w * r0**2) / np.sum(w)))
+    return Fusion(sig.theta_gyro + offset, offset, residual, sigma, disagreement, tau)
+
+
+def _local_linear(d: np.ndarray, w: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Local-linear regression of ``d`` with weights ``w * K`` (Gaussian K, sigma ``s``
+    samples) at every sample, and the sum of squared equivalent weights (the variance of
+    the estimate per unit variance of independent samples). The slope carries a ridge
+    (:data:`RIDGE`); where the kernel holds less than :data:`MIN_KERNEL_SHARE` of its
+    typical usable weight, the estimate is interpolated between the neighbouring fits
+    and its variance grows with the squared distance to them, in kernel sigmas."""
+    n = d.shape[0]
+    t = np.arange(n, dtype=float) - n / 2
+    k2 = s / math.sqrt(2.0)
+    k2_scale = 1.0 / (2.0 * math.sqrt(math.pi) * s)  # sum of K^2 for the normalised K
+
+    def mom(x, sq=False):
+        return _smooth(x, k2) * k2_scale if sq else _smooth(x, s)
+
+    wk = [mom(w * t**p) for p in range(3)]
+    wd = [mom(w * d * t**p) for p in range(2)]
+    s0 = wk[0]
+    s1 = wk[1] - t * wk[0]
+    s2 = wk[2] - 2 * t * wk[1] + t**2 * wk[0]
+    # A small ridge on the slope (as if the usable samples' times spread by RIDGE_S more):
+    # where they bunch up on one side of the kernel (a long stretch without usable
+    # acceleration) the slope is poorly determined, and extrapolating it would run away.
+    s2 = s2 + (RIDGE * s) ** 2 * s0
+    b0 = wd[0]
+    b1 = wd[1] - t * wd[0]
+    det = s0 * s2 - s1**2
+    # Only where the kernel holds a fair share of usable weight: an estimate from a few
+    # samples at the kernel's far end would extrapolate their slope across the gap.
+    typical = np.median(s0[w > 0]) if np.any(w > 0) else 0.0
+    ok = (s0 > MIN_KERNEL_SHARE * typical) & (det > 1e-9 * np.maximum(s0 * s2, 1e-300))
+    if not ok.any():
+        ok = s0 >= s0.max()
+    est = np.full(n, np.nan)
+    est[ok] = (s2[ok] * b0[ok] - s1[ok] * b1[ok]) / det[ok]
+    w2 = w**2
+    q = [mom(w2 * t**p, sq=True) for p in range(3)]
+    q0 = q[0]
+    q1 = q[1] - t * q[0]
+    q2 = q[2] - 2 * t * q[1] + t**2 * q[0]
+    var = np.full(n, np.nan)
+    var[ok] = (s2[ok] ** 2 * q0[ok] - 2 * s2[ok] * s1[ok] * q1[ok] + s1[ok] ** 2 * q2[ok]) / (
+        det[ok] ** 2)
+    if not ok.all():
+        # no usable sample under the kernel: carry the neighbours' estimate over, and let
+        # its variance grow with the distance to them (a drift is then extrapolated)
+        idx = np.arange(n)
+        good = np.flatnonzero(ok)
+        est[~ok] = np.interp(idx[~ok], good, est[ok])
+        pos = np.clip(np.searchsorted(good, idx[~ok]), 1, good.size - 1)
+        gap = np.minimum(np.abs(idx[~ok] - good[pos - 1]), np.abs(good[pos] - idx[~ok]))
+        var[~ok] = np.interp(idx[~ok], good, var[ok]) * (1.0 + (gap / s) ** 2)
+    return est, var
+
+
+def _correlation_samples(r: np.ndarray, w: np.ndarray) -> float:
+    """Correlation length of the weighted residual, samples (>= 1): twice the sum of its
+    autocorrelation up to the first zero crossing, minus one (white noise: 1)."""
+    x = np.sqrt(w) * r
+    n = x.shape[0]
+    if not np.any(x):
+        return 1.0
+    f = np.fft.rfft(x, 2 * n)
+    ac = np.fft.irfft(f * np.conj(f))[:n]
+    ac = ac / ac[0]
+    neg = np.flatnonzero(ac <= 0)
+    stop = int(neg[0]) if neg.size else n
+    return max(1.0, 2.0 * float(np.sum(ac[:stop])) - 1.0)
+
+
+# ----------------------------------------------------------------------------- conventions
+
+
+def sign_evidence(angle: np.ndarray) -> float:
+    """Skew of the angle's spread, in [-1, 1]: ``((p95 - p50) - (p50 - p5)) / (p95 - p5)``.
+
+    A knee spends most of its time near extension and makes excursions into flexion, so
+    with flexion positive this is positive (walking about +0.5, standing with leg motions
+    near +1); a symmetric motion (pure circling) gives about 0: weak evidence.
+    """
+    p5, p50, p95 = np.percentile(angle, [5, 50, 95])
+    span = p95 - p5
+    return 0.0 if span <= 0 else float(((p95 - p50) - (p50 - p5)) / span)
+
+
+def hinge_residual(g1, g2, j1, j2) -> float:
+    """Relative hinge residual: RMS of ``|g1 x j1| - |g2 x j2|`` over the RMS of their mean,
+    on the samples where the joint moves (mean > :data:`MOVING_RATE`); NaN if it never
+    does. A rigid hinge with the right axes gives the noise level (~0.01 simulated), a
+    real knee 0.3-0.45 (docs/real-data.md), wrong axes more."""
+    p1 = np.linalg.norm(np.cross(g1, j1), axis=1)
+    p2 = np.linalg.norm(np.cross(g2, j2), axis=1)
+    mean = 0.5 * (p1 + p2)
+    use = mean > MOVING_RATE
+    if not use.any():
+        return float("nan")
+    return float(np.sqrt(np.mean((p1 - p2)[use] ** 2) / np.mean(mean[use] ** 2)))
+
+
+def detect_gait(flexion_deg: np.ndarray, rate: float) -> dict | None:
+    """Walking, if the flexion has at least :data:`GAIT_MIN_CYCLES` swing peaks (prominence
+    :data:`GAIT_PROMINENCE_DEG`) at regular stride intervals: ``{"peaks": sample indices
+    of peak swing flexion, "stride_s": median stride, "cv": variation}``; else None.
+    Cycles run from one swing peak to the next."""
+    from scipy.signal import find_peaks
+
+    peaks, _ = find_peaks(flexion_deg, prominence=GAIT_PROMINENCE_DEG,
+                          distance=max(1, int(GAIT_STRIDE_S[0] * rate)))
+    if peaks.size < GAIT_MIN_CYCLES + 1:
+        return None
+    strides = np.diff(peaks) / rate
+    regular = (strides >= GAIT_STRIDE_S[0]) & (strides <= GAIT_STRIDE_S[1])
+    # the longest run of regular strides is the walk
+    edges = np.diff(np.concatenate([[0], regular.astype(np.int8), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    if starts.size == 0:
+        return None
+    k = int(np.argmax(stops - starts))
+    run = strides[starts[k]:stops[k]]
+    if run.size < GAIT_MIN_CYCLES or np.std(run) / np.mean(run) > GAIT_MAX_CV:
+        return None
+    return {"peaks": peaks[starts[k]:stops[k] + 1], "stride_s": float(np.median(run)),
+            "cv": float(np.std(run) / np.mean(run))}
+
+
+# ----------------------------------------------------------------------------- calibration
+
+
+def _fused(rec, jc, smoothing_s: float):
+    s1, s2 = rec.sensor(jc.sensors[0]), rec.sensor(jc.sensors[1])
+    sig = hinge_signals(s1.gyr, s1.acc, s2.gyr, s2.acc, rate=rec.rate, j1=jc.j1, j2=jc.j2,
+                        o1=jc.o1, o2=jc.o2)
+    return s1, s2, sig, fuse(sig, rec.rate, smoothing_s)
+
+
+def _zero(raw_deg: np.ndarray, sign: int, rec, gyrs) -> tuple[float, str, float | None]:
+    """(raw angle of zero flexion, how it was found, time s or None): the most extended
+    still period (>= STILL_MIN_S) if any, else the 1st percentile of flexion."""
+    periods = still_periods(gyrs, rec.rate)
+    if periods:
+        means = np.array([raw_deg[a:b].mean() for a, b in periods])
+        k = int(np.argmin(sign * means))
+        a, b = periods[k]
+        return (float(means[k]), "most extended still period (>= "
+                f"{STILL_MIN_S:g} s, both sensors below {STILL_RATE:g} rad/s)",
+                float(rec.time[a]))
+    return (float(sign * np.percentile(sign * raw_deg, 1.0)),
+            "no still period: the 1st percentile of flexion (the most extended posture)",
+            None)
+
+
+def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
+    """The ``angle`` block of a hinge in the calibration file (docs/json.md): flexion sign
+    and zero decided on the calibration trial ``rec``, and the statistics the "still fits"
+    check compares other recordings with."""
+    s1, s2, sig, fus = _fused(rec, jc, smoothing_s)
+    raw = np.degrees(fus.theta)
+    evidence = sign_evidence(raw)
+    sign = 1 if evidence >= 0 else -1
+    zero, method, zero_t = _zero(raw, sign, rec, (s1.gyr, s2.gyr))
+    flex = sign * (raw - zero)
+    # one hinge axis makes the same angle with the vertical in both sensors whenever
+    # they rest, whatever the posture (imucal.rest): eq. (1) never sees gravity, so this
+    # is an independent test of the axes the angles rest on
+    gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rec.rate)
+    warned = gravity_warning(gravity, f"{jc.name}: the axis")
+    warnings = [] if warned is None else [warned]
+    if math.degrees(fus.disagreement) > ACC_AGREEMENT_DEG:
+        warnings.append(
+            f"{jc.name}: on the calibration trial the accelerometer-based angle differs "
+            f"from the gyro-based angle by {math.degrees(fus.disagreement):.0f} deg RMS "
+            f"(more than {ACC_AGREEMENT_DEG:g} deg): the drift correction is unreliable; "
+            "the joint is far from a hinge with these axes, or the axes are wrong")
+    x1, _ = plane_basis(jc.j1)
+    x2, _ = plane_basis(jc.j2)
+    return {
+        "flexion_sign": sign,
+        "sign_evidence": evidence,
+        "zero_deg": zero,
+        "zero_method": method,
+        "zero_time_s": zero_t,
+        "reference_x1": x1.tolist(),
+        "reference_x2": x2.tolist(),
+        "smoothing_s": smoothing_s,
+        "hinge_residual": hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2),
+        "acc_gyro_disagreement_deg": math.degrees(fus.disagreement),
+        "flexion_range_deg": [float(np.percentile(flex, 1)), float(np.percentile(flex, 99))],
+        "sigma_median_deg": float(np.degrees(np.median(fus.sigma))),
+        "gravity_mismatch_deg": gravity["max_mismatch_deg"],
+        "gravity_consistent": gravity["consistent"],
+        "warnings": warnings,
+    }
+
+
+# ----------------------------------------------------------------------------- apply
+
+
+@dataclass
+class JointAngle:
+    """Flexion of one hinge over the recording.
+
+    Attributes
+    ----------
+    name, sensors : the joint and its (thigh, shank) sensors in this recording.
+    flexion_deg, sigma_deg : (N,) flexion (positive = flexion, 0 as ``zero`` says) and its
+        1-sigma (deg).
+    gyro_only_deg : (N,) pure integration of the rates with the same sign, equal to
+        ``flexion_deg`` at the first sample (what the fusion corrects).
+    sign, sign_source : +1 / -1 applied to the calibration's raw angle (the right-handed
+        rotation of the second segment about j), and why ("calibration", "recording",
+        "user").
+    sign_evidence : this recording's evidence (:func:`sign_evidence`).
+    zero : {"method", "raw_deg", "time_s", "time_in"}: what 0 deg is.
+    check : the "still fits" evidence (docs/angles.md): hinge residual and acc-gyro
+        disagreement here and on the calibration trial, their limits, ``fits``.
+    gait : None, or {"peaks" (sample indices of peak swing flexion), "stride_s", "cv"}.
+    warnings : the calibration's angle warnings and this recording's (sign, fit).
+    """
+
+    name: str
+    sensors: tuple[str, str]
+    flexion_deg: np.ndarray
+    sigma_deg: np.ndarray
+    gyro_only_deg: np.ndarray
+    sign: int
+    sign_source: str
+    sign_evidence: float
+    zero: dict
+    check: dict
+    gait: dict | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def fits(self) -> bool:
+        return bool(self.check["fits"])
+
+
+@dataclass
+class JointAngles:
+    """Result of :func:`joint_angles`; ``fits`` is False when any joint's check failed (the
+    command line exits 1 then).
+
+    Attributes
+    ----------
+    time : (N,) sample times, s on the recording's time axis.
+    joints : joint name -> :class:`JointAngle`, one per usable hinge of the calibration.
+    source : the recording's path.
+    calibration : the calibration's file (or, made in memory, its trial's path).
+    rate : sample rate, Hz.
+    reference : the ``reference`` argument (what 0 deg means).
+    warnings : hinges of the calibration that have no angle (their estimate failed) and
+        the recording's notes about the sensors used (repairs, units).
+    """
+
+    time: np.ndarray
+    joints: dict[str, JointAngle]
+    source: str
+    calibration: str
+    rate: float
+    reference: object = None
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def fits(self) -> bool:
+        return all(j.fits for j in self.joints.values())
+
+    def to_frame(self):
+        """pandas DataFrame: ``time`` (s), ``<joint>_flexion_deg`` and
+        ``<joint>_flexion_sigma_deg`` per joint."""
+        import pandas as pd
+
+        cols = {"time": self.time}
+        for name, j in self.joints.items():
+            cols[FLEXION_COLUMN.format(joint=name)] = j.flexion_deg
+            cols[SIGMA_COLUMN.format(joint=name)] = j.sigma_deg
+        return pd.DataFrame(cols)
+
+    def to_document(self) -> dict:
+        """JSON-ready summary (no per-sample data: those are in :meth:`write`'s table)."""
+        from . import __version__
+        from .report import clean
+
+        joints = {}
+        for name, j in self.joints.items():
+            f = j.flexion_deg
+            joints[name] = {
+                "sensors": list(j.sensors),
+                "column": FLEXION_COLUMN.format(joint=name),
+                "fits": j.fits,
+                "flexion_sign": j.sign,
+                "sign_source": j.sign_source,
+                "sign_evidence": j.sign_evidence,
+                "zero": j.zero,
+                "range_deg": [float(f.min()), float(f.max())],
+                "percentiles_deg": dict(zip(("p1", "p50", "p99"),
+                                            np.percentile(f, [1, 50, 99]).tolist(),
+                                            strict=True)),
+                "sigma_deg": {"median": float(np.median(j.sigma_deg)),
+                              "max": float(np.max(j.sigma_deg))},
+                "gyro_only_end_difference_deg": float(j.gyro_only_deg[-1] - f[-1]),
+                "check": j.check,
+                "gait": None if j.gait is None else {
+                    "strides": int(len(j.gait["peaks"]) - 1),
+                    "stride_s": j.gait["stride_s"], "stride_cv": j.gait["cv"],
+                    "from_s": float(self.time[j.gait["peaks"][0]]),
+                    "to_s": float(self.time[j.gait["peaks"][-1]])},
+                "warnings": j.warnings,
+            }
+        return clean({
+            "imucal_version": __version__,
+            "command": "angles",
+            "input": {"path": self.source, "sample_rate_hz": self.rate,
+                      "window_s": [float(self.time[0]), float(self.time[-1]) + 1 / self.rate],
+                      "samples": int(self.time.shape[0])},
+            "calibration": self.calibration,
+            "reference": self.reference,
+            "fits": self.fits,
+            "convention": "flexion in degrees, positive = flexion; 0 as each joint's 'zero' "
+                          "says; sigma = 1-sigma per sample (docs/angles.md)",
+            "joints": joints,
+            "warnings": self.warnings,
+        })
+
+    def write(self, path) -> None:
+        """The table to ``.csv`` (one row per sample) or ``.h5`` (one dataset per column,
+        the summary document as the root attribute ``imucal``), atomically."""
+        from pathlib import Path
+
+        from .atomic import write_atomic
+        from .report import dumps
+
+        path = Path(path)
+        suffix = path.suffix.lower()
+        frame = self.to_frame()
+        if suffix == ".csv":
+            write_atomic(path, lambda tmp: frame.to_csv(tmp, index=False, float_format="%.6g"))
+        elif suffix in (".h5", ".hdf5"):
+            import h5py
+
+            def write_h5(tmp):
+                with h5py.File(tmp, "w") as f:
+                    for col in frame.columns:
+                        f.create_dataset(col, data=frame[col].to_numpy())
+                    f.attrs["imucal"] = dumps(self.to_document())
+
+            write_atomic(path, write_h5)
+        else:
+            raise InputError(f"{path}: unknown table format '{path.suffix or path.name}'; "
+                             "angles are written as .csv or .h5")
+
+
+def _check_sign(flexion_sign) -> int | None:
+    if flexion_sign in ("auto", None):
+        return None
+    if flexion_sign in ("+", "-", 1, -1):
+        return 1 if flexion_sign in ("+", 1) else -1
+    raise InputError(f"flexion sign must be auto, + or -, got {flexion_sign!r}")
+
+
+def joint_angles(recording, calibration: Calibration, *, reference=None,
+                 flexion_sign="auto", start: float | None = None, end: float | None = None,
+                 smoothing_s: float | None = None) -> JointAngles:
+    """Flexion of every usable hinge of ``calibration`` over ``recording`` (module docstring).
+
+    Parameters
+    ----------
+    recording
+        The trial to measure (:class:`imucal.Recording`), with the calibration's sensors
+        (found by name as :meth:`imucal.Recording.resolve` does).
+    calibration
+        A :class:`imucal.calibration.Calibration` (:func:`imucal.calibration.calibrate` or
+        :func:`imucal.calibration.load_calibration`).
+    reference
+        What 0 deg means. None: the calibration's zero (its trial's most extended still
+        period, else its most extended posture), so every trial of one mounting shares it;
+        ``"standing"``: the most extended still period of this recording; a number: the
+        angle at that time (s on the recording's time axis) is 0.
+    flexion_sign
+        ``"auto"``: decided on the calibration trial (knees spend most time near extension
+        and make excursions into flexion, :func:`sign_evidence`), or on this recording
+        when the calibration trial was ambiguous; ``"+"`` / ``"-"``: flexion is the
+        right-handed rotation of the second segment relative to the first about the
+        calibration's ``j1``/``j2`` (``+``) or the opposite (``-``).
+    start, end
+        Window, s on the recording's time axis.
+    smoothing_s
+        Fusion kernel, s (default: the calibration's).
+
+    Raises InputError when the calibration has no usable hinge or a sensor it needs is
+    missing. A calibration that does not fit gives ``fits=False`` and a warning with the
+    evidence, never silently wrong angles.
+    """
+    pinned = _check_sign(flexion_sign)
+    hinges = [j for j in calibration.hinges if j.usable and j.angle]
+    if not hinges:
+        raise InputError(f"{calibration.file or calibration.source}: the calibration has no "
+                         "usable hinge joint (knee); nothing to measure")
+    names = []
+    for jc in hinges:
+        for s in jc.sensors:
+            try:
+                names.append(recording.resolve(s))
+            except InputError as err:
+                raise InputError(f"{err}; the calibration's joint '{jc.name}' needs sensor "
+                                 f"'{s}'") from None
+    rec = recording.select(names, start, end)
+    joints = {}
+    for jc in hinges:
+        local = replace(jc, sensors=tuple(recording.resolve(s) for s in jc.sensors))
+        joints[jc.name] = _one_joint(rec, local, reference=reference, pinned=pinned,
+                                     smoothing_s=smoothing_s or jc.angle["smoothing_s"])
+    skipped = [f"joint '{j.name}' has no angle: its calibration {j.verdict} ("
+               f"{j.warnings[-1] if j.warnings else 'no vectors'})"
+               for j in calibration.hinges if all(j is not h for h in hinges)]
+    return JointAngles(time=rec.time.copy(), joints=joints, source=recording.source,
+                       calibration=calibration.file or calibration.source, rate=rec.rate,
+                       reference=reference, warnings=skipped + list(rec.warnings))
+
+
+def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
+    ref = jc.angle
+    s1, s2, sig, fus = _fused(rec, jc, smoothing_s)
+    raw = np.degrees(fus.theta)
+    warnings = []
+    evidence = sign_evidence(raw)
+    if pinned is not None:
+        sign, source = pinned, "user"
+    elif abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN:
+        sign, source = int(ref["flexion_sign"]), "calibration"
+    else:
+        sign, source = (1 if evidence >= 0 else -1), "recording"
+        if abs(evidence) < SIGN_EVIDENCE_MIN:
+            warnings.append(f"{jc.name}: the flexion direction is ambiguous in the calibration "
+                            f"trial and here (evidence {ref['sign_evidence']:+.2f}, "
+                            f"{evidence:+.2f}); pin it (flexion_sign '+' or '-') if the "
+                            "angles look inverted")
+    if reference is None:
+        zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
+                "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
+    elif reference == "standing":
+        periods = still_periods((s1.gyr, s2.gyr), rec.rate)
+        if not periods:
+            raise InputError(f"{rec.source}: no still period of at least {STILL_MIN_S:g} s for "
+                             "the zero (reference 'standing'); give a time instead")
+        z, method, t = _zero(raw, sign, rec, (s1.gyr, s2.gyr))
+        zero = {"method": method, "raw_deg": z, "time_s": t, "time_in": "this recording"}
+    else:
+        try:
+            t_ref = float(reference)
+        except (TypeError, ValueError):
+            raise InputError(f"reference must be None, 'standing' or a time in s, got "
+                             f"{reference!r}") from None
+        if not rec.time[0] <= t_ref <= rec.time[-1]:
+            raise InputError(f"{rec.source}: reference time {t_ref:g} s is outside the "
+                             f"recording ({rec.time[0]:g} to {rec.time[-1]:g} s)")
+        i = int(np.argmin(np.abs(rec.time - t_ref)))
+        half = max(1, int(0.1 * rec.rate))
+        zero = {"method": "user time (mean over +-0.1 s)",
+                "raw_deg": float(raw[max(0, i - half):i + half + 1].mean()), "time_s": t_ref,
+                "time_in": "this recording"}
+    flex = sign * (raw - zero["raw_deg"])
+    gyro_only = sign * np.degrees(sig.theta_gyro - sig.theta_gyro[0]) + flex[0]
+    warnings = [f"calibration: {w}" for w in ref.get("warnings", [])] + warnings
+    check = _fit_check(jc, ref, s1, s2, fus, rec.rate)
+    if not check["fits"]:
+        warnings.append(check["message"])
+    return JointAngle(jc.name, jc.sensors, flex, np.degrees(fus.sigma), gyro_only, sign,
+                      source, evidence, zero, check, detect_gait(flex, rec.rate), warnings)
+
+
+def _fit_check(jc, ref, s1, s2, fus, rate: float) -> dict:
+    """Does the calibration still fit this recording? (docs/angles.md)"""
+    res = hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2)
+    dis = math.degrees(fus.disagreement)
+    res_lim = FIT_FACTOR * ref["hinge_residual"] + FIT_FLOOR_RESIDUAL
+    dis_lim = FIT_FACTOR * ref["acc_gyro_disagreement_deg"] + FIT_FLOOR_DEG
+    bad = []
+    if not (res <= res_lim):  # NaN (never moved) is no evidence against
+        bad += [] if math.isnan(res) else [
+            f"hinge residual {res:.3f} > {res_lim:.3f} (calibration trial "
+            f"{ref['hinge_residual']:.3f})"]
+    gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rate)
+    if gravity["consistent"] is False:
+        worst = gravity["max_mismatch_deg"]
+        bad.append(f"at rest the axis makes angles with the vertical that differ by "
+                   f"{worst:.0f} deg between the sensors (one hinge axis: within "
+                   f"{gravity['max_allowed_deg']:g} deg)")
+    if dis > dis_lim:
+        bad.append(f"acc- vs gyro-angle disagreement {dis:.2f} deg > {dis_lim:.2f} deg "
+                   f"(calibration trial {ref['acc_gyro_disagreement_deg']:.2f} deg)")
+    out = {"fits": not bad, "hinge_residual": res, "hinge_residual_limit": res_lim,
+           "calibration_hinge_residual": ref["hinge_residual"],
+           "acc_gyro_disagreement_deg": dis, "acc_gyro_disagreement_limit_deg": dis_lim,
+           "calibration_acc_gyro_disagreement_deg": ref["acc_gyro_disagreement_deg"],
+           "gravity_mismatch_deg": gravity["max_mismatch_deg"],
+           "tolerance": f"{FIT_FACTOR:g} x the calibration trial's value + "
+                        f"{FIT_FLOOR_RESIDUAL:g} (residual) / {FIT_FLOOR_DEG:g} deg"}
+    if bad:
+        out["message"] = (f"{jc.name}: the calibration does not fit this recording ("
+                          + "; ".join(bad) + "): sensors re-strapped, swapped or another "
+                          "subject? calibrate again; these angles are not trustworthy")
+    return out

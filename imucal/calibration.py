@@ -1,0 +1,408 @@
+"""Calibrate every joint a recording's sensors allow, in one run and one file (issue 13).
+
+:func:`calibrate` finds the joints from the sensor names (or takes them from explicit
+specs, :func:`parse_joint_spec`) and estimates each: a knee is a hinge (``j1``, ``j2`` and
+the knee centre on the axis, ``o1``, ``o2``), an ankle and a hip are spheroidal (``o1``,
+``o2``). For every hinge it also measures what :func:`imucal.joint_angles` needs to apply
+the calibration to other recordings: the flexion sign and zero, and the reference
+statistics of the "does it still fit" check. The file format is in docs/json.md
+(section "Calibration file"); :func:`load_calibration` reads it back.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .errors import ImucalError, InputError
+from .recording import Recording, _norm, _segment
+
+FORMAT = "imucal-calibration"
+FORMAT_VERSION = 1
+KINDS = ("hinge", "spheroidal")
+#: Segment pairs of the joints found from sensor names: (joint, kind, first, second).
+JOINT_TYPES = (
+    ("hip", "spheroidal", "pelvis", "thigh"),
+    ("knee", "hinge", "thigh", "shank"),
+    ("ankle", "spheroidal", "shank", "foot"),
+)
+#: Names of a pelvis sensor (normalised: lower case, no spaces, underscores, hyphens).
+PELVIS_NAMES = {"pelvis", "sacrum", "lowerback", "hips", "hip"}
+_SPEC = re.compile(r"^\s*([A-Za-z][A-Za-z0-9_]*)\s*=\s*([a-z]+)\s*:\s*([^,]+),([^,]+)\s*$")
+SPEC_USAGE = "use NAME=hinge:FIRST,SECOND or NAME=spheroidal:FIRST,SECOND, e.g. " \
+             "left_knee=hinge:left_thigh,left_shank"
+
+
+@dataclass(frozen=True)
+class JointSpec:
+    """One joint to calibrate: ``name`` (``knee``, ``left_knee``, ...), ``kind`` (hinge or
+    spheroidal) and the two sensor names, proximal first (thigh before shank)."""
+
+    name: str
+    kind: str
+    first: str
+    second: str
+
+
+@dataclass
+class JointCalibration:
+    """The calibration of one joint.
+
+    Attributes
+    ----------
+    name, kind, sensors : the joint (``sensors`` = (first, second) as in the recording).
+    j1, j2 : hinge only: unit axis in the first / second sensor's frame, the same physical
+        direction (None for a spheroidal joint or a failed estimate).
+    o1, o2 : vector from the joint centre to the first / second sensor's origin, each in
+        its sensor's frame, m (for a hinge: the point of the axis closest to both sensors).
+    verdict : the joint's verdict: the worse of its estimates' (``good``, ``use with
+        care``, ``not identifiable``), or ``failed`` when an estimate stopped.
+    warnings : plain-language warnings of its estimates (and the error that stopped one).
+    axis, position : the JSON documents of :func:`imucal.report.axis_report` /
+        ``position_report`` (full quality blocks), or None.
+    angle : hinge only: what applying the calibration needs (:func:`imucal.angles.
+        reference_statistics`): flexion sign and zero, calibration-trial statistics.
+    """
+
+    name: str
+    kind: str
+    sensors: tuple[str, str]
+    verdict: str
+    j1: np.ndarray | None = None
+    j2: np.ndarray | None = None
+    o1: np.ndarray | None = None
+    o2: np.ndarray | None = None
+    warnings: list[str] = field(default_factory=list)
+    axis: dict | None = None
+    position: dict | None = None
+    angle: dict | None = None
+
+    @property
+    def usable(self) -> bool:
+        """Whether the joint has its vectors (an estimate that stopped leaves none)."""
+        return self.o1 is not None and (self.kind != "hinge" or self.j1 is not None)
+
+
+@dataclass
+class Calibration:
+    """Result of :func:`calibrate` (or :func:`load_calibration`).
+
+    Attributes
+    ----------
+    joints : joint name -> :class:`JointCalibration` (hips, knees, ankles; no side first,
+        then left, then right).
+    source : path of the calibration trial's recording.
+    window_s : (start, end) of the time used, s on that recording's time axis.
+    sample_rate_hz : its sample rate, Hz.
+    settings : restarts, seed, window, time-offset mode, smoothing and the joint specs.
+    version : imucal's version that made it.
+    sensors : per sensor used, what the file said about it (serial, label, ...) and its
+        units in the file.
+    file : the calibration file it was read from (:func:`load_calibration`), else None.
+    """
+
+    joints: dict[str, JointCalibration]
+    source: str
+    window_s: tuple[float, float]
+    sample_rate_hz: float
+    settings: dict
+    version: str = __version__
+    sensors: dict = field(default_factory=dict)
+    file: str | None = None  #: the file it was read from (load_calibration), else None
+
+    @property
+    def hinges(self) -> list[JointCalibration]:
+        return [j for j in self.joints.values() if j.kind == "hinge"]
+
+    def to_document(self) -> dict:
+        """The calibration file's JSON document (docs/json.md, "Calibration file")."""
+        from .report import clean
+
+        joints = {}
+        for j in self.joints.values():
+            entry = {"joint": j.kind, "sensors": list(j.sensors), "verdict": j.verdict,
+                     "warnings": list(j.warnings)}
+            if j.kind == "hinge":
+                entry["j1"], entry["j2"] = _vec(j.j1), _vec(j.j2)
+            entry["o1"], entry["o2"] = _vec(j.o1), _vec(j.o2)
+            if j.kind == "hinge":
+                entry["angle"] = j.angle
+            entry["axis"], entry["position"] = j.axis, j.position
+            joints[j.name] = entry
+        return clean({
+            "format": FORMAT,
+            "format_version": FORMAT_VERSION,
+            "imucal_version": self.version,
+            "command": "calibrate",
+            "input": {"path": self.source, "sample_rate_hz": self.sample_rate_hz,
+                      "window_s": list(self.window_s), "sensors": self.sensors},
+            "settings": self.settings,
+            "units": {"j1": "unit vector", "j2": "unit vector", "o1": "m", "o2": "m",
+                      "angle": "deg (hinge_residual: ratio)"},
+            "joints": joints,
+        })
+
+    def write(self, path: str | Path) -> None:
+        """Write :meth:`to_document` as JSON to ``path`` (atomically)."""
+        from .atomic import write_text_atomic
+        from .report import dumps
+
+        write_text_atomic(path, dumps(self.to_document()))
+
+
+def _vec(v):
+    return None if v is None else [float(x) for x in v]
+
+
+# ----------------------------------------------------------------------------- joints
+
+
+def sensor_segment(name: str) -> tuple[str | None, str | None]:
+    """(side, segment) of a sensor name: segments thigh, shank, foot (with their synonyms,
+    :data:`imucal.recording.SEGMENT_SYNONYMS`) and pelvis; side left, right or None."""
+    side, segment = _segment(name)
+    if segment is None:
+        words = [w for w in re.split(r"[\s_\-.]+", str(name).lower()) if w]
+        rest = "".join(w for w in words if w not in ("left", "right", "l", "r"))
+        if rest in PELVIS_NAMES:
+            return None, "pelvis"
+    return side, segment
+
+
+def discover_joints(recording: Recording) -> tuple[list[JointSpec], list[str]]:
+    """The joints the sensor names allow, and notes (sensors named twice, none found).
+
+    Per side (``left``, ``right`` or none): knee from thigh + shank, ankle from shank +
+    foot, hip from the pelvis + thigh (one pelvis serves both hips). Names: ``knee`` etc.
+    without a side, ``left_knee`` with one.
+    """
+    found: dict[tuple[str | None, str], str] = {}
+    notes = []
+    for name in recording.sensors:
+        side, segment = sensor_segment(name)
+        if segment is None:
+            continue
+        key = (side, segment)
+        if key in found:
+            notes.append(f"sensors '{found[key]}' and '{name}' are both a "
+                         f"{(side + ' ') if side else ''}{segment}; used '{found[key]}' "
+                         "(name the joints explicitly to choose)")
+            continue
+        found[key] = name
+    pelvis = found.get((None, "pelvis"))
+    sides = sorted({s for s, seg in found if seg != "pelvis"}, key=lambda s: (s is not None, s))
+    specs = []
+    for joint, kind, first, second in JOINT_TYPES:
+        for side in sides:
+            a = pelvis if first == "pelvis" else found.get((side, first))
+            b = found.get((side, second))
+            if a is not None and b is not None:
+                specs.append(JointSpec(f"{side}_{joint}" if side else joint, kind, a, b))
+    return specs, notes
+
+
+def parse_joint_spec(text: str) -> JointSpec:
+    """``"left_knee=hinge:left_thigh,left_shank"`` -> :class:`JointSpec`; InputError with the
+    expected form otherwise. Sensor names are checked against a recording later."""
+    m = _SPEC.match(str(text))
+    if m is None:
+        raise InputError(f"joint '{text}': {SPEC_USAGE}")
+    name, kind, first, second = (g.strip() for g in m.groups())
+    if kind not in KINDS:
+        raise InputError(f"joint '{text}': unknown joint type '{kind}'; use hinge or "
+                         "spheroidal")
+    if not first or not second or _norm(first) == _norm(second):
+        raise InputError(f"joint '{text}': needs two different sensors; {SPEC_USAGE}")
+    return JointSpec(name, kind, first, second)
+
+
+def _joint_specs(recording: Recording, joints) -> tuple[list[JointSpec], list[str]]:
+    if joints is None:
+        specs, notes = discover_joints(recording)
+        if not specs:
+            raise InputError(
+                f"{recording.source}: no joint found from the sensor names "
+                f"({', '.join(recording.sensors)}); name sensors thigh/shank/foot/pelvis "
+                "(with left_/right_) or give the joints, e.g. knee=hinge:A,B")
+        return specs, notes
+    specs = [j if isinstance(j, JointSpec) else parse_joint_spec(j) for j in joints]
+    if not specs:
+        raise InputError("no joints given")
+    seen = set()
+    out = []
+    for s in specs:
+        if s.name in seen:
+            raise InputError(f"joint '{s.name}' given twice")
+        seen.add(s.name)
+        out.append(JointSpec(s.name, s.kind, recording.resolve(s.first),
+                             recording.resolve(s.second)))
+    return out, []
+
+
+# ----------------------------------------------------------------------------- calibrate
+
+
+def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
+              seed: int | None = None, start: float | None = None, end: float | None = None,
+              time_offset: float | str = "auto", smoothing_s: float | None = None,
+              ) -> Calibration:
+    """Calibrate every joint of ``recording`` (module docstring).
+
+    Parameters
+    ----------
+    recording
+        The calibration trial (ideally the paper's protocol: leg and foot circling, a few
+        flexions, some walking, and a still standing moment for the angle's zero).
+    joints
+        None: found from the sensor names (:func:`discover_joints`); or a list of specs
+        (``"left_knee=hinge:left_thigh,left_shank"`` or :class:`JointSpec`).
+    restarts, seed, start, end, time_offset
+        As in :func:`imucal.estimate_axis` / :func:`imucal.estimate_position` (window in s
+        on the recording's time axis); every joint uses the same.
+    smoothing_s
+        The angle fusion's kernel (:data:`imucal.angles.SMOOTHING_S`), stored for
+        :func:`imucal.joint_angles`.
+
+    A joint whose estimate stops (not identifiable, a sensor gap in the window) is kept
+    with verdict ``failed`` and the reason in its warnings; the others are unaffected.
+    """
+    from .angles import SMOOTHING_S
+
+    specs, notes = _joint_specs(recording, joints)
+    smoothing_s = SMOOTHING_S if smoothing_s is None else float(smoothing_s)
+    out: dict[str, JointCalibration] = {}
+    windows = []
+    for spec in specs:
+        jc, window = _calibrate_joint(recording, spec, restarts=restarts, seed=seed,
+                                      start=start, end=end, time_offset=time_offset,
+                                      smoothing_s=smoothing_s)
+        jc.warnings = notes + jc.warnings
+        out[spec.name] = jc
+        if window is not None:
+            windows.append(window)
+    t0 = float(recording.time[0])
+    window_s = (min((w[0] for w in windows), default=t0),
+                max((w[1] for w in windows), default=t0 + recording.duration))
+    used = sorted({s for spec in specs for s in (spec.first, spec.second)})
+    return Calibration(
+        joints=out, source=recording.source, window_s=window_s,
+        sample_rate_hz=recording.rate,
+        settings={"restarts": restarts, "seed": seed, "start": start, "end": end,
+                  "time_offset": time_offset, "smoothing_s": smoothing_s,
+                  "joints": [f"{s.name}={s.kind}:{s.first},{s.second}" for s in specs]},
+        sensors={n: dict(recording.sensor_info.get(n, {}), units_in_file=dict(
+            recording.units.get(n, {}))) for n in used},
+    )
+
+
+def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, time_offset,
+                     smoothing_s):
+    """One joint; an estimate that stops leaves verdict ``failed`` and its reason."""
+    from . import estimate_axis, estimate_position
+    from .report import axis_report, position_report
+
+    jc = JointCalibration(spec.name, spec.kind, (spec.first, spec.second), verdict="failed")
+    try:
+        used = recording.select([spec.first, spec.second], start, end)
+        s1, s2 = used.sensors[spec.first], used.sensors[spec.second]
+        info = {"path": recording.source, "sensors": [spec.first, spec.second],
+                "sample_rate_hz": recording.rate, "samples_total": recording.n_samples,
+                "duration_s": recording.duration,
+                "units_in_file": {n: recording.units.get(n, {}) for n in jc.sensors},
+                "time_origin": float(used.time[0]), "load_warnings": list(used.warnings)}
+        common = {"rate": used.rate, "restarts": restarts, "seed": seed,
+                  "time_offset": time_offset}
+        axis = None
+        if spec.kind == "hinge":
+            axis = estimate_axis(s1.gyr, s2.gyr, acc1=s1.acc, acc2=s2.acc, **common)
+            jc.axis = axis_report(axis, input_info=info)
+            jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
+        pos = estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, joint=spec.kind,
+                                axis=axis, **common)
+        jc.position = position_report(pos, input_info=info)
+        jc.o1, jc.o2 = np.asarray(pos.o1, float), np.asarray(pos.o2, float)
+    except ImucalError as err:
+        jc.warnings.append(f"{spec.name}: estimate stopped: {err}")
+        return jc, None
+    docs = [d for d in (jc.axis, jc.position) if d is not None]
+    jc.verdict = _worst([d["quality"]["verdict"] for d in docs])
+    for d, what in zip(docs, ("axis", "position") if spec.kind == "hinge" else ("position",),
+                       strict=True):
+        jc.warnings += [f"{what}: {w}" for w in d["quality"]["warnings"]]
+    if spec.kind == "hinge":
+        from .angles import reference_statistics
+
+        jc.angle = reference_statistics(used, jc, smoothing_s=smoothing_s)
+        if jc.angle["warnings"]:
+            jc.warnings += [f"angle: {w}" for w in jc.angle["warnings"]]
+            jc.verdict = _worst([jc.verdict, "use with care"])
+    window = (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate)
+    return jc, window
+
+
+_ORDER = ("good", "use with care", "not identifiable", "failed")
+
+
+def _worst(verdicts: list[str]) -> str:
+    return max(verdicts, key=lambda v: _ORDER.index(v) if v in _ORDER else len(_ORDER))
+
+
+# ----------------------------------------------------------------------------- file
+
+
+def load_calibration(path: str | Path) -> Calibration:
+    """Read a calibration file written by :meth:`Calibration.write` (or ``imucal
+    calibrate``). InputError naming the file for a missing file, a file that is not JSON
+    or not a calibration, another format version, or a joint without its vectors."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: calibration file not found")
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise InputError(f"{path}: not a calibration file (not readable as JSON: "
+                         f"{str(err).splitlines()[0][:80]})") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        hint = (f" (an imucal '{doc['command']}' result; make one with imucal calibrate)"
+                if isinstance(doc, dict) and isinstance(doc.get("command"), str) else "")
+        raise InputError(f"{path}: not a calibration file (no \"format\": \"{FORMAT}\"){hint}")
+    version = doc.get("format_version")
+    if version != FORMAT_VERSION:
+        raise InputError(f"{path}: calibration format version {version!r}; this imucal "
+                         f"({__version__}) reads version {FORMAT_VERSION}: calibrate again")
+    try:
+        joints = {name: _joint_from_doc(name, entry) for name, entry in doc["joints"].items()}
+        inp = doc["input"]
+        return Calibration(joints=joints, source=str(inp["path"]),
+                           window_s=tuple(inp["window_s"]),
+                           sample_rate_hz=float(inp["sample_rate_hz"]),
+                           settings=dict(doc.get("settings", {})),
+                           version=str(doc.get("imucal_version")),
+                           sensors=dict(inp.get("sensors", {})), file=str(path))
+    except (KeyError, TypeError, ValueError, AttributeError) as err:
+        raise InputError(f"{path}: damaged calibration file ({type(err).__name__}: "
+                         f"{str(err)[:80]})") from None
+
+
+def _joint_from_doc(name: str, e: dict) -> JointCalibration:
+    def vec(key):
+        v = e.get(key)
+        if v is None:
+            return None
+        a = np.asarray(v, dtype=float)
+        if a.shape != (3,) or not np.all(np.isfinite(a)):
+            raise ValueError(f"joint '{name}' {key} is not a finite 3-vector")
+        return a
+
+    if e["joint"] not in KINDS:
+        raise ValueError(f"joint '{name}' has unknown type {e['joint']!r}")
+    return JointCalibration(name=name, kind=e["joint"], sensors=tuple(e["sensors"]),
+                            verdict=str(e["verdict"]), j1=vec("j1"), j2=vec("j2"),
+                            o1=vec("o1"), o2=vec("o2"), warnings=list(e.get("warnings", [])),
+                            axis=e.get("axis"), position=e.get("position"),
+                            angle=e.get("angle"))

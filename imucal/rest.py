@@ -1,0 +1,116 @@
+"""Still periods, and what gravity says about a hinge axis while the leg rests.
+
+At rest an accelerometer reads gravity alone (specific force, +9.81 m/s^2 upward). A
+hinge axis is one physical line, so at every still instant it makes the same angle with
+the vertical seen from either segment, whatever the posture (standing, sitting, lying)::
+
+    angle(j1, a1) = angle(j2, a2)        while both sensors rest
+
+with ``j1``, ``j2`` pointing the same physical way. Eq. (1) never uses gravity, so this
+is an independent check of an estimated axis pair. On the shared real recording, 0-55 s,
+the knees' estimated axes make 12 and 5 deg with the vertical while the person stands,
+but 85 and 4 deg while they sit (thighs horizontal, shanks vertical): no single line does
+that, so those axes are not the knee's flexion axis (docs/real-data.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .preprocess import lowpass
+
+#: Both sensors turn slower than this (after a 2 Hz low-pass) in a still period, rad/s.
+STILL_RATE = 0.1
+#: Shortest still period, s.
+STILL_MIN_S = 1.0
+#: At rest the accelerometer's magnitude is within this fraction of its median over the
+#: still periods (gravity alone; a sensor that accelerates is not at rest).
+GRAVITY_TOLERANCE = 0.05
+#: Largest difference of the axis's angle to the vertical between the two sensors that
+#: one physical axis can show, deg: sensor noise and soft tissue at rest move each
+#: angle by a degree or two, and an axis within its few-degree uncertainty by as much.
+MAX_MISMATCH_DEG = 20.0
+
+
+def still_periods(gyrs, rate: float, min_s: float = STILL_MIN_S) -> list[tuple[int, int]]:
+    """Runs ``[i0, i1)`` of at least ``min_s`` s where every sensor in ``gyrs`` (each (N, 3),
+    rad/s) turns slower than :data:`STILL_RATE` (after a 2 Hz low-pass, so noise does not
+    break them)."""
+    moving = np.zeros(np.asarray(gyrs[0]).shape[0], dtype=bool)
+    for g in gyrs:
+        speed = np.linalg.norm(lowpass(np.asarray(g, float), rate, min(2.0, 0.4 * rate)),
+                               axis=1)
+        moving |= speed > STILL_RATE
+    edges = np.diff(np.concatenate([[1], moving.astype(np.int8), [1]]))
+    starts, stops = np.flatnonzero(edges == -1), np.flatnonzero(edges == 1)
+    need = int(round(min_s * rate))
+    return [(int(a), int(b)) for a, b in zip(starts, stops, strict=True) if b - a >= need]
+
+
+def gravity_check(gyr1, acc1, gyr2, acc2, j1, j2, rate: float, *,
+                  window: slice | None = None) -> dict:
+    """Compare the axis's angle to the vertical in both sensors over every still period.
+
+    Parameters
+    ----------
+    gyr1, acc1, gyr2, acc2
+        (N, 3) rates (rad/s) and specific forces (m/s^2) of the two sensors.
+    j1, j2
+        (3,) unit axis in each sensor's frame, pointing the same physical way.
+    rate
+        Sample rate, Hz.
+    window
+        Only still periods inside this slice of samples count (None: all).
+
+    Returns
+    -------
+    dict
+        ``periods``: one entry per still period (``start_s``, ``end_s``, ``angle1_deg``,
+        ``angle2_deg``: the axis's angle to the upward vertical in each sensor, and
+        ``mismatch_deg``); ``max_mismatch_deg`` (None without still periods) and
+        ``consistent`` (None without still periods, else whether every mismatch is
+        within :data:`MAX_MISMATCH_DEG`).
+    """
+    g1, a1, g2, a2 = (np.asarray(x, float) for x in (gyr1, acc1, gyr2, acc2))
+    if window is not None:
+        g1, a1, g2, a2 = g1[window], a1[window], g2[window], a2[window]
+    t0 = 0.0 if window is None or window.start is None else window.start / rate
+    periods = still_periods((g1, g2), rate)
+    rows = []
+    for i0, i1 in periods:
+        m1, m2 = a1[i0:i1].mean(axis=0), a2[i0:i1].mean(axis=0)
+        n1, n2 = np.linalg.norm(m1), np.linalg.norm(m2)
+        if min(n1, n2) <= 0 or not np.isfinite(n1 * n2):
+            continue
+        c1 = float(np.clip(m1 @ j1 / n1, -1.0, 1.0))
+        c2 = float(np.clip(m2 @ j2 / n2, -1.0, 1.0))
+        e1, e2 = np.degrees(np.arccos(c1)), np.degrees(np.arccos(c2))
+        rows.append({"start_s": t0 + i0 / rate, "end_s": t0 + i1 / rate,
+                     "angle1_deg": float(e1), "angle2_deg": float(e2),
+                     "mismatch_deg": float(abs(e1 - e2)), "gravity": (n1, n2)})
+    if rows:
+        # a sensor that accelerates steadily is not at rest: keep the periods whose
+        # magnitudes are gravity's
+        ref = np.median([r["gravity"] for r in rows], axis=0)
+        rows = [r for r in rows
+                if np.all(np.abs(np.array(r["gravity"]) / ref - 1) <= GRAVITY_TOLERANCE)]
+    for r in rows:
+        del r["gravity"]
+    worst = max((r["mismatch_deg"] for r in rows), default=None)
+    return {"periods": rows, "max_mismatch_deg": worst,
+            "consistent": None if worst is None else bool(worst <= MAX_MISMATCH_DEG),
+            "max_allowed_deg": MAX_MISMATCH_DEG}
+
+
+def gravity_warning(check: dict, what: str = "the axis") -> str | None:
+    """The warning for a failed :func:`gravity_check`, with its evidence; None if it passed
+    or could not be made."""
+    if check["consistent"] is not False:
+        return None
+    worst = max(check["periods"], key=lambda r: r["mismatch_deg"])
+    return (f"{what} is not one physical line: while the sensors rest at "
+            f"{worst['start_s']:.0f}-{worst['end_s']:.0f} s it makes "
+            f"{worst['angle1_deg']:.0f} deg with the vertical in the first sensor but "
+            f"{worst['angle2_deg']:.0f} deg in the second (one hinge axis makes the same "
+            f"angle in both, within {check['max_allowed_deg']:g} deg): the axes are not "
+            "the joint's, or the recording holds too little motion about it")

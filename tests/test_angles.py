@@ -1,0 +1,240 @@
+"""Knee flexion over time (imucal.angles) and the simulator's shared mounting."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from imucal.errors import InputError
+from imucal.simulate import simulate
+
+
+def test_mounting_seed_shares_the_mounting_and_nothing_else():
+    cal, cal_truth = simulate(seed=1, mounting_seed=7, motion="protocol", duration=2.0)
+    walk, walk_truth = simulate(seed=2, mounting_seed=7, motion="gait", duration=2.0)
+    other, other_truth = simulate(seed=2, mounting_seed=8, motion="gait", duration=2.0)
+    for key in ("j1", "j2", "o1", "o2"):
+        assert walk_truth[key] == cal_truth[key]
+        assert np.linalg.norm(np.subtract(other_truth[key], walk_truth[key])) > 0.05
+    assert walk_truth["model"]["sensor_to_segment_rotation"] == (
+        simulate(seed=7, duration=1.0)[1]["model"]["sensor_to_segment_rotation"])
+    assert walk_truth["settings"]["mounting_seed"] == 7
+    assert "mounting_seed" not in simulate(seed=2, duration=1.0)[1]["settings"]
+    # the motion still follows seed: same seed and mounting -> same data
+    again, _ = simulate(seed=2, mounting_seed=7, motion="gait", duration=2.0)
+    assert np.array_equal(again.sensor("shank").gyr, walk.sensor("shank").gyr)
+    assert not np.allclose(other.sensor("shank").gyr, walk.sensor("shank").gyr)
+
+
+@pytest.mark.parametrize("bad", [-1, 1.5, "x", True])
+def test_mounting_seed_must_be_a_non_negative_integer(bad):
+    with pytest.raises(InputError, match="mounting_seed must be a non-negative integer"):
+        simulate(seed=1, mounting_seed=bad, duration=1.0)
+
+
+# ----------------------------------------------------------------------------- calibrate on
+# a 30 s protocol trial, apply to a separate 120 s gait trial of the same mounting
+
+MOUNTING = 11
+NOISE = {"gyr_noise": 0.01, "acc_noise": 0.05}
+
+
+def _err_stats(flexion, truth):
+    err = np.asarray(flexion) - np.asarray(truth)
+    err = err - err.mean()
+    n = 1000  # 10 s at 100 Hz
+    return float(np.sqrt(np.mean(err**2))), float(err[-n:].mean() - err[:n].mean())
+
+
+@pytest.fixture(scope="module")
+def session():
+    from imucal.calibration import calibrate
+
+    cal, _ = simulate(seed=1, mounting_seed=MOUNTING, motion="protocol", duration=30.0,
+                      **NOISE)
+    walk, truth = simulate(seed=2, mounting_seed=MOUNTING, motion="gait", duration=120.0,
+                           gyr_bias=0.02, **NOISE)
+    return calibrate(cal, restarts=20, seed=1), walk, truth
+
+
+def test_fused_flexion_is_accurate_and_does_not_drift(session):
+    from imucal.angles import joint_angles
+
+    calibration, walk, truth = session
+    result = joint_angles(walk, calibration)
+    knee = result.joints["knee"]
+    rmse, drift = _err_stats(knee.flexion_deg, truth["knee_flexion_deg"])
+    assert rmse < 1.0 and abs(drift) < 1.0, (rmse, drift)
+    assert result.fits and knee.sign_source == "calibration"
+    # pure integration of the same rates drifts by tens of degrees in 2 minutes
+    assert abs(_err_stats(knee.gyro_only_deg, truth["knee_flexion_deg"])[1]) > 10.0
+    # the zero: the calibration trial's most extended posture, within the few degrees a
+    # knee is flexed at its most extended moment of walking
+    assert abs(np.mean(knee.flexion_deg - truth["knee_flexion_deg"])) < 8.0
+    # the band covers the error (after the constant the zero convention sets)
+    err = knee.flexion_deg - np.asarray(truth["knee_flexion_deg"])
+    err -= err.mean()
+    assert np.mean(np.abs(err) <= 2.0 * knee.sigma_deg) > 0.95
+    assert np.median(knee.sigma_deg) < 1.0
+    gait = knee.gait
+    assert gait is not None and 0.85 < 1 / gait["stride_s"] < 1.1 and len(gait["peaks"]) > 100
+
+
+def test_soft_tissue_keeps_the_error_small():
+    from imucal.angles import joint_angles
+    from imucal.calibration import calibrate
+
+    tissue = {"soft_tissue_deg": 1.0, "soft_tissue_mm": 2.0, **NOISE}
+    cal, _ = simulate(seed=3, mounting_seed=MOUNTING, motion="protocol", duration=30.0,
+                      **tissue)
+    walk, truth = simulate(seed=4, mounting_seed=MOUNTING, motion="gait", duration=60.0,
+                           gyr_bias=0.02, **tissue)
+    result = joint_angles(walk, calibrate(cal, restarts=20, seed=1,
+                                          joints=["knee=hinge:thigh,shank"]))
+    knee = result.joints["knee"]
+    rmse, drift = _err_stats(knee.flexion_deg, truth["knee_flexion_deg"])
+    assert rmse < 3.0 and abs(drift) < 1.0, (rmse, drift)
+    assert result.fits, knee.check
+    err = knee.flexion_deg - np.asarray(truth["knee_flexion_deg"])
+    assert np.mean(np.abs(err - err.mean()) <= 2.0 * knee.sigma_deg) > 0.95
+
+
+def test_a_calibration_of_another_mounting_is_flagged(session):
+    from imucal.angles import joint_angles
+
+    calibration, _, _ = session
+    other, _ = simulate(seed=2, mounting_seed=MOUNTING + 1, motion="gait", duration=30.0,
+                        **NOISE)
+    result = joint_angles(other, calibration)
+    assert not result.fits
+    check = result.joints["knee"].check
+    assert check["hinge_residual"] > 5 * check["calibration_hinge_residual"]
+    assert "does not fit" in result.joints["knee"].warnings[-1]
+    assert result.to_document()["fits"] is False
+
+
+def test_sign_and_zero_can_be_pinned(session):
+    from imucal.angles import joint_angles
+
+    calibration, walk, truth = session
+    auto = joint_angles(walk, calibration, end=20.0).joints["knee"]
+    flipped = joint_angles(walk, calibration, end=20.0,
+                           flexion_sign="-" if auto.sign > 0 else "+").joints["knee"]
+    np.testing.assert_allclose(flipped.flexion_deg, -auto.flexion_deg, atol=1e-9)
+    at = joint_angles(walk, calibration, end=20.0, reference=5.0).joints["knee"]
+    assert abs(at.flexion_deg[500]) < 1.0 and at.sign_source == "calibration"
+    with pytest.raises(InputError, match="outside the recording"):
+        joint_angles(walk, calibration, end=20.0, reference=50.0)
+    with pytest.raises(InputError, match="flexion sign must be"):
+        joint_angles(walk, calibration, flexion_sign="up")
+    with pytest.raises(InputError, match="no still period"):
+        joint_angles(walk, calibration, end=20.0, reference="standing")
+
+
+def test_zero_from_a_still_standing_period():
+    from imucal.angles import joint_angles
+
+    # a static trial of the same mounting: the knee stands still at the simulated pose
+    still, truth = simulate(seed=5, mounting_seed=MOUNTING, motion="static", duration=3.0,
+                            **NOISE)
+    calibration = _session_calibration()
+    knee = joint_angles(still, calibration, reference="standing").joints["knee"]
+    assert "still period" in knee.zero["method"]
+    assert np.max(np.abs(knee.flexion_deg)) < 0.5
+
+
+def _session_calibration():
+    from imucal.calibration import calibrate
+
+    cal, _ = simulate(seed=1, mounting_seed=MOUNTING, motion="protocol", duration=30.0,
+                      **NOISE)
+    return calibrate(cal, restarts=20, seed=1, joints=["knee=hinge:thigh,shank"])
+
+
+def test_missing_sensor_names_the_joint_and_the_sensor(session):
+    from imucal import make_recording
+    from imucal.angles import joint_angles
+
+    calibration, walk, _ = session
+    only = make_recording({"thigh": {"gyr": walk.sensor("thigh").gyr,
+                                     "acc": walk.sensor("thigh").acc}}, rate=walk.rate,
+                          source="walk.h5")
+    with pytest.raises(InputError, match="no sensor 'shank'.*joint 'knee' needs sensor"):
+        joint_angles(only, calibration)
+
+
+def test_table_and_document(session, tmp_path):
+    import h5py
+    import pandas as pd
+
+    from imucal.angles import joint_angles
+
+    calibration, walk, _ = session
+    result = joint_angles(walk, calibration, end=10.0)
+    frame = result.to_frame()
+    assert list(frame.columns) == ["time", "knee_flexion_deg", "knee_flexion_sigma_deg"]
+    assert frame.shape[0] == 1000 and frame["time"].iloc[-1] == pytest.approx(9.99)
+    result.write(tmp_path / "a.csv")
+    back = pd.read_csv(tmp_path / "a.csv")
+    np.testing.assert_allclose(back["knee_flexion_deg"], frame["knee_flexion_deg"],
+                               rtol=1e-5, atol=1e-4)
+    result.write(tmp_path / "a.h5")
+    with h5py.File(tmp_path / "a.h5") as f:
+        assert f["knee_flexion_deg"].shape == (1000,) and "imucal" in f.attrs
+    with pytest.raises(InputError, match="unknown table format"):
+        result.write(tmp_path / "a.txt")
+    doc = result.to_document()
+    assert doc["command"] == "angles" and doc["joints"]["knee"]["column"] == "knee_flexion_deg"
+
+
+# ----------------------------------------------------------------------------- real data
+
+
+@pytest.fixture(scope="module")
+def real_knees(real_recording):
+    from imucal.angles import joint_angles
+    from imucal.calibration import calibrate
+
+    cal = calibrate(real_recording, restarts=20, seed=1, end=55.0,
+                    joints=["left_knee=hinge:left_thigh,left_shank",
+                            "right_knee=hinge:right_thigh,right_shank"])
+    return cal, joint_angles(real_recording, cal, end=55.0)
+
+
+def test_real_knees_are_flagged_not_silently_wrong(real_knees):
+    # On 0-55 s of the shared recording the hinge fit finds axes that make different
+    # angles with the vertical in thigh and shank while the person sits (not one physical
+    # line: imucal.rest), and the accelerometer angle disagrees with the gyro angle by tens
+    # of degrees; both knees must say so, in the calibration and in every angle result
+    # made from it, and the angles must not pass as fitting (docs/real-data.md).
+    cal, result = real_knees
+    for name in ("left_knee", "right_knee"):
+        ref = cal.joints[name].angle
+        assert cal.joints[name].verdict != "good"
+        assert ref["gravity_consistent"] is False and ref["gravity_mismatch_deg"] > 60.0
+        assert ref["acc_gyro_disagreement_deg"] > 30.0
+        warned = " ".join(result.joints[name].warnings)
+        assert "not one physical line" in warned and "drift correction" in warned
+        assert not result.joints[name].fits
+        assert result.joints[name].check["gravity_mismatch_deg"] > 60.0
+        assert np.all(np.isfinite(result.joints[name].flexion_deg))
+        assert np.all(np.isfinite(result.joints[name].sigma_deg))
+
+
+def test_figure_and_gait_cycles(session, tmp_path):
+    from imucal.angle_plots import gait_cycles, plot_angles
+    from imucal.angles import joint_angles
+
+    calibration, walk, truth = session
+    result = joint_angles(walk, calibration, end=20.0)
+    knee = result.joints["knee"]
+    cycles = gait_cycles(knee.flexion_deg, knee.gait["peaks"])
+    assert cycles.shape == (len(knee.gait["peaks"]) - 1, 101)
+    # a cycle runs from peak swing flexion to the next: both ends near the peak (~60 deg),
+    # the loading-response minimum in between
+    assert cycles[:, 0].mean() > 45 and cycles.min(axis=1).max() < 15
+    plot_angles(result, tmp_path / "a.png",
+                truth={"knee": np.asarray(truth["knee_flexion_deg"][:2000])})
+    assert (tmp_path / "a.png").stat().st_size > 10_000
+    with pytest.raises(InputError, match="unknown figure format"):
+        plot_angles(result, tmp_path / "a.jpg")

@@ -1,0 +1,207 @@
+"""imucal.calibration.calibrate: joints from sensor names, explicit specs, the calibration file."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from imucal import make_recording
+from imucal.calibration import (
+    FORMAT_VERSION,
+    calibrate,
+    discover_joints,
+    load_calibration,
+    parse_joint_spec,
+)
+from imucal.errors import InputError
+from imucal.simulate import simulate
+
+
+def _rec(names, n=20):
+    z = np.zeros((n, 3))
+    return make_recording({name: {"gyr": z, "acc": z + 1.0} for name in names}, rate=100.0,
+                          source="names.h5")
+
+
+def _joints(names):
+    specs, notes = discover_joints(_rec(names))
+    return {s.name: (s.kind, s.first, s.second) for s in specs}, notes
+
+
+def test_joints_from_plain_names():
+    joints, _ = _joints(["thigh", "shank", "foot"])
+    assert joints == {"knee": ("hinge", "thigh", "shank"),
+                      "ankle": ("spheroidal", "shank", "foot")}
+
+
+def test_joints_of_both_legs_and_hips_from_a_pelvis():
+    joints, _ = _joints(["pelvis", "left_thigh", "left_shank", "left_foot", "right_thigh",
+                         "right_shank", "right_foot"])
+    assert joints["left_hip"] == ("spheroidal", "pelvis", "left_thigh")
+    assert joints["right_hip"] == ("spheroidal", "pelvis", "right_thigh")
+    assert joints["left_knee"] == ("hinge", "left_thigh", "left_shank")
+    assert joints["right_ankle"] == ("spheroidal", "right_shank", "right_foot")
+    assert len(joints) == 6
+
+
+def test_joints_from_vendor_labels():
+    joints, _ = _joints(["Pelvis", "Left Upper Leg", "Left Lower Leg", "Right Upper Leg",
+                         "Right Lower Leg", "Sternum"])
+    assert joints == {"left_hip": ("spheroidal", "Pelvis", "Left Upper Leg"),
+                      "right_hip": ("spheroidal", "Pelvis", "Right Upper Leg"),
+                      "left_knee": ("hinge", "Left Upper Leg", "Left Lower Leg"),
+                      "right_knee": ("hinge", "Right Upper Leg", "Right Lower Leg")}
+
+
+def test_a_segment_named_twice_is_noted_and_the_first_used():
+    joints, notes = _joints(["thigh", "femur", "shank"])
+    assert joints == {"knee": ("hinge", "thigh", "shank")}
+    assert "'thigh' and 'femur' are both a thigh" in notes[0]
+
+
+def test_no_joint_in_the_names():
+    with pytest.raises(InputError, match="names.h5: no joint found from the sensor names"):
+        calibrate(_rec(["a", "b"]))
+
+
+def test_joint_specs():
+    spec = parse_joint_spec("left_knee=hinge:left_thigh,left_shank")
+    assert (spec.name, spec.kind, spec.first, spec.second) == (
+        "left_knee", "hinge", "left_thigh", "left_shank")
+    assert parse_joint_spec(" ankle = spheroidal : shank , foot ").second == "foot"
+
+
+@pytest.mark.parametrize("bad, message", [
+    ("left_knee", "use NAME=hinge:FIRST,SECOND"),
+    ("knee=hinge:thigh", "use NAME=hinge:FIRST,SECOND"),
+    ("knee=hinge:a,b,c", "use NAME=hinge:FIRST,SECOND"),
+    ("knee=ball:thigh,shank", "unknown joint type 'ball'"),
+    ("knee=hinge:thigh,Thigh", "two different sensors"),
+    ("1knee=hinge:a,b", "use NAME=hinge:FIRST,SECOND"),
+])
+def test_bad_joint_specs(bad, message):
+    with pytest.raises(InputError, match=message):
+        parse_joint_spec(bad)
+
+
+def test_explicit_joints_are_checked_against_the_recording():
+    rec = _rec(["thigh", "shank"])
+    with pytest.raises(InputError, match="no sensor 'knee_sensor'"):
+        calibrate(rec, joints=["knee=hinge:thigh,knee_sensor"])
+    with pytest.raises(InputError, match="joint 'knee' given twice"):
+        calibrate(rec, joints=["knee=hinge:thigh,shank", "knee=spheroidal:thigh,shank"])
+
+
+@pytest.fixture(scope="module")
+def calibration():
+    rec, truth = simulate(seed=1, mounting_seed=11, motion="protocol", duration=30.0,
+                          gyr_noise=0.01, acc_noise=0.05)
+    return calibrate(rec, restarts=20, seed=1), truth
+
+
+def test_calibration_of_a_simulated_leg(calibration):
+    cal, truth = calibration
+    assert list(cal.joints) == ["knee", "ankle"]
+    knee, ankle = cal.joints["knee"], cal.joints["ankle"]
+    s = np.sign(knee.j1 @ truth["j1"])
+    assert np.degrees(np.arccos(s * knee.j1 @ truth["j1"])) < 0.5
+    assert np.degrees(np.arccos(s * knee.j2 @ truth["j2"])) < 0.5
+    # the knee centre on the axis: the true centre's closest point (within 2 cm)
+    for key in ("o1", "o2"):
+        j = knee.j1 if key == "o1" else knee.j2
+        d = np.subtract(getattr(knee, key), truth["knee"][key])
+        assert np.linalg.norm(d - (d @ j) * j) < 0.02
+    assert np.linalg.norm(ankle.o1 - truth["ankle"]["o1"]) < 0.02
+    assert knee.verdict == "good" and knee.angle["flexion_sign"] in (1, -1)
+    assert knee.axis["quality"]["verdict"] == "good" and "restarts" in knee.position
+    assert ankle.angle is None and ankle.j1 is None
+
+
+def test_calibration_file_round_trip(calibration, tmp_path):
+    cal, _ = calibration
+    path = tmp_path / "cal.json"
+    cal.write(path)
+    doc = json.loads(path.read_text())
+    assert doc["format"] == "imucal-calibration" and doc["format_version"] == FORMAT_VERSION
+    assert set(doc["joints"]["knee"]) >= {"joint", "sensors", "verdict", "j1", "j2", "o1",
+                                          "o2", "angle", "axis", "position", "warnings"}
+    assert doc["settings"]["joints"] == ["knee=hinge:thigh,shank",
+                                         "ankle=spheroidal:shank,foot"]
+    back = load_calibration(path)
+    np.testing.assert_array_equal(back.joints["knee"].j1, cal.joints["knee"].j1)
+    assert back.joints["knee"].angle == doc["joints"]["knee"]["angle"]
+    assert back.file == str(path)
+
+
+def test_load_calibration_errors(calibration, tmp_path):
+    with pytest.raises(InputError, match="calibration file not found"):
+        load_calibration(tmp_path / "none.json")
+    (tmp_path / "x.json").write_text("{not json")
+    with pytest.raises(InputError, match="x.json: not a calibration file"):
+        load_calibration(tmp_path / "x.json")
+    (tmp_path / "axis.json").write_text(json.dumps({"command": "axis", "j1": [1, 0, 0]}))
+    with pytest.raises(InputError, match="an imucal 'axis' result"):
+        load_calibration(tmp_path / "axis.json")
+    doc = calibration[0].to_document()
+    (tmp_path / "v9.json").write_text(json.dumps({**doc, "format_version": 9}))
+    with pytest.raises(InputError, match="format version 9.*calibrate again"):
+        load_calibration(tmp_path / "v9.json")
+    doc["joints"]["knee"]["j1"] = [1, 2]
+    (tmp_path / "bad.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="damaged calibration file.*knee' j1"):
+        load_calibration(tmp_path / "bad.json")
+
+
+def test_a_joint_that_cannot_be_identified_does_not_lose_the_others():
+    rec, _ = simulate(seed=3, motion="circling", duration=15.0, gyr_noise=0.01,
+                      acc_noise=0.05)
+    z = np.zeros((rec.n_samples, 3))
+    # a foot sensor that reads nothing at all: the ankle cannot be estimated
+    dead = make_recording({"thigh": rec.sensors["thigh"].__dict__,
+                           "shank": rec.sensors["shank"].__dict__,
+                           "foot": {"gyr": z, "acc": z + [0, 0, 9.81]}}, rate=rec.rate)
+    cal = calibrate(dead, restarts=20, seed=1)
+    assert cal.joints["knee"].verdict == "good" and cal.joints["knee"].usable
+    ankle = cal.joints["ankle"]
+    assert ankle.verdict in ("failed", "not identifiable")
+    assert ankle.warnings
+    doc = cal.to_document()
+    assert doc["joints"]["ankle"]["verdict"] == ankle.verdict
+
+
+def test_results_and_parameters_are_documented():
+    import dataclasses
+    import inspect
+
+    from test_documented import _documented_names
+
+    from imucal.angles import JointAngle, JointAngles, joint_angles
+    from imucal.calibration import Calibration, JointCalibration
+
+    for cls in (Calibration, JointCalibration, JointAngle, JointAngles):
+        missing = {f.name for f in dataclasses.fields(cls)} - _documented_names(cls.__doc__)
+        assert not missing, f"{cls.__name__}: undocumented {sorted(missing)}"
+    for func in (calibrate, joint_angles):
+        missing = set(inspect.signature(func).parameters) - _documented_names(func.__doc__)
+        assert not missing, f"{func.__name__}: undocumented {sorted(missing)}"
+
+
+def test_a_failed_hinge_is_named_in_the_angles(calibration):
+    import dataclasses
+
+    from imucal.angles import joint_angles
+
+    cal, _ = calibration
+    failed = dataclasses.replace(cal.joints["knee"], name="other_knee", verdict="failed",
+                                 j1=None, j2=None, o1=None, o2=None, angle=None,
+                                 warnings=["other_knee: estimate stopped: no motion"])
+    both = dataclasses.replace(cal, joints={**cal.joints, "other_knee": failed})
+    rec, _ = simulate(seed=2, mounting_seed=11, motion="gait", duration=10.0)
+    result = joint_angles(rec, both)
+    assert list(result.joints) == ["knee"]
+    assert "joint 'other_knee' has no angle: its calibration failed" in result.warnings[0]
+    only_failed = dataclasses.replace(cal, joints={"other_knee": failed})
+    with pytest.raises(InputError, match="no usable hinge joint"):
+        joint_angles(rec, only_failed)

@@ -1,0 +1,87 @@
+"""Still periods and the gravity check of a hinge axis (imucal.rest)."""
+
+import numpy as np
+import pytest
+
+from imucal.rest import MAX_MISMATCH_DEG, gravity_check, gravity_warning, still_periods
+
+RATE = 100.0
+UP = np.array([0.0, 0.0, 9.81])
+
+
+def _rot(axis, angle):
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def _postures(j1, mount, flexions_deg, tilts_deg, rng):
+    """A thigh-shank pair resting in several postures, 2 s each, 0.5 s of motion between
+    them: (gyr1, acc1, gyr2, acc2) with the hinge j1 (thigh frame), j2 = mount.T @ j1."""
+    q = _rot(rng.normal(size=3), 1.0)  # thigh orientation before tilting
+    parts = [[], [], [], []]
+    for flex, tilt in zip(flexions_deg, tilts_deg, strict=True):
+        q1 = _rot([1.0, 0.3, 0.0], np.radians(tilt)) @ q
+        w = q1 @ j1  # the hinge line in the world
+        q2 = _rot(w, np.radians(flex)) @ q1 @ mount
+        for k, (rot, moving) in enumerate(((q1, 0.0), (q2, 0.0))):
+            still = np.tile(rot.T @ UP, (int(2 * RATE), 1))
+            parts[2 * k + 1].append(still + rng.normal(0, 0.02, still.shape))
+            parts[2 * k].append(rng.normal(0, 0.005, still.shape) + moving)
+        for k in range(2):  # a burst of motion between postures
+            burst = np.full((int(0.5 * RATE), 3), 2.0)
+            parts[2 * k].append(burst)
+            parts[2 * k + 1].append(np.tile(UP, (burst.shape[0], 1)) * 1.5)
+    return [np.concatenate(p) for p in parts]
+
+
+@pytest.fixture
+def hinge():
+    rng = np.random.default_rng(3)
+    j1 = np.array([0.2, 0.9, -0.3])
+    j1 /= np.linalg.norm(j1)
+    mount = _rot(rng.normal(size=3), 2.0)
+    signals = _postures(j1, mount, [5, 90, 40], [0, 20, -30], rng)
+    return signals, j1, mount.T @ j1
+
+
+def test_one_hinge_axis_passes_in_every_posture(hinge):
+    (g1, a1, g2, a2), j1, j2 = hinge
+    check = gravity_check(g1, a1, g2, a2, j1, j2, RATE)
+    assert len(check["periods"]) == 3
+    assert check["consistent"] is True and check["max_mismatch_deg"] < 2.0
+    assert gravity_warning(check) is None
+
+
+def test_an_axis_that_is_not_the_hinge_fails_with_its_evidence(hinge):
+    (g1, a1, g2, a2), j1, j2 = hinge
+    wrong = np.cross(j2, [0.0, 0.0, 1.0])
+    wrong /= np.linalg.norm(wrong)
+    check = gravity_check(g1, a1, g2, a2, j1, wrong, RATE)
+    assert check["consistent"] is False and check["max_mismatch_deg"] > MAX_MISMATCH_DEG
+    text = gravity_warning(check, "the knee axis")
+    assert text.startswith("the knee axis is not one physical line") and "deg" in text
+
+
+def test_no_still_period_makes_no_claim():
+    rng = np.random.default_rng(1)
+    g = rng.normal(0, 1.0, (500, 3))
+    check = gravity_check(g, g, g, g, np.array([1.0, 0, 0]), np.array([1.0, 0, 0]), RATE)
+    assert check["periods"] == [] and check["consistent"] is None
+    assert gravity_warning(check) is None
+    assert still_periods((g,), RATE) == []
+
+
+def test_real_knees_axes_from_the_first_55_s_are_not_one_line(real_recording):
+    from imucal import estimate_axis
+
+    for side in ("left", "right"):
+        s1, s2 = real_recording.sensor(f"{side}_thigh"), real_recording.sensor(f"{side}_shank")
+        axis = estimate_axis(s1.gyr, s2.gyr, rate=RATE, seed=1, restarts=20, end=55,
+                             acc1=s1.acc, acc2=s2.acc)
+        check = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, axis.j1, axis.j2, RATE,
+                              window=slice(0, 5500))
+        # standing: both near the vertical; sitting (12-44 s): thigh's near horizontal
+        assert check["max_mismatch_deg"] > 60, side
+        sitting = [p for p in check["periods"] if 10 < p["start_s"] < 30]
+        assert sitting and sitting[0]["angle1_deg"] > 70 and sitting[0]["angle2_deg"] < 20
