@@ -1,7 +1,11 @@
-"""The ``imucal`` command line: wires loaders, estimators, reports and plots together.
+"""The ``imucal`` command line: parses options, runs, prints (docs/architecture.md).
 
-Data (JSON) goes to stdout or ``--out``; progress, summaries and errors go to stderr.
-Exit status: 0 success, 2 bad input or usage, 1 the data cannot answer.
+``axis`` and ``position`` turn their options into a settings object and a
+:class:`imucal.runner.Job` before any file is read (a bad value is a usage error), hand
+them to :func:`imucal.runner.run` for one recording or :func:`imucal.study.run_study` for
+several, and print the outcome. Data (JSON) goes to stdout or ``--out``; progress,
+summaries and errors go to stderr. Exit status: 0 success, 1 the data cannot answer,
+2 bad input or usage, 3 internal error (docs/errors.md).
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ import typer
 
 from . import __version__
 from .atomic import check_not_inputs, check_writable, write_atomic, write_text_atomic
-from .errors import ImucalError, InputError, NotIdentifiableError
+from .errors import ImucalError, InputError
 
 
 def _examples(*lines: str) -> str:
@@ -106,6 +110,11 @@ TimeOffset = Annotated[str, typer.Option(
     "late): auto (estimated from the constraint itself within +-0.2 s and applied when it "
     "clearly improves the fit; reported in time_offset), 0 (clocks in sync) or a number "
     "of seconds to apply.")]
+Scheduler = Annotated[str | None, typer.Option(
+    "--scheduler", metavar="ADDRESS", show_default=False,
+    help="With several RECs: run the study on the Dask cluster whose scheduler listens "
+    "at ADDRESS (e.g. tcp://host:8786) instead of local processes; same output and exit "
+    "status as --jobs. Needs the dask extra (docs/performance.md).")]
 Force = Annotated[bool, typer.Option(
     "--force", help="Write the result even when the data cannot identify it (exit 0; the "
     "JSON carries the warnings). Without it such a run writes nothing and exits 1.")]
@@ -122,6 +131,7 @@ Force = Annotated[bool, typer.Option(
     )
 )
 def axis(
+    ctx: typer.Context,
     rec: Recs,
     sensors: Annotated[str, typer.Option(help="First (proximal) and second sensor, comma "
                                          "separated.")] = "thigh,shank",
@@ -152,31 +162,23 @@ def axis(
     force: Force = False,
     trace: Trace = False,
     jobs: Jobs = 1,
+    scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
     """Hinge joint axis: j1 in the first sensor's frame, j2 in the second's (unit vectors)."""
-    params = dict(locals())  # every option, for the per-recording runs of a study
     with _errors(debug):
-        if len(rec) > 1:
-            from .batch import run_study
+        from .settings import AxisSettings
 
-            raise typer.Exit(run_study("axis", params))
-        rec = rec[0]
-        from .axis import estimate_axis
-        from .time_offset import check_time_offset
-
-        offset = check_time_offset(time_offset)  # a usage error, before any file is read
-
-        def estimate(s1, s2, sample_rate, **window):
-            return estimate_axis(s1.gyr, s2.gyr, rate=sample_rate, restarts=restarts, seed=seed,
-                                 cutoff=cutoff, subsample=subsample, sign=sign,
-                                 j2_sign=j2_sign, acc1=s1.acc, acc2=s2.acc,
-                                 select=select, max_samples=_max_samples(max_samples),
-                                 time_offset=offset, **window)
-
-        _run(estimate, "axis", rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
-             quiet, force, trace=trace, sensor_map=sensor_map)
+        settings = _settings(ctx, AxisSettings, restarts=restarts, seed=seed, cutoff=cutoff,
+                             subsample=subsample, select=select,
+                             max_samples=_max_samples(max_samples), sign=sign,
+                             j2_sign=j2_sign, time_offset=time_offset)
+        job = _job(ctx, "axis", sensors, settings, start=start, end=end, rate=rate,
+                   gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
+                   force=force, trace=trace)
+        raise typer.Exit(_estimate(job, rec, out=out, plot=plot, jobs=jobs,
+                                   scheduler=scheduler, quiet=quiet))
 
 
 @app.command(
@@ -188,6 +190,7 @@ def axis(
     )
 )
 def position(
+    ctx: typer.Context,
     rec: Recs,
     sensors: Annotated[str, typer.Option(help="First (proximal) and second sensor, comma "
                                          "separated.")] = "shank,foot",
@@ -219,34 +222,23 @@ def position(
     force: Force = False,
     trace: Trace = False,
     jobs: Jobs = 1,
+    scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
     """Joint centre: o1, o2 = vectors from the joint centre to each sensor, own frame, m."""
-    params = dict(locals())  # every option, for the per-recording runs of a study
     with _errors(debug):
-        if len(rec) > 1:
-            from .batch import run_study
+        from .settings import PositionSettings
 
-            raise typer.Exit(run_study("position", params))
-        rec = rec[0]
-        from .position import JOINTS, estimate_position
-        from .time_offset import check_time_offset
-
-        offset = check_time_offset(time_offset)  # a usage error, before any file is read
-
-        if joint not in JOINTS:
-            raise InputError(f"--joint must be one of {', '.join(JOINTS)}, got '{joint}'")
-
-        def estimate(s1, s2, sample_rate, **window):
-            return estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, rate=sample_rate,
-                                     restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
-                                     subsample=subsample, select=select,
-                                     max_samples=_max_samples(max_samples), sign=sign,
-                                     j2_sign=j2_sign, time_offset=offset, **window)
-
-        _run(estimate, "position", rec, sensors, start, end, out, plot, rate, gyr_units,
-             acc_units, quiet, force, trace=trace, sensor_map=sensor_map)
+        settings = _settings(ctx, PositionSettings, restarts=restarts, seed=seed, joint=joint,
+                             cutoff=cutoff, subsample=subsample, select=select,
+                             max_samples=_max_samples(max_samples), sign=sign,
+                             j2_sign=j2_sign, time_offset=time_offset)
+        job = _job(ctx, "position", sensors, settings, start=start, end=end, rate=rate,
+                   gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
+                   force=force, trace=trace)
+        raise typer.Exit(_estimate(job, rec, out=out, plot=plot, jobs=jobs,
+                                   scheduler=scheduler, quiet=quiet))
 
 
 @app.command(
@@ -419,53 +411,74 @@ def convert(
                  f"{recording.n_samples} samples at {recording.rate:g} Hz)")
 
 
-def _run(estimate, command, rec, sensors, start, end, out, plot, rate, gyr_units, acc_units,
-         quiet, force, trace=False, sensor_map=None) -> None:
-    """What `axis` and `position` share: load, check, estimate, report, plot, summarise.
-
-    ``command`` ("axis" or "position") names the report and figure builders to use. When
-    the data cannot identify the answer, nothing is written and the run exits 1, unless
-    ``force``.
-    """
-    from . import report
-
-    _check_outputs(out, plot, rec, sensor_map)
-    recording, names = _load(rec, sensors, rate, gyr_units, acc_units, sensor_map)
-    used, window = _window(recording, names, start, end)
-    s1, s2 = (used.sensor(n) for n in names)
+def _settings(ctx: typer.Context, cls, **values):
+    """The estimator's settings object from the options, before any file is read; a bad
+    value is a usage error naming its option (exit 2)."""
     try:
-        result = estimate(s1, s2, recording.rate, **window)
+        return cls(**values)
     except InputError as err:
-        raise InputError(f"{recording.source}: {err}") from None
-    input_info = _input_info(recording, names, used)
-    if "sensor_map" in recording.provenance:  # which device each name came from
-        in_file = {v: k for k, v in recording.provenance["sensor_map"]["renamed"].items()}
-        input_info["sensor_map"] = {"file": str(sensor_map), "sensors": {
-            m: in_file.get(m, m) for m in map(recording.resolve, names)}}
-    doc = getattr(report, f"{command}_report")(result, input_info=input_info, trace=trace)
-    what = f"{command} ({doc['joint']})" if "joint" in doc else command
-    _progress(quiet, recording, names, what)
-    if doc["quality"]["verdict"] == "not identifiable" and not force:
-        # The first warning is the reason (blocking reasons come first); the others
-        # only help a human reading along.
-        reason, *others = doc["quality"]["warnings"]
-        if not quiet:
-            for w in others:
-                if w.startswith("input: "):
-                    continue  # printed already, at load
-                _err(f"imucal: warning: {recording.source}: {w}")
-        raise NotIdentifiableError(
-            f"{recording.source}: the data cannot identify the {what}: {reason}; nothing "
-            "written (--force writes the result with its warnings)"
-        )
-    if plot is not None:
-        from . import plots
+        raise _usage_error(ctx, str(err)) from None
 
-        pair = f"{names[0]} - {names[1]}"
-        _save_figure(getattr(plots, f"{command}_figure")(result, pair), plot)
+
+def _job(ctx: typer.Context, command: str, sensors: str, settings, **options):
+    """The runner's job from the options; a bad --sensors or window is a usage error."""
+    from .runner import Job, parse_sensors
+
+    try:
+        return Job(command, parse_sensors(sensors), settings, **options)
+    except InputError as err:
+        raise _usage_error(ctx, str(err)) from None
+
+
+#: Settings fields (as their messages name them) -> the options that set them.
+_OPTIONS = {"restarts": "--restarts", "seed": "--seed", "cutoff": "--cutoff",
+            "subsample": "--subsample", "max_samples": "--max-samples", "sign": "--sign",
+            "j2_sign": "--j2-sign", "time offset": "--time-offset", "joint": "--joint"}
+
+
+def _usage_error(ctx: typer.Context, text: str) -> typer.BadParameter:
+    """A usage error in typer's own form: "Invalid value for '--sign': sign must be ..."."""
+    for name, option in _OPTIONS.items():
+        if text.startswith(name + " "):
+            return typer.BadParameter(text, ctx=ctx, param_hint=f"'{option}'")
+    for option in ("--sensors", "--end"):
+        if text.startswith(option + " "):
+            return typer.BadParameter(text[len(option) + 1:], ctx=ctx,
+                                      param_hint=f"'{option}'")
+    return typer.BadParameter(text, ctx=ctx)
+
+
+def _estimate(job, recs, *, out, plot, jobs, scheduler, quiet) -> int:
+    """Run ``job`` on one recording (print its document) or a study; the exit status."""
+    if len(recs) > 1:
+        from .study import run_study
+
+        return run_study(job, recs, out=out, plot=plot, jobs=jobs, scheduler=scheduler,
+                         quiet=quiet)
+    from .runner import run
+
+    rec = recs[0]
+    _check_outputs(out, plot, rec, job.sensor_map)
+    outcome = run(job, rec)
+    for w in outcome.warnings:  # as they were found, -q or not
+        _err(f"imucal: warning: {w}")
+    if outcome.headline is not None and not quiet:
+        _err(outcome.headline)
+    if outcome.exception is not None:
+        if not quiet:
+            for w in outcome.notes:
+                _err(f"imucal: warning: {w}")
+        raise outcome.exception
+    doc = outcome.document
+    if plot is not None:
+        from .runner import COMMANDS
+
+        pair = f"{job.sensors[0]} - {job.sensors[1]}"
+        _save_figure(COMMANDS[job.command].figure(outcome.result, pair), plot)
     _emit(doc, out)
     if not quiet:
-        _summary(doc, names)
+        _summary(doc, job.sensors)
+    return 0
 
 
 def _max_samples(value: int | None) -> int:
@@ -522,7 +535,7 @@ class _errors:
         return self
 
     def __exit__(self, kind, err, tb):
-        if err is None or isinstance(err, (typer.Exit, SystemExit)):
+        if err is None or isinstance(err, (typer.Exit, SystemExit, typer.BadParameter)):
             return False
         if self.debug:
             return False
@@ -538,54 +551,6 @@ class _errors:
         _err(f"imucal: internal error: {type(err).__name__}: {err} (rerun with --debug and "
              "report it)")
         raise typer.Exit(3)
-
-
-def _load(rec, sensors, rate, gyr_units, acc_units, sensor_map=None):
-    from .loaders import load_recording
-
-    names = [s.strip() for s in sensors.split(",")]
-    if len(names) != 2 or not all(names) or names[0] == names[1]:
-        raise InputError(f"--sensors needs two different sensor names, e.g. thigh,shank; "
-                         f"got '{sensors}'")
-    recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
-                               names=sensor_map)
-    for n in names:
-        if n not in recording.sensors:
-            recording.sensor(n)  # raises with the list of sensors that exist
-    # No warnings yet: which of the file's problems matter depends on the sensors and
-    # window used (_window).
-    return recording, names
-
-
-def _window(recording, names, start, end):
-    """The sensors ``names`` in the window --start/--end (s on the recording's time axis),
-    checked and repaired (Recording.select), and the window for the estimators, which
-    count from the first sample they are given. Warnings about the data used go to stderr
-    here; problems elsewhere in the file are not theirs.
-    """
-    used = recording.select(names, start, end, context=True)
-    for w in used.warnings:
-        _err(f"imucal: warning: {used.source}: {w}")
-    i0, i1 = used.window
-    # Whole samples, so the estimators cut exactly the samples select checked; the finite
-    # context around them keeps filter transients off the window's edges.
-    rel = {"start": None if start is None and i0 == 0 else i0 / used.rate,
-           "end": None if end is None and i1 == used.n_samples else i1 / used.rate}
-    return used, rel
-
-
-def _input_info(recording, names, used=None) -> dict:
-    used = recording if used is None else used
-    return {
-        "path": recording.source,
-        "sensors": names,
-        "sample_rate_hz": recording.rate,
-        "samples_total": recording.n_samples,
-        "duration_s": recording.duration,
-        "units_in_file": {n: recording.units.get(n, {}) for n in names},
-        "time_origin": float(used.time[0]),
-        "load_warnings": list(used.warnings),
-    }
 
 
 def _check_outputs(out, plot, rec, sensor_map=None) -> None:
@@ -618,12 +583,6 @@ def _save_figure(fig, path: Path) -> None:
     from .plots import save_figure
 
     write_atomic(path, lambda tmp: save_figure(fig, tmp, path.suffix))
-
-
-def _progress(quiet, recording, names, what) -> None:
-    if not quiet:
-        _err(f"imucal {what}: {recording.source}: {names[0]} -> {names[1]}, "
-             f"{recording.n_samples} samples at {recording.rate:g} Hz ({recording.duration:.1f} s)")
 
 
 def _summary(doc: dict, names) -> None:

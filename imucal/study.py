@@ -1,28 +1,27 @@
-"""Whole studies: ``imucal axis A.h5 B.h5 ... --jobs N`` (and ``position``) in parallel processes.
+"""Whole studies: ``imucal axis A.h5 B.h5 ... --jobs N`` (and ``position``) in parallel.
 
-Every recording is processed exactly as ``imucal axis REC`` would process it alone (the
-single-file command itself runs in the worker, with its output captured), and its
-outcome becomes one line of JSON Lines, in input order::
+Every recording goes through the same runner as ``imucal axis REC`` alone
+(:func:`imucal.runner.run`), and its outcome becomes one line of JSON Lines, in input
+order::
 
     {"file": "A.h5", "exit_code": 0, "error": null, "warnings": [], "result": {...}}
     {"file": "B.h5", "exit_code": 2, "error": "B.h5: no such file", "warnings": [], "result": null}
 
 ``result`` is the document the single-file command prints (docs/json.md), compact on one
-line. ``warnings`` holds what the single-file command would print as warnings on stderr
-(loading notes; for a result that is not identifiable, the reasons). A failed recording
-does not stop the others. The exit status is the most severe (highest) code of all
-recordings: 0 all succeeded, 1 some were not identifiable (``--force`` writes them),
-2 some had bad input, 3 an internal error or a worker process that died.
+line. ``warnings`` holds the warnings the single-file command prints while loading (about
+the two sensors in their window). A failed recording does not stop the others. The exit
+status is the most severe (highest) code of all recordings: 0 all succeeded, 1 some were
+not identifiable (``--force`` writes them), 2 some had bad input, 3 an internal error or
+a worker process that died.
 
-Parallelism comes from processes (Python threads would serialise on the interpreter), so
-each process is limited to one BLAS/OpenMP thread: with N processes on N cores, more
-threads per process would only compete for the same cores. See docs/performance.md.
+The recordings run in local worker processes (``--jobs``; Python threads would serialise
+on the interpreter) or on a Dask cluster (``--scheduler``, :mod:`imucal.cluster`). Each
+process is limited to one BLAS/OpenMP thread: with N processes on N cores, more threads
+per process would only compete for the same cores. See docs/performance.md.
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import os
 import shutil
@@ -34,8 +33,9 @@ from pathlib import Path
 
 from .atomic import check_not_inputs, check_writable, write_atomic
 from .errors import InputError
+from .runner import INTERNAL_ERROR, Job, run
 
-__all__ = ["Outcome", "run_study", "process_recordings", "resolve_jobs"]
+__all__ = ["Entry", "run_study", "process_recordings", "resolve_jobs", "entry"]
 
 #: Environment variables that size the thread pools of the BLAS and OpenMP libraries
 #: numpy and scipy may be linked against; they are read once, when the library loads.
@@ -49,20 +49,18 @@ THREAD_VARIABLES = (
 )
 #: Modules every worker needs; imported once before the workers start (fork) or in the
 #: fork server, so that no worker pays their import time (about a second) again.
-WORKER_MODULES = ("imucal.cli", "imucal.axis", "imucal.position", "imucal.report",
+WORKER_MODULES = ("imucal.runner", "imucal.axis", "imucal.position", "imucal.report",
                   "imucal.loaders")
-#: Exit code of a recording whose worker raised an unexpected exception or died.
-INTERNAL_ERROR = 3
 #: The progress bar redraws at least this often, s (its clock and estimate keep moving).
 PROGRESS_REFRESH_S = 0.5
-_WARNING_PREFIX = "imucal: warning: "
+WARNING_PREFIX = "imucal: warning: "
 
 
 @dataclass(frozen=True)
-class Outcome:
-    """What one recording gave: its JSON line (no newline) and what to tell the user.
+class Entry:
+    """One recording of a study: its JSON line (no newline) and what to tell the user.
 
-    ``messages`` are the stderr lines the single-file command would have printed.
+    ``messages`` are the warning lines the single-file command prints while loading.
     """
 
     index: int
@@ -74,7 +72,23 @@ class Outcome:
 
 
 def resolve_jobs(jobs: int, n_files: int) -> int:
-    """Worker processes to use: ``jobs`` (0: one per available core), at most one per file."""
+    """Worker processes to use: ``jobs`` (0: one per available core), at most one per file.
+
+    Returns
+    -------
+    int
+        At least 1, at most ``n_files``.
+
+    Raises
+    ------
+    InputError
+        ``jobs`` is negative.
+
+    Examples
+    --------
+    >>> resolve_jobs(4, 2)
+    2
+    """
     if jobs < 0:
         raise InputError(f"--jobs must be 0 (one per core) or a positive number, got {jobs}")
     if jobs == 0:
@@ -85,24 +99,59 @@ def resolve_jobs(jobs: int, n_files: int) -> int:
     return max(1, min(jobs, n_files))
 
 
-def run_study(command: str, params: dict) -> int:
-    """``imucal axis``/``position`` with several RECs (``--jobs``); returns the exit status.
+def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
+              plot: Path | None = None, jobs: int = 1, scheduler: str | None = None,
+              quiet: bool = False) -> int:
+    """``imucal axis``/``position`` with several RECs; writes JSON Lines, returns the status.
 
-    ``params`` are the command's parameters as the command line parsed them (``rec`` the
-    list of recordings). Lines go to stdout as soon as they are ready in input order, or,
-    with ``--out``, into that file, which appears complete (atomically) at the end; with
-    several recordings ``--plot`` is refused, since one figure per file needs one name per
-    file (run the single-file command for figures).
+    Lines go to stdout as soon as they are ready in input order, or, with ``out``, into
+    that file, which appears complete (atomically) at the end. Errors and warnings go to
+    stderr, with a progress bar on a terminal unless ``quiet``.
+
+    Parameters
+    ----------
+    job
+        The options shared by every recording (:class:`imucal.runner.Job`).
+    files
+        The recordings, in output order.
+    out
+        ``--out``: the JSON Lines file, or None for stdout.
+    plot
+        ``--plot``: refused (one figure per file needs one name per file).
+    jobs
+        Local worker processes (0: one per core); ignored with ``scheduler``.
+    scheduler
+        Address of a Dask scheduler (``tcp://host:8786``) to run the study on, or None.
+    quiet
+        No progress bar, warnings or summary on stderr (errors still).
+
+    Returns
+    -------
+    int
+        The exit status: the highest of the recordings' exit codes.
+
+    Raises
+    ------
+    InputError
+        Before anything runs: ``plot`` given, ``-`` among the files, a broken sensor map,
+        an ``out`` that cannot be written, a cluster that cannot be reached.
+
+    Examples
+    --------
+    >>> from imucal.settings import AxisSettings
+    >>> job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=10, seed=1))
+    >>> run_study(job, ["a.h5", "b.h5"], jobs=2)                 # doctest: +SKIP
+    0
     """
-    files = [str(f) for f in params["rec"]]
-    if params.get("plot") is not None:
+    files = [str(f) for f in files]
+    command = job.command
+    if plot is not None:
         raise InputError("--plot draws one recording; with several RECs leave it out and run "
                          f"'imucal {command} REC --plot FILE.png' for the recordings to draw")
     if "-" in files:
         raise InputError("- (standard input) can only be read as the only REC, not in a list "
                          "of recordings")
-    out = params.get("out")
-    sensor_map = params.get("sensor_map")
+    sensor_map = job.sensor_map
     if sensor_map is not None:  # a broken map is one error, not one per recording
         from .sensor_map import read_sensor_map
 
@@ -110,8 +159,16 @@ def run_study(command: str, params: dict) -> int:
     if out is not None:
         check_not_inputs([("--out", out)], files + ([sensor_map] if sensor_map else []))
         check_writable(out)
-    quiet = bool(params.get("quiet"))
-    jobs = resolve_jobs(int(params.get("jobs", 1)), len(files))
+    if scheduler is not None:
+        from .cluster import connect
+
+        client = connect(scheduler)
+        where = f"on {client.workers} Dask worker{'s' if client.workers != 1 else ''} at " \
+                f"{scheduler}"
+    else:
+        client = None
+        jobs = resolve_jobs(jobs, len(files))
+        where = f"with {jobs} process{'es' if jobs > 1 else ''}"
     progress = _Progress(len(files), f"imucal {command}",
                          enabled=not quiet and _is_terminal(sys.stderr))
     worst = 0
@@ -120,15 +177,18 @@ def run_study(command: str, params: dict) -> int:
 
     def consume(write_line: Callable[[str], None]) -> None:
         nonlocal worst
-        for outcome in process_recordings(command, files, params, jobs=jobs,
-                                          on_done=progress.done):
-            for message in outcome.messages:
+        if client is not None:
+            entries = client.process(job, files, on_done=progress.done)
+        else:
+            entries = process_recordings(job, files, jobs=jobs, on_done=progress.done)
+        for result in entries:
+            for message in result.messages:  # -q or not, as the single-file command
                 progress.message(message)
-            if outcome.error is not None:
-                progress.message(f"imucal: error: {outcome.error}")
-                failed.append(outcome.file)
-            worst = max(worst, outcome.exit_code)
-            write_line(outcome.line + "\n")
+            if result.error is not None:
+                progress.message(f"imucal: error: {result.error}")
+                failed.append(result.file)
+            worst = max(worst, result.exit_code)
+            write_line(result.line + "\n")
 
     try:
         if out is None:
@@ -145,53 +205,64 @@ def run_study(command: str, params: dict) -> int:
             write_atomic(out, to_file)
     finally:
         progress.close()
+        if client is not None:
+            client.close()
     if not quiet:
         elapsed = time.perf_counter() - started
-        where = "" if out is None else f" -> {out}"
+        target = "" if out is None else f" -> {out}"
         status = "all succeeded" if not failed else (
             f"{len(failed)} failed ({_short(failed)}), exit status {worst}")
-        _err(f"imucal {command}: {len(files)} recordings in {elapsed:.1f} s with {jobs} "
-             f"process{'es' if jobs > 1 else ''}{where}: {status}")
+        _err(f"imucal {command}: {len(files)} recordings in {elapsed:.1f} s {where}{target}: "
+             f"{status}")
     return worst
 
 
 def process_recordings(
-    command: str,
+    job: Job,
     files: Sequence[str],
-    params: dict,
     *,
     jobs: int = 1,
     on_done: Callable[[int, int], None] | None = None,
     start_method: str | None = None,
-) -> Iterator[Outcome]:
-    """Run ``command`` on every file; yield the outcomes in input order.
+) -> Iterator[Entry]:
+    """Run ``job`` on every file in local processes; yield the entries in input order.
 
     ``jobs`` 1 runs in this process; more use that many worker processes. ``on_done(done,
     failed)`` is called whenever a recording finishes (in any order) and periodically
     while waiting. ``start_method`` forces a multiprocessing start method (default:
     "fork" on Linux when numpy is not yet loaded here, else "forkserver" or "spawn").
+
+    Returns
+    -------
+    An iterator of :class:`Entry`, one per file, in the order of ``files``.
+
+    Examples
+    --------
+    >>> entries = list(process_recordings(job, ["a.h5", "b.h5"], jobs=2))  # doctest: +SKIP
+    >>> [e.exit_code for e in entries]                                    # doctest: +SKIP
+    [0, 2]
     """
-    tasks = [(i, command, f, params) for i, f in enumerate(files)]
+    tasks = [(i, job, f) for i, f in enumerate(files)]
     _limit_threads()
     if jobs <= 1:
         done = failed = 0
         for task in tasks:
-            outcome = _work(task)
+            result = work(task)
             done += 1
-            failed += outcome.exit_code != 0
+            failed += result.exit_code != 0
             if on_done is not None:
                 on_done(done, failed)
-            yield outcome
+            yield result
         return
     yield from _parallel(tasks, jobs, on_done, start_method)
 
 
-def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Outcome]:
+def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
     context = _context(start_method)
-    ready: dict[int, Outcome] = {}
+    ready: dict[int, Entry] = {}
     next_index = 0
     done = failed = 0
     pending = list(tasks)
@@ -203,7 +274,7 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Outcome]:
         futures = []
         try:
             for task in pending:
-                futures.append(executor.submit(_work, task))
+                futures.append(executor.submit(work, task))
         except BrokenProcessPool:  # a worker died while the rest were being queued
             broken = True
         try:
@@ -238,7 +309,7 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Outcome]:
             workers = 1
             continue
         culprit = pending.pop(0)
-        ready[culprit[0]] = _outcome(
+        ready[culprit[0]] = entry(
             culprit[0], culprit[2], INTERNAL_ERROR,
             f"{culprit[2]}: the worker process died while processing this recording (a "
             "crash, or killed for lack of memory)", None, [])
@@ -288,43 +359,35 @@ def _limit_threads() -> None:
         os.environ.setdefault(name, "1")
 
 
-def _work(task) -> Outcome:
-    """Run the single-file command on one recording, capturing what it prints.
+def work(task: tuple[int, Job, str]) -> Entry:
+    """One recording of a study, ``(index, job, file)`` -> its :class:`Entry`.
 
-    Runs in a worker process (or in this one with one job). ``debug`` makes the command
-    raise instead of printing the error, so the exit code comes from the exception.
+    Runs in a worker process (local or on a Dask worker) or in this one with one job;
+    never raises for a failure of the recording.
     """
-    index, command, file, params = task
-    from . import cli
-    from .errors import ImucalError
-
-    single = {**params, "rec": [file], "out": None, "plot": None, "quiet": True,
-              "debug": True}
-    stdout, stderr = io.StringIO(), io.StringIO()
-    doc, code, error = None, 0, None
-    try:
-        with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
-            getattr(cli, command)(**single)
-        doc = json.loads(stdout.getvalue())
-    except ImucalError as err:
-        code, error = err.exit_code, str(err)
-    except OSError as err:  # as the command line reports it (cli._errors)
-        code, error = 2, f"{err.filename or file}: {err.strerror or err}"
-    except MemoryError:
-        code, error = INTERNAL_ERROR, f"{file}: out of memory"
-    except Exception as err:  # a bug must not stop the other recordings
-        code = INTERNAL_ERROR
-        error = f"{file}: internal error: {type(err).__name__}: {err} (rerun this file alone " \
-                "with --debug and report it)"
-    return _outcome(index, file, code, error, doc, stderr.getvalue().splitlines())
+    index, job, file = task
+    outcome = run(job, file)
+    return entry(index, file, outcome.exit_code, outcome.error, outcome.document,
+                 [f"{WARNING_PREFIX}{w}" for w in outcome.warnings])
 
 
-def _outcome(index, file, code, error, doc, messages) -> Outcome:
-    warnings = [m[len(_WARNING_PREFIX):] if m.startswith(_WARNING_PREFIX) else m
+def entry(index: int, file: str, code: int, error: str | None, doc: dict | None,
+          messages: Sequence[str]) -> Entry:
+    """The study's line for one recording (see the module docstring for its fields).
+
+    ``messages`` are stderr lines; the line's ``warnings`` are them without the
+    ``imucal: warning: `` prefix.
+
+    Examples
+    --------
+    >>> entry(0, "a.h5", 2, "a.h5: no such file", None, []).line
+    '{"file":"a.h5","exit_code":2,"error":"a.h5: no such file","warnings":[],"result":null}'
+    """
+    warnings = [m[len(WARNING_PREFIX):] if m.startswith(WARNING_PREFIX) else m
                 for m in messages]
     line = json.dumps({"file": file, "exit_code": code, "error": error, "warnings": warnings,
                        "result": doc}, separators=(",", ":"), allow_nan=False)
-    return Outcome(index, file, code, error, line, tuple(messages))
+    return Entry(index, file, code, error, line, tuple(messages))
 
 
 class _Progress:

@@ -1,4 +1,4 @@
-"""Whole studies: several RECs, --jobs, JSON Lines, exit status, progress bar (imucal.batch)."""
+"""Whole studies: several RECs, --jobs, JSON Lines, exit status, progress bar (imucal.study)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from imucal import batch
+from imucal import study as study_module
+from imucal.runner import Job
+from imucal.settings import AxisSettings
 from imucal.simulate import simulate
 from imucal.writers import save_recording
 
@@ -167,27 +169,30 @@ def test_single_rec_keeps_pretty_json(study):
     assert run.stdout.startswith(b"{\n  ")
 
 
+JOB = Job("axis", ("thigh", "shank"), AxisSettings(restarts=10, seed=1))
+
+
 def _fake_work(task):
-    index, _, file, _ = task
+    index, _, file = task
     if Path(file).name == "crash":
         os._exit(1)  # as a segfault or the out-of-memory killer would end the worker
-    return batch._outcome(index, file, 0, None, {"ok": True}, [])
+    return study_module.entry(index, file, 0, None, {"ok": True}, [])
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")  # fork in a threaded pytest
 def test_a_dying_worker_fails_only_its_recording(monkeypatch):
     # fork: the workers inherit the patched function, and no recording is computed
-    monkeypatch.setattr(batch, "_work", _fake_work)
+    monkeypatch.setattr(study_module, "work", _fake_work)
     files = ["a", "b", "crash", "c", "d"]
-    outcomes = list(batch.process_recordings("axis", files, {}, jobs=2, start_method="fork"))
+    outcomes = list(study_module.process_recordings(JOB, files, jobs=2, start_method="fork"))
     assert [o.file for o in outcomes] == files
-    assert [o.exit_code for o in outcomes] == [0, 0, batch.INTERNAL_ERROR, 0, 0]
+    assert [o.exit_code for o in outcomes] == [0, 0, study_module.INTERNAL_ERROR, 0, 0]
     assert "worker process died" in outcomes[2].error
 
 
 def test_resolve_jobs():
-    assert batch.resolve_jobs(4, 2) == 2
-    assert batch.resolve_jobs(1, 10) == 1
-    assert batch.resolve_jobs(0, 1000) >= 1
-    with pytest.raises(batch.InputError):
-        batch.resolve_jobs(-1, 3)
+    assert study_module.resolve_jobs(4, 2) == 2
+    assert study_module.resolve_jobs(1, 10) == 1
+    assert study_module.resolve_jobs(0, 1000) >= 1
+    with pytest.raises(study_module.InputError):
+        study_module.resolve_jobs(-1, 3)

@@ -1,0 +1,165 @@
+"""Studies on a Dask cluster: ``imucal axis A.h5 B.h5 ... --scheduler tcp://host:8786``.
+
+The recordings go to the workers of an existing Dask cluster (``dask scheduler`` on one
+machine, ``dask worker tcp://host:8786`` on each machine that computes); each worker
+runs :func:`imucal.study.work`, the function a local ``--jobs`` study runs, and the
+entries come back here, where they are written in input order exactly as a local study
+writes them. Workers read the recordings by the paths given, so every worker must see
+the files under the same paths (a shared file system), and the workers and the scheduler
+need imucal installed (Dask unpickles the tasks on the scheduler too).
+
+Dask is optional (``pip install 'imucal-joints[dask]'``); this module imports it only
+when a study asks for a cluster.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Callable, Iterator, Sequence
+
+from .errors import InputError
+from .runner import INTERNAL_ERROR, Job
+
+__all__ = ["Cluster", "connect", "INSTALL_HINT"]
+
+#: How to install what ``--scheduler`` needs.
+INSTALL_HINT = "pip install 'imucal-joints[dask]'"
+#: Seconds to wait for the scheduler to answer and for its first worker.
+CONNECT_TIMEOUT_S = 10.0
+
+
+class Cluster:
+    """A connected Dask client that runs study entries (see :func:`connect`)."""
+
+    def __init__(self, client):
+        self.client = client
+
+    @property
+    def workers(self) -> int:
+        """Number of workers the scheduler knows now."""
+        return len(self.client.scheduler_info().get("workers", {}))
+
+    def process(self, job: Job, files: Sequence[str],
+                on_done: Callable[[int, int], None] | None = None) -> Iterator:
+        """Run ``job`` on every file on the cluster; yield the entries in input order.
+
+        Returns
+        -------
+        An iterator of :class:`imucal.study.Entry`, one per file, in the order of
+        ``files``; a recording whose task failed on the cluster (a worker that died
+        repeatedly, a worker without imucal) gets an entry with exit code 3.
+
+        Examples
+        --------
+        >>> cluster = connect("tcp://127.0.0.1:8786")                 # doctest: +SKIP
+        >>> [e.exit_code for e in cluster.process(job, ["a.h5"])]     # doctest: +SKIP
+        [0]
+        """
+        from distributed import as_completed
+
+        from .study import entry
+
+        # Relative paths mean the same as here: the workers resolve them against this
+        # process's working directory (which they must see under the same path).
+        cwd = os.getcwd()
+        futures = self.client.map(_work, [(i, job, f) for i, f in enumerate(files)],
+                                  cwd=cwd, pure=False)
+        index = {future.key: i for i, future in enumerate(futures)}
+        ready: dict[int, object] = {}
+        next_index = done = failed = 0
+        try:
+            for future in as_completed(futures, loop=self.client.loop):
+                i = index[future.key]
+                try:
+                    result = future.result()
+                except Exception as err:  # fails one recording, not the study
+                    # One line, as every error: Dask's messages run over several.
+                    first = (str(err).strip().splitlines() or [""])[0]
+                    result = entry(i, files[i], INTERNAL_ERROR,
+                                   f"{files[i]}: the Dask task failed: {type(err).__name__}: "
+                                   f"{first}", None, [])
+                ready[i] = result
+                done += 1
+                failed += result.exit_code != 0
+                if on_done is not None:
+                    on_done(done, failed)
+                while next_index in ready:
+                    yield ready.pop(next_index)
+                    next_index += 1
+        finally:
+            self.client.cancel(futures)
+
+    def close(self) -> None:
+        """Disconnect (the cluster itself keeps running)."""
+        self.client.close()
+
+
+def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
+    """Connect to the Dask scheduler at ``address`` and wait for a worker.
+
+    Returns
+    -------
+    Cluster
+        Ready to :meth:`~Cluster.process` a study.
+
+    Raises
+    ------
+    InputError
+        ``address`` is not HOST:PORT with an optional scheme, Dask is not installed
+        (the message says how to install it), the scheduler does not answer within
+        ``timeout`` s, or it has no worker by then.
+
+    Examples
+    --------
+    >>> cluster = connect("tcp://127.0.0.1:8786")                     # doctest: +SKIP
+    >>> cluster.workers                                               # doctest: +SKIP
+    2
+    """
+    if not re.fullmatch(r"(\w+://)?[^\s/]+:\d+", address):
+        raise InputError(f"--scheduler {address}: not a scheduler address; expected "
+                         "tcp://HOST:PORT (dask scheduler prints it)")
+    try:
+        import distributed
+    except ImportError:
+        raise InputError(f"--scheduler needs Dask, which is not installed: "
+                         f"{INSTALL_HINT}") from None
+    try:
+        client = distributed.Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as err:
+        raise InputError(f"--scheduler {address}: cannot reach the Dask scheduler "
+                         f"({type(err).__name__}: {err})") from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except (OSError, TimeoutError):
+        client.close()
+        raise InputError(f"--scheduler {address}: the scheduler has no workers (start "
+                         f"some with 'dask worker {address}')") from None
+    return Cluster(client)
+
+
+def _work(task, cwd: str):
+    """:func:`imucal.study.work` in the study's working directory ``cwd``, with one
+    BLAS/OpenMP thread, as in a local study.
+
+    A Dask worker loaded numpy long before this task, so the thread variables a local
+    study sets before the workers start would come too late here; threadpoolctl limits
+    the loaded libraries themselves.
+    """
+    from threadpoolctl import threadpool_limits
+
+    from .study import entry, work
+
+    index, _, file = task
+    before = os.getcwd()
+    try:
+        os.chdir(cwd)
+    except OSError as err:
+        return entry(index, file, 2, f"{file}: the study's folder {cwd} is not there on this "
+                     f"Dask worker ({err.strerror}); the workers must see the files under "
+                     "the same paths", None, [])
+    try:
+        with threadpool_limits(limits=1):
+            return work(task)
+    finally:
+        os.chdir(before)

@@ -1,0 +1,326 @@
+"""The headless runner: one recording through load -> window -> estimate -> report.
+
+Everything the ``axis`` and ``position`` commands do with a recording, as plain functions
+that print nothing and return an :class:`Outcome`. The single-file command prints an
+outcome (:mod:`imucal.cli`), a study turns each outcome into one JSON line
+(:mod:`imucal.study`); neither the runner nor the study imports the command line.
+
+A command is one entry of :data:`COMMANDS`: how to estimate from two sensors, how to
+build its JSON document and how to draw its figure. The options of one run are a
+:class:`Job`, built (and checked) before any file is read.
+
+Example::
+
+    from imucal.runner import Job, run
+    from imucal.settings import AxisSettings
+
+    job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=20, seed=1))
+    outcome = run(job, "walk.h5")
+    outcome.exit_code, outcome.document["j1"]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .errors import ImucalError, InputError, NotIdentifiableError
+
+__all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors"]
+
+#: Exit code of a recording whose processing raised an unexpected exception.
+INTERNAL_ERROR = 3
+
+
+@dataclass(frozen=True)
+class Command:
+    """What the runner needs to know about one estimating command.
+
+    Attributes
+    ----------
+    estimate : ``(first, second, rate, kwargs) -> result``: fit the two sensors
+        (:class:`imucal.recording.SensorData`, SI units) sampled at ``rate`` Hz;
+        ``kwargs`` are the settings' :meth:`as_kwargs` with the window (s from the
+        first sample given) filled in.
+    report : ``(result, input_info=..., trace=...) -> dict``: the JSON document
+        (docs/json.md).
+    figure : ``(result, pair) -> matplotlib Figure``; ``pair`` reads "first - second".
+    """
+
+    estimate: Callable[..., Any]
+    report: Callable[..., dict]
+    figure: Callable[..., Any]
+
+
+def _estimate_axis(first, second, rate, kwargs):
+    from .axis import estimate_axis
+
+    return estimate_axis(first.gyr, second.gyr, rate=rate, acc1=first.acc, acc2=second.acc,
+                         **kwargs)
+
+
+def _estimate_position(first, second, rate, kwargs):
+    from .position import estimate_position
+
+    return estimate_position(first.gyr, first.acc, second.gyr, second.acc, rate=rate,
+                             **kwargs)
+
+
+def _report(name: str) -> Callable[..., dict]:
+    def build(result, **kwargs):
+        from . import report
+
+        return {"axis": report.axis_report, "position": report.position_report}[name](
+            result, **kwargs)
+
+    return build
+
+
+def _figure(name: str) -> Callable[..., Any]:
+    def draw(result, pair):
+        from . import plots
+
+        return {"axis": plots.axis_figure, "position": plots.position_figure}[name](
+            result, pair)
+
+    return draw
+
+
+#: The estimating commands by name. A new one is one entry here (plus its option parsing
+#: in imucal.cli); see docs/architecture.md.
+COMMANDS: dict[str, Command] = {
+    "axis": Command(_estimate_axis, _report("axis"), _figure("axis")),
+    "position": Command(_estimate_position, _report("position"), _figure("position")),
+}
+
+
+@dataclass(frozen=True)
+class Job:
+    """The options of one estimating run, the same for every recording of a study.
+
+    Attributes
+    ----------
+    command : a key of :data:`COMMANDS`.
+    sensors : the (first, second) sensor names.
+    settings : the estimator's settings object (:class:`imucal.settings.AxisSettings`,
+        :class:`~imucal.settings.PositionSettings`); its own ``start``/``end`` are
+        replaced by the window below.
+    start, end : window, s on the recording's time axis; None: from the first / to the
+        last sample.
+    rate, gyr_units, acc_units : loading options for files that lack them (CSV).
+    sensor_map : a ``--map`` file, or None.
+    force : report a result the data cannot identify (with its warnings) instead of
+        failing with exit code 1.
+    trace : add every restart's cost per iteration to the document.
+    """
+
+    command: str
+    sensors: tuple[str, str]
+    settings: Any
+    start: float | None = None
+    end: float | None = None
+    rate: float | None = None
+    gyr_units: str | None = None
+    acc_units: str | None = None
+    sensor_map: Path | None = None
+    force: bool = False
+    trace: bool = False
+
+    def __post_init__(self) -> None:
+        if self.command not in COMMANDS:
+            raise InputError(f"unknown command '{self.command}'; known: "
+                             f"{', '.join(COMMANDS)}")
+        if self.start is not None and self.end is not None and self.end <= self.start:
+            raise InputError(f"--end must be after --start ({self.start:g} s), got "
+                             f"{self.end:g} s")
+
+
+@dataclass
+class Outcome:
+    """What one recording gave.
+
+    Attributes
+    ----------
+    file : the recording as given.
+    exit_code : 0 success, 1 not identifiable, 2 bad input, 3 internal error.
+    error : the one-line message of a failure ("FILE: problem"), else None.
+    exception : the exception behind ``error`` (for ``--debug``), else None.
+    warnings : problems of the data used (its two sensors in its window), each
+        "FILE: text", in the order found; the command line prints them as it loads.
+    notes : for a result that is not identifiable, its further warnings ("FILE: text";
+        the first warning is the reason, in ``error``).
+    headline : "imucal axis: FILE: thigh -> shank, N samples at R Hz (D s)", once the
+        estimate is done, else None.
+    document : the JSON document (docs/json.md), or None when nothing is reported.
+    result : the estimator's result object (for figures), or None.
+    sensors : the (first, second) sensor names.
+    """
+
+    file: str
+    exit_code: int = 0
+    error: str | None = None
+    exception: BaseException | None = None
+    warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    headline: str | None = None
+    document: dict | None = None
+    result: Any = None
+    sensors: tuple[str, str] = ("", "")
+
+
+def parse_sensors(text: str) -> tuple[str, str]:
+    """``"thigh,shank"`` -> ``("thigh", "shank")``.
+
+    Returns
+    -------
+    The two names, stripped of spaces.
+
+    Raises
+    ------
+    InputError
+        Unless there are exactly two different non-empty names.
+
+    Examples
+    --------
+    >>> parse_sensors("shank, foot")
+    ('shank', 'foot')
+    """
+    names = [s.strip() for s in text.split(",")]
+    if len(names) != 2 or not all(names) or names[0] == names[1]:
+        raise InputError(f"--sensors needs two different sensor names, e.g. thigh,shank; "
+                         f"got '{text}'")
+    return names[0], names[1]
+
+
+def run(job: Job, file: str) -> Outcome:
+    """Estimate ``job`` on one recording; never prints, never raises for a failure.
+
+    Parameters
+    ----------
+    job
+        The options (:class:`Job`).
+    file
+        A recording path (or folder of a vendor export), or ``"-"`` for CSV on stdin.
+
+    Returns
+    -------
+    Outcome
+        With ``exit_code`` 0 and a ``document`` on success (also for a result that is
+        not identifiable with ``job.force``); otherwise the code, the message and the
+        exception, plus whatever warnings came before the failure.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        Only this (and other non-``Exception`` signals); every error becomes the outcome.
+
+    Examples
+    --------
+    >>> from imucal.settings import AxisSettings
+    >>> outcome = run(Job("axis", ("thigh", "shank"), AxisSettings(seed=1)),
+    ...               "sample_data/circling.h5")                      # doctest: +SKIP
+    >>> outcome.exit_code, outcome.document["quality"]["verdict"]     # doctest: +SKIP
+    (0, 'good')
+    """
+    outcome = Outcome(file=file, sensors=job.sensors)
+    try:
+        _run(job, file, outcome)
+    except Exception as err:  # every failure becomes an outcome, bugs too
+        outcome.exception = err
+        outcome.exit_code, outcome.error = error_of(err, file)
+        outcome.document = outcome.result = None
+    return outcome
+
+
+def error_of(err: BaseException, file: str) -> tuple[int, str]:
+    """Exit code and one-line message of an exception raised while processing ``file``.
+
+    Returns
+    -------
+    (exit_code, message): the error's own code for imucal's errors, 2 for an operating
+    system error, 3 for anything else (a bug, or memory exhausted).
+
+    Examples
+    --------
+    >>> error_of(FileNotFoundError(2, "No such file or directory", "x.h5"), "x.h5")
+    (2, 'x.h5: No such file or directory')
+    """
+    if isinstance(err, ImucalError):
+        return err.exit_code, str(err)
+    if isinstance(err, OSError):
+        return 2, f"{err.filename or file}: {err.strerror or err}"
+    if isinstance(err, MemoryError):
+        return INTERNAL_ERROR, f"{file}: out of memory"
+    return INTERNAL_ERROR, (f"{file}: internal error: {type(err).__name__}: {err} (rerun this "
+                            "file alone with --debug and report it)")
+
+
+def _run(job: Job, file: str, outcome: Outcome) -> None:
+    from .loaders import load_recording
+
+    command = COMMANDS[job.command]
+    names = job.sensors
+    recording = load_recording(file, rate=job.rate, gyr_units=job.gyr_units,
+                               acc_units=job.acc_units, names=job.sensor_map)
+    for n in names:
+        if n not in recording.sensors:
+            recording.sensor(n)  # raises with the list of sensors that exist
+    # Only now the warnings: which of the file's problems matter depends on the sensors
+    # and window used.
+    used, window = _window(recording, names, job.start, job.end)
+    outcome.warnings.extend(f"{used.source}: {w}" for w in used.warnings)
+    first, second = (used.sensor(n) for n in names)
+    try:
+        result = command.estimate(first, second, recording.rate,
+                                  {**job.settings.as_kwargs(), **window})
+    except InputError as err:
+        raise InputError(f"{recording.source}: {err}") from None
+    doc = command.report(result, input_info=_input_info(recording, names, used, job),
+                         trace=job.trace)
+    what = f"{job.command} ({doc['joint']})" if "joint" in doc else job.command
+    outcome.headline = (f"imucal {what}: {recording.source}: {names[0]} -> {names[1]}, "
+                        f"{recording.n_samples} samples at {recording.rate:g} Hz "
+                        f"({recording.duration:.1f} s)")
+    if doc["quality"]["verdict"] == "not identifiable" and not job.force:
+        # The first warning is the reason (blocking reasons come first); the others only
+        # help a human reading along ("input: " ones were warnings at load already).
+        reason, *others = doc["quality"]["warnings"]
+        outcome.notes.extend(f"{recording.source}: {w}" for w in others
+                             if not w.startswith("input: "))
+        raise NotIdentifiableError(
+            f"{recording.source}: the data cannot identify the {what}: {reason}; nothing "
+            "written (--force writes the result with its warnings)")
+    outcome.document, outcome.result = doc, result
+
+
+def _window(recording, names, start, end):
+    """The sensors ``names`` in the window ``start``..``end`` (s on the recording's time
+    axis), checked and repaired (Recording.select), and the window for the estimators,
+    which count from the first sample they are given."""
+    used = recording.select(names, start, end, context=True)
+    i0, i1 = used.window
+    # Whole samples, so the estimators cut exactly the samples select checked; the finite
+    # context around them keeps filter transients off the window's edges.
+    rel = {"start": None if start is None and i0 == 0 else i0 / used.rate,
+           "end": None if end is None and i1 == used.n_samples else i1 / used.rate}
+    return used, rel
+
+
+def _input_info(recording, names, used, job: Job) -> dict:
+    info = {
+        "path": recording.source,
+        "sensors": list(names),
+        "sample_rate_hz": recording.rate,
+        "samples_total": recording.n_samples,
+        "duration_s": recording.duration,
+        "units_in_file": {n: recording.units.get(n, {}) for n in names},
+        "time_origin": float(used.time[0]),
+        "load_warnings": list(used.warnings),
+    }
+    if "sensor_map" in recording.provenance:  # which device each name came from
+        in_file = {v: k for k, v in recording.provenance["sensor_map"]["renamed"].items()}
+        info["sensor_map"] = {"file": str(job.sensor_map), "sensors": {
+            m: in_file.get(m, m) for m in map(recording.resolve, names)}}
+    return info

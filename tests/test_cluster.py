@@ -1,0 +1,79 @@
+"""Studies on a Dask cluster (--scheduler): the same output as the local --jobs run."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from conftest import simulated
+
+from imucal.writers import save_recording
+
+FAST = ("--restarts", "6", "--seed", "1")
+
+
+def imucal(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
+                          capture_output=True, timeout=180, cwd=cwd)
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Two short recordings, a still one, a missing one and a file that is not HDF5."""
+    folder = tmp_path_factory.mktemp("cluster")
+    for name, seed, motion in (("a", 1, "circling"), ("b", 2, "walking"), ("still", 4, "static")):
+        recording, _ = simulated(seed, duration=6.0, motion=motion)
+        save_recording(recording, folder / f"{name}.h5")
+    (folder / "bad.h5").write_text("not a recording\n")
+    return folder, ["a.h5", "missing.h5", "bad.h5", "b.h5", "still.h5"]
+
+
+@pytest.fixture(scope="module")
+def scheduler():
+    """A scheduler and two worker processes on 127.0.0.1 (they import this checkout: the
+    environment, PYTHONPATH included, is inherited)."""
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster:
+        yield cluster.scheduler_address
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # fork in a threaded pytest
+@pytest.mark.parametrize("command", ["axis", "position"])
+def test_cluster_run_equals_local_run(files, scheduler, command):
+    folder, names = files
+    local = imucal(command, *names, *FAST, "--jobs", 2, cwd=folder)
+    remote = imucal(command, *names, *FAST, "--scheduler", scheduler, cwd=folder)
+    assert local.returncode == remote.returncode == 2
+    assert remote.stdout == local.stdout  # every line, byte for byte, in input order
+    lines = [json.loads(line) for line in remote.stdout.splitlines()]
+    assert [(d["file"], d["exit_code"]) for d in lines] == [
+        ("a.h5", 0), ("missing.h5", 2), ("bad.h5", 2), ("b.h5", 0), ("still.h5", 1)]
+    # The same error lines; only the summary says where the study ran.
+    local_err, remote_err = (r.stderr.decode().splitlines() for r in (local, remote))
+    assert local_err[:-1] == remote_err[:-1] and len(remote_err) == 4
+    assert f"on 2 Dask workers at {scheduler}" in remote_err[-1]
+    assert "with 2 processes" in local_err[-1]
+
+
+def test_scheduler_without_dask_names_the_extra(files):
+    folder, _ = files
+    code = ("import sys; sys.modules['distributed'] = None; sys.argv = ['imucal'] + "
+            "sys.argv[1:]; from imucal.cli import main; main()")
+    run = subprocess.run([sys.executable, "-c", code, "axis", "a.h5", "b.h5", "--scheduler",
+                          "tcp://127.0.0.1:8786"], capture_output=True, timeout=60, cwd=folder)
+    assert run.returncode == 2 and run.stdout == b""
+    assert run.stderr.decode() == ("imucal: error: --scheduler needs Dask, which is not "
+                                   "installed: pip install 'imucal-joints[dask]'\n")
+
+
+def test_a_bad_scheduler_address_is_refused_before_anything_runs(files):
+    folder, _ = files
+    run = imucal("axis", "a.h5", "b.h5", "--scheduler", "head-node", cwd=folder)
+    assert run.returncode == 2 and run.stdout == b""
+    assert run.stderr.decode() == ("imucal: error: --scheduler head-node: not a scheduler "
+                                   "address; expected tcp://HOST:PORT (dask scheduler prints "
+                                   "it)\n")

@@ -1,0 +1,141 @@
+"""The headless runner (imucal.runner) and the usage errors the command line reports
+before any file is read."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import axis_error_deg, simulated
+
+from imucal.runner import COMMANDS, Command, Job, Outcome, parse_sensors, run
+from imucal.settings import AxisSettings, PositionSettings
+from imucal.writers import save_recording
+
+
+def imucal(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
+                          capture_output=True, timeout=120, cwd=cwd)
+
+
+@pytest.fixture(scope="module")
+def rec_file(tmp_path_factory):
+    recording, truth = simulated(3, duration=8.0)
+    path = tmp_path_factory.mktemp("runner") / "rec.h5"
+    save_recording(recording, path)
+    return path, truth
+
+
+def test_run_returns_the_document_and_the_result(rec_file):
+    path, truth = rec_file
+    outcome = run(Job("axis", ("thigh", "shank"), AxisSettings(restarts=8, seed=1)), str(path))
+    assert (outcome.exit_code, outcome.error, outcome.warnings) == (0, None, [])
+    doc = outcome.document
+    assert doc["command"] == "axis" and doc["input"]["sensors"] == ["thigh", "shank"]
+    assert doc["j1"] == list(outcome.result.j1)
+    assert max(axis_error_deg(outcome.result.j1, outcome.result.j2, truth["j1"],
+                              truth["j2"])) < 1.0
+    assert outcome.headline == (f"imucal axis: {path}: thigh -> shank, 800 samples at 100 Hz "
+                                "(8.0 s)")
+
+
+def test_run_turns_failures_into_outcomes(rec_file, tmp_path):
+    path, _ = rec_file
+    job = Job("position", ("shank", "foot"), PositionSettings(restarts=4, seed=1))
+    missing = run(job, str(tmp_path / "missing.h5"))
+    assert missing.exit_code == 2 and missing.error.endswith("missing.h5: no such file")
+    assert missing.document is None and missing.headline is None
+    no_sensor = run(Job("axis", ("thigh", "knee"), AxisSettings(restarts=4)), str(path))
+    assert no_sensor.exit_code == 2 and "no sensor 'knee'" in no_sensor.error
+
+
+def test_not_identifiable_unless_forced(tmp_path):
+    recording, _ = simulated(4, duration=8.0, motion="static")
+    path = tmp_path / "still.h5"
+    save_recording(recording, path)
+    job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=4, seed=1))
+    refused = run(job, str(path))
+    assert refused.exit_code == 1 and "cannot identify the axis" in refused.error
+    assert refused.document is None and refused.notes  # the further warnings
+    forced = run(Job("axis", ("thigh", "shank"), AxisSettings(restarts=4, seed=1), force=True),
+                 str(path))
+    assert forced.exit_code == 0
+    assert forced.document["quality"]["verdict"] == "not identifiable"
+
+
+def test_job_and_sensor_checks():
+    assert parse_sensors(" shank , foot") == ("shank", "foot")
+    for bad in ("thigh", "thigh,thigh", "a,b,c", ",b"):
+        with pytest.raises(Exception, match="two different sensor names"):
+            parse_sensors(bad)
+    with pytest.raises(Exception, match="--end must be after --start"):
+        Job("axis", ("a", "b"), AxisSettings(), start=5.0, end=5.0)
+    with pytest.raises(Exception, match="unknown command"):
+        Job("knee", ("a", "b"), AxisSettings())
+    assert set(COMMANDS) == {"axis", "position"}
+
+
+def test_no_module_imports_the_command_line():
+    code = ("import sys, imucal.runner, imucal.study, imucal.cluster, imucal.report, "
+            "imucal.plots; print('imucal.cli' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=60)
+    assert out.stdout.strip() == b"False"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["axis", "--sign", "bogus"], "Invalid value for '--sign': sign must be one of"),
+        (["axis", "--j2-sign", "q"], "Invalid value for '--j2-sign': j2_sign must be one of"),
+        (["axis", "--time-offset", "soon"],
+         "Invalid value for '--time-offset': time offset must be auto or a number"),
+        (["position", "--joint", "knee"], "Invalid value for '--joint': joint must be one of"),
+        (["axis", "--sensors", "thigh"], "Invalid value for '--sensors': needs two different"),
+        (["axis", "--start", "8", "--end", "2"],
+         "Invalid value for '--end': must be after --start (8 s), got 2 s"),
+    ],
+)
+def test_usage_errors_before_any_file_is_read(tmp_path, args, message):
+    # The files do not exist: a usage error must not get as far as opening them, and
+    # a study reports it once, not once per recording.
+    for files in (["gone.h5"], ["gone.h5", "gone2.h5"]):
+        run_ = imucal(args[0], *files, *args[1:], cwd=tmp_path)
+        err = run_.stderr.decode()
+        assert run_.returncode == 2 and run_.stdout == b""
+        assert err.startswith(f"imucal: error: {message}") and err.count("\n") == 1
+        assert "gone" not in err and f"imucal {args[0]} --help" in err
+
+
+def test_position_figure_uses_a_given_axis(monkeypatch):
+    from imucal import estimate_position, plots
+
+    recording, _ = simulated(3, duration=8.0)
+    s, f = recording.sensor("shank"), recording.sensor("foot")
+    # A deliberately wrong axis: the figure must move the points onto this line, not
+    # onto one it estimates itself.
+    j1, j2 = np.array([0.0, 0.6, 0.8]), np.array([0.8, 0.0, 0.6])
+    result = estimate_position(s.gyr, s.acc, f.gyr, f.acc, rate=recording.rate, restarts=4,
+                               seed=1, joint="hinge", axis=(j1, j2))
+    assert result.axis is None  # nothing estimated that the figure could fall back on
+    lines = []
+    project = plots.closest_point_on_axis
+    monkeypatch.setattr(plots, "closest_point_on_axis",
+                        lambda x, line: lines.append(np.array(line)) or project(x, line))
+    plots.position_figure(result, "shank - foot")
+    assert len(lines) >= 2
+    assert all(np.allclose(line, np.concatenate([j1, j2])) for line in lines)
+
+
+@pytest.mark.parametrize("cls", [Job, Outcome, Command])
+def test_every_runner_field_is_documented(cls):
+    documented = set()
+    for line in cls.__doc__.splitlines():
+        head = line.strip().split(" : ")[0]
+        if " : " in line and re.fullmatch(r"[a-z_0-9]+(, [a-z_0-9]+)*", head):
+            documented.update(head.split(", "))
+    missing = {f.name for f in dataclasses.fields(cls)} - documented
+    assert not missing, f"{cls.__name__}: undocumented {sorted(missing)}"
