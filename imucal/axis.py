@@ -567,7 +567,11 @@ def _refit_residuals(d1, d2, x) -> np.ndarray:
     for _ in range(OFFSET_STEPS):
         e, jac = _residuals_and_jacobians(d1, d2, x)
         jt = np.swapaxes(jac, 1, 2)
-        step = -np.linalg.solve(jt @ jac, (jt @ e[..., None]))[..., 0]
+        jtj = jt @ jac
+        # a touch of damping: a sensor that never turns leaves J^T J singular (the step
+        # is then 0, not an error)
+        damp = 1e-9 * np.trace(jtj, axis1=1, axis2=2)[:, None, None] + 1e-30
+        step = -np.linalg.solve(jtj + damp * np.eye(jtj.shape[-1]), jt @ e[..., None])[..., 0]
         x = _retract(x, step)
     return _residuals_and_jacobians(d1, d2, x)[0]
 
