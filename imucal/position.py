@@ -143,6 +143,14 @@ class PositionResult(EstimateResult):
         local minimum left out, :func:`imucal.restarts.settled`).
     axis : for ``joint="hinge"`` with an estimated axis, its :class:`AxisResult`.
     line : for ``joint="hinge"``, the (j1, j2) used, else None.
+    weak_direction : for a spheroidal joint, the direction of (o1, o2) the data determine
+        least (the curvature covariance's largest eigenvector): "o1", "o2" (unit vectors,
+        sensor frames; moving the estimate along them together costs least), "along_mm"
+        (1-sigma along it), "across_mm" (the 1-sigma of everything else; both the
+        curvature's, scaled to the reported total) and "line" (True when the data leave
+        the point only known along a line, the singular ratio below
+        ``MIN_SINGULAR_RATIO``: walking alone does that to an
+        ankle). None for a hinge (its line is ``line``).
     """
 
     o1: np.ndarray
@@ -152,6 +160,7 @@ class PositionResult(EstimateResult):
     spread_mm: dict
     axis: AxisResult | None = None
     line: np.ndarray | None = None
+    weak_direction: dict | None = None
 
 
 @one_blas_thread
@@ -375,6 +384,33 @@ def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
         "spread": {k: rms(np.linalg.norm(subset_finals[keep, sl] - x[sl], axis=1) * 1000)
                    for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))},
         "minima": (count, 1000 * apart, ratio),  # distance in mm
+        "weak_direction": (_weak_direction(cov, float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
+                                           components) if line is None else None),
+    }
+
+
+def _weak_direction(cov: np.ndarray, singular_ratio: float, components: dict) -> dict | None:
+    """The least determined direction of (o1, o2) from the (6, 6) curvature covariance
+    (m^2), its 1-sigma scaled as the reported total is to the curvature's."""
+    if not np.isfinite(cov).all():
+        return None
+    curvature = np.hypot(*components["curvature"].values())
+    total = np.hypot(*uncertainty_totals(components).values())
+    # the time blocks and cut-off refits widen the reported sigma beyond the curvature's;
+    # the direction they leave weakest is the curvature's
+    scale = total / curvature if curvature > 0 else 1.0
+    values, vectors = np.linalg.eigh(cov * scale**2)
+    v = vectors[:, -1]
+    halves = [v[:3], v[3:]]
+    norms = [float(np.linalg.norm(h)) for h in halves]
+    # the eigenvector's overall sign is arbitrary: make o1's largest component positive
+    flip = 1.0 if halves[0][np.argmax(np.abs(halves[0]))] >= 0 else -1.0
+    return {
+        "o1": (flip * halves[0] / norms[0]).tolist() if norms[0] > 1e-9 else None,
+        "o2": (flip * halves[1] / norms[1]).tolist() if norms[1] > 1e-9 else None,
+        "along_mm": float(1000 * np.sqrt(max(values[-1], 0.0))),
+        "across_mm": float(1000 * np.sqrt(max(values[:-1].sum(), 0.0))),
+        "line": bool(singular_ratio < MIN_SINGULAR_RATIO),
     }
 
 
@@ -390,9 +426,13 @@ def _diagnose(p: Prepared, s: PositionSettings, x: np.ndarray, q: dict,
     blocking = _blocking(p, x, q, weak)
     warnings: list[str] = []
     if not blocking and weak and line is None:
+        d = q["weak_direction"] or {}
+        along = (f" (1-sigma {d['along_mm']:.0f} mm along o1 direction "
+                 f"{_vector_text(d['o1'])}, {d['across_mm']:.0f} mm across: "
+                 "quality.weak_direction)" if d.get("o1") else "")
         warnings.append(
             "motion stays in one plane (or the joint is a hinge): the joint position is only "
-            "known along a line; use --joint hinge for a hinge"
+            f"known along a line{along}; use --joint hinge for a hinge"
             if weak == 1 else
             f"motion stays close to one axis: {weak} directions of the joint position are "
             "barely determined"
@@ -414,6 +454,10 @@ def _diagnose(p: Prepared, s: PositionSettings, x: np.ndarray, q: dict,
     if max(q["uncertainty"].values()) > MAX_UNCERTAINTY_MM:
         warnings.append(uncertainty_warning(q["uncertainty"], q["components"], "mm"))
     return warnings, blocking
+
+
+def _vector_text(v) -> str:
+    return "[" + ", ".join(f"{c:+.2f}" for c in v) + "]"
 
 
 def _blocking(p: Prepared, x: np.ndarray, q: dict, weak: int) -> list[str]:
@@ -466,6 +510,7 @@ def _result(p: Prepared, s: PositionSettings, fit: Multistart, q: dict, axis_res
         time_offset={"mode": "given", "time_offset_s": s.time_offset},
         axis=axis_result,
         line=line,
+        weak_direction=q["weak_direction"],
         warnings=warnings,
         blocking=blocking,
     )

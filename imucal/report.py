@@ -97,8 +97,9 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
             "description": "every point o1 + lambda*j1, o2 + lambda*j2 fits the data; o1, o2 "
             "is the point of this line closest to both sensors (lambda = -(o1.j1 + o2.j2)/2)",
         }
+    extra = {} if result.weak_direction is None else {"weak_direction": result.weak_direction}
     doc["quality"] = _quality_block(result, input_info, "mm", result.uncertainty_mm,
-                                    result.spread_mm, {})
+                                    result.spread_mm, extra)
     doc["convergence"] = _convergence_block(result, "agreement_mm")
     doc["restarts"] = _restart_entries(result, "o1", "o2", trace)
     return clean(doc)
