@@ -119,8 +119,11 @@ MAX_RELATIVE_RESIDUAL = 0.5
 #: axis error was 35-170 (median about 50) deg per unit relative residual, while neither
 #: the curvature nor the time blocks grew: 60 keeps every such error within 3 sigma.
 MODEL_DEG_PER_RESIDUAL = 60.0
-#: A 1-sigma axis uncertainty above this is not good enough for joint angles, deg.
-MAX_UNCERTAINTY_DEG = 5.0
+#: A 1-sigma axis uncertainty above this is not good enough for joint angles, deg: the
+#: verdict is at best "use with care". With 5 deg, simulated soft tissue (2 deg / 3 mm,
+#: 1-sigma 2.7-4.8 deg) was called "good" with errors up to 3.6 sigma; clean simulated
+#: knees stay below 0.2 deg, so 2 deg separates them.
+MAX_UNCERTAINTY_DEG = 2.0
 #: Below this RMS flexion rate (j2.g2 - j1.g1 at the estimate) the joint did not bend,
 #: deg/s: a rigid joint fits every pair j1 = R j2. Voluntary knee motion is 50-400 deg/s.
 MIN_FLEXION_RATE_DEG_S = 5.0
