@@ -105,6 +105,8 @@ def warning_names(warnings) -> list[str]:
             names.append("offset at edge")
         elif w.startswith("restarts disagree"):
             names.append("restarts")
+        elif "not one physical line" in w:
+            names.append("gravity mismatch")
         elif "fits poorly" in w:
             names.append("poor fit")
         else:

@@ -70,6 +70,7 @@ SHORT = {
     "directions of the point across": "across-axis weak",
     "the residual is lowest with the second sensor": "offset not applied",
     "the clock offset between the sensors may exceed": "offset at edge",
+    "the axis is not one physical line": "gravity mismatch",
 }
 #: "the estimate is uncertain: ..., mostly because WHY": which component dominates.
 UNCERTAIN = {
