@@ -43,10 +43,13 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 
-## sample-data: regenerate sample_data/ with the simulator (deterministic seeds)
+## sample-data: regenerate sample_data/ with the simulator (deterministic seeds);
+## walking.h5 is a gait trial with the mounting of circling.h5 (--mounting-seed 7)
 sample-data: $(STAMP)
 	$(BIN)/imucal simulate sample_data/circling.h5 --seed 7 --rate 100 --duration 20 --snr 100 --motion circling
 	$(BIN)/imucal simulate sample_data/circling_40hz.csv --seed 7 --rate 40 --duration 20 --snr 100 --motion circling
+	$(BIN)/imucal simulate sample_data/walking.h5 --seed 8 --mounting-seed 7 --rate 100 \
+		--duration 30 --motion gait --gyr-noise 0.01 --acc-noise 0.05 --gyr-bias 0.02
 
 clean:
 	rm -rf $(VENV) $(DEMO_DIR) .pytest_cache .ruff_cache

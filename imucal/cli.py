@@ -249,6 +249,8 @@ def position(
         "--acc-noise 0.05",
         "imucal simulate rec.h5 --motion gait --soft-tissue-deg 2 --soft-tissue-mm 3 "
         "--clock-offset shank=0.02 --gyr-bias 0.02",
+        "imucal simulate walk.h5 --seed 8 --mounting-seed 7 --motion gait --duration 30 "
+        "# same mounting as --seed 7",
     )
 )
 def simulate(
@@ -292,6 +294,13 @@ def simulate(
         metavar="RAD/S|SENSOR=RAD/S|SENSOR=X,Y,Z", show_default=False,
         help="Constant gyroscope bias, rad/s, sensor frame: one magnitude for every sensor "
         "(random directions), or per sensor a magnitude or a vector (repeatable).")] = None,
+    mounting_seed: Annotated[int | None, typer.Option(
+        min=0, show_default=False,
+        help="Seed of the sensor mounting alone (poses on the segments, segment "
+        "lengths): recordings with different --seed but one --mounting-seed are trials of "
+        "one session with the sensors left in place (calibrate on one, measure angles on "
+        "another); the mounting equals the one of --seed N. Default: from --seed.")]
+    = None,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
@@ -320,6 +329,7 @@ def simulate(
             snr="auto" if snr is None else None if math.isinf(snr) else snr,
             gyr_noise=gyr_noise, acc_noise=acc_noise, soft_tissue_deg=soft_tissue_deg,
             soft_tissue_mm=soft_tissue_mm, clock_offset=offsets, gyr_bias=bias,
+            mounting_seed=mounting_seed,
         )
         save_recording(recording, out)
         write_text_atomic(truth_path, json.dumps(clean(truth), indent=2) + "\n")
