@@ -652,6 +652,17 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     if reference is None:
         zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
                 "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
+        if sign != int(ref["flexion_sign"]):
+            # The calibration trial's zero is its most extended posture under its own
+            # (weak) sign, which is the most flexed one under this sign.
+            if ref["zero_time_s"] is None:  # the 1st percentile: take the other end
+                zero["raw_deg"] = (ref["zero_deg"]
+                                   + int(ref["flexion_sign"]) * ref["flexion_range_deg"][1])
+                zero["method"] += " (with the flexion direction used here)"
+            else:
+                warnings.append(f"{jc.name}: the calibration's zero (its most extended still "
+                                "period) was chosen for the opposite flexion direction; give "
+                                "a reference ('standing' or a time) for a meaningful zero")
     elif reference == "standing":
         periods = still_periods((s1.gyr, s2.gyr), rec.rate)
         if not periods:
