@@ -698,13 +698,16 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float) -> dict:
     """Does the calibration still fit this recording? (docs/angles.md)"""
     res = hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2)
     dis = math.degrees(fus.disagreement)
-    res_lim = FIT_FACTOR * ref["hinge_residual"] + FIT_FLOOR_RESIDUAL
-    dis_lim = FIT_FACTOR * ref["acc_gyro_disagreement_deg"] + FIT_FLOOR_DEG
+    # A calibration trial that never moved has no residual (NaN, null in its file): no
+    # reference, so no evidence either way.
+    ref_res, ref_dis = (math.nan if ref[k] is None else float(ref[k])
+                        for k in ("hinge_residual", "acc_gyro_disagreement_deg"))
+    res_lim = FIT_FACTOR * ref_res + FIT_FLOOR_RESIDUAL
+    dis_lim = FIT_FACTOR * ref_dis + FIT_FLOOR_DEG
     bad = []
-    if not (res <= res_lim):  # NaN (never moved) is no evidence against
-        bad += [] if math.isnan(res) else [
-            f"hinge residual {res:.3f} > {res_lim:.3f} (calibration trial "
-            f"{ref['hinge_residual']:.3f})"]
+    if res > res_lim:  # NaN (never moved, here or there) is no evidence against
+        bad.append(f"hinge residual {res:.3f} > {res_lim:.3f} (calibration trial "
+                   f"{ref_res:.3f})")
     gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rate)
     if gravity["consistent"] is False:
         worst = gravity["max_mismatch_deg"]
@@ -713,7 +716,7 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float) -> dict:
                    f"{gravity['max_allowed_deg']:g} deg)")
     if dis > dis_lim:
         bad.append(f"acc- vs gyro-angle disagreement {dis:.2f} deg > {dis_lim:.2f} deg "
-                   f"(calibration trial {ref['acc_gyro_disagreement_deg']:.2f} deg)")
+                   f"(calibration trial {ref_dis:.2f} deg)")
     out = {"fits": not bad, "hinge_residual": res, "hinge_residual_limit": res_lim,
            "calibration_hinge_residual": ref["hinge_residual"],
            "acc_gyro_disagreement_deg": dis, "acc_gyro_disagreement_limit_deg": dis_lim,

@@ -456,9 +456,10 @@ def _angles_summary(result, out) -> None:
              f"{j['sigma_deg']['median']:.2f} deg), sign {j['flexion_sign']:+d} from "
              f"{j['sign_source']}, 0 = {j['zero']['method']}{gait}")
         _err(f"    fit check: {'fits' if j['fits'] else 'DOES NOT FIT'} (hinge residual "
-             f"{c['hinge_residual']:.3f}, limit {c['hinge_residual_limit']:.3f}; acc-gyro "
-             f"disagreement {c['acc_gyro_disagreement_deg']:.2f} deg, limit "
-             f"{c['acc_gyro_disagreement_limit_deg']:.2f} deg)")
+             f"{_num(c['hinge_residual'], '.3f')}, limit "
+             f"{_num(c['hinge_residual_limit'], '.3f')}; acc-gyro disagreement "
+             f"{_num(c['acc_gyro_disagreement_deg'], '.2f')} deg, limit "
+             f"{_num(c['acc_gyro_disagreement_limit_deg'], '.2f')} deg)")
 
 
 @app.command(
@@ -862,9 +863,9 @@ def _calibration_summary(doc: dict) -> None:
                 weak = ("; weak: each recording decides" if abs(a["sign_evidence"])
                         < SIGN_EVIDENCE_MIN else "")
                 _err(f"    flexion sign {a['flexion_sign']:+d} (evidence "
-                     f"{a['sign_evidence']:+.2f}{weak}), zero: {a['zero_method']}; hinge residual "
-                     f"{a['hinge_residual']:.3f}, acc-gyro angle disagreement "
-                     f"{a['acc_gyro_disagreement_deg']:.2f} deg")
+                     f"{a['sign_evidence']:+.2f}{weak}), zero: {a['zero_method']}; hinge "
+                     f"residual {_num(a['hinge_residual'], '.3f')}, acc-gyro angle "
+                     f"disagreement {_num(a['acc_gyro_disagreement_deg'], '.2f')} deg")
         else:
             q = j["position"]["quality"]
             u = j["position"]["units"]["uncertainty"]
@@ -873,7 +874,13 @@ def _calibration_summary(doc: dict) -> None:
             _err(f"{head}; o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m (1-sigma {sigma} "
                  f"{u})")
         for w in j["warnings"]:
-            _err(f"    warning: {w}")
+            if not w.startswith("position: axis: "):  # the hinge's axis, said above
+                _err(f"    warning: {w}")
+
+
+def _num(x, spec: str) -> str:
+    """A number of a JSON document, which has null where there is none (NaN)."""
+    return "-" if x is None else format(x, spec)
 
 
 def _vec(v) -> str:

@@ -116,13 +116,25 @@ def _process_calibrate(job, recording, outcome) -> None:
     outcome.document, outcome.result = cal.to_document(), cal
     bad = [j for j in cal.joints.values() if j.verdict in ("not identifiable", "failed")]
     if bad and not job.force:
-        reason = bad[0].warnings[-1] if bad[0].warnings else bad[0].verdict
+        reason = _reason(bad[0])
         which = ", ".join(f"{j.name} ({j.verdict})" for j in bad)
         outcome.exit_code = NotIdentifiableError.exit_code
         outcome.error = (f"{recording.source}: joint{'s' if len(bad) > 1 else ''} {which}: "
                          f"{reason}; the calibration is written with "
                          f"{'them' if len(bad) > 1 else 'it'} marked (--force: exit 0)")
         outcome.exception = NotIdentifiableError(outcome.error)
+
+
+def _reason(joint) -> str:
+    """Why a calibrated joint is not usable: the error that stopped its estimate (its last
+    warning), or the first warning of the estimate that cannot identify it (blocking
+    reasons come first)."""
+    if joint.verdict == "failed":
+        return joint.warnings[-1] if joint.warnings else "failed"
+    for what, doc in (("axis", joint.axis), ("position", joint.position)):
+        if doc is not None and doc["quality"]["verdict"] == "not identifiable":
+            return f"{what}: {doc['quality']['warnings'][0]}"
+    return joint.verdict
 
 
 #: The estimating commands by name. A new one is one entry here (plus its option parsing
