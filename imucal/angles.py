@@ -652,9 +652,10 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     if reference is None:
         zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
                 "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
-        if sign != int(ref["flexion_sign"]):
-            # The calibration trial's zero is its most extended posture under its own
-            # (weak) sign, which is the most flexed one under this sign.
+        if sign != int(ref["flexion_sign"]) and abs(ref["sign_evidence"]) < SIGN_EVIDENCE_MIN:
+            # The calibration trial's zero is its most extended posture under the sign it
+            # guessed (its evidence was weak), which is the most flexed one under this
+            # sign. (A sign pinned against a clear calibration just negates the angle.)
             if ref["zero_time_s"] is None:  # the 1st percentile: take the other end
                 zero["raw_deg"] = (ref["zero_deg"]
                                    + int(ref["flexion_sign"]) * ref["flexion_range_deg"][1])
