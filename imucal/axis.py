@@ -21,11 +21,12 @@ joint angle changes during the recording (with a rigid joint every pair j1 = R j
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .errors import InputError
+from .gyr_bias import GyrBias, estimate_gyr_bias
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
@@ -59,6 +60,7 @@ from .quality import (
     uncertainty_totals,
     uncertainty_warning,
 )
+from .rest import MAX_MISMATCH_DEG, gravity_check, gravity_warning
 from .restarts import (
     MIN_AGREEING_FRACTION,
     competing_agreement,
@@ -160,7 +162,16 @@ class AxisResult(EstimateResult):
     spread_deg : RMS angle between the agreeing restarts' subset results and the
         estimate, per axis, deg: how much the answer depends on the data (subset fits
         stuck in a local minimum left out, :func:`imucal.restarts.settled`).
-    gyr1, gyr2 : the filtered, windowed, subsampled rates used (M, 3), rad/s.
+    gyr1, gyr2 : the filtered, windowed, subsampled rates used (M, 3), rad/s (with a
+        removed gyroscope bias, corrected).
+    gyr_bias : the constant gyroscope biases fitted with eq. (1)
+        (:class:`imucal.gyr_bias.GyrBias`): "applied", "b1_rad_s", "b2_rad_s" (across
+        each axis, sensor frames), "cost_ratio", the prior and thresholds. When applied,
+        the rates were corrected by them before the estimate reported here.
+    gravity : the gravity check of the axes at rest (:func:`imucal.rest.gravity_check`):
+        "periods" (each still period's angles of the axis to the vertical in both
+        sensors, deg), "max_mismatch_deg", "consistent" (None without accelerometers or
+        still periods), "max_allowed_deg".
     """
 
     j1: np.ndarray
@@ -171,6 +182,8 @@ class AxisResult(EstimateResult):
     spread_deg: dict
     gyr1: np.ndarray
     gyr2: np.ndarray
+    gyr_bias: dict = field(default_factory=dict)
+    gravity: dict = field(default_factory=dict)
 
 
 @one_blas_thread
@@ -299,11 +312,17 @@ def estimate_axis(
                        fit_signals=lambda sensor, c: (lowpass(sensor[0], rate, c),),
                        min_samples=MIN_SAMPLES, what="axis")
     fit = _fit(prepared, s)
+    bias = _gyr_bias(prepared, fit)
+    if bias.significant:
+        return _with_gyr_bias(g1, g2, acc1, acc2, rate, s, bias)
     j1, j2, decision, applied = _signs(prepared, fit, s)
     quality = _quality(prepared, fit, np.concatenate([j1, j2]))
-    warnings, blocking = _diagnose(prepared, quality, decision)
+    gravity = _gravity(prepared, j1, j2)
+    warnings, blocking = _diagnose(prepared, quality, decision, gravity)
     warnings += _sign_warnings(decision, applied, s.j2_sign != "auto")
-    return _result(prepared, s, fit, j1, j2, decision, applied, quality, warnings, blocking)
+    result = _result(prepared, s, fit, j1, j2, decision, applied, quality, warnings, blocking)
+    result.gyr_bias, result.gravity = bias.report(), gravity
+    return result
 
 
 def _check_acc(g1, acc1, acc2):
@@ -328,6 +347,37 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
         return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
                              settings=replace(s, time_offset=seconds))
     return fit_with_offset(again, _offset_profile(g2, rate), rate, s.offset_search)
+
+
+def _gyr_bias(p: Prepared, fit: Multistart) -> GyrBias:
+    """Constant gyroscope biases across the axis, fitted with eq. (1) from the estimate
+    (:mod:`imucal.gyr_bias`)."""
+    return estimate_gyr_bias(*p.data, unit(fit.estimate[:3]), unit(fit.estimate[3:]))
+
+
+def _with_gyr_bias(g1, g2, acc1, acc2, rate, s: AxisSettings, bias: GyrBias) -> AxisResult:
+    """The estimate from rates corrected by ``bias``: a bias turns the axis by tenths of
+    a degree, and everything after the fit (signs, uncertainty, the model bound) must
+    see rates without it."""
+    result = estimate_axis(g1 - bias.b1, g2 - bias.b2, rate=rate, acc1=acc1, acc2=acc2,
+                           settings=s)
+    result.gyr_bias = bias.report()
+    # the fit above takes the biases as known; with them estimated too, the axes are
+    # known less well by the factor the joint fit's covariance gives
+    c = result.uncertainty_components
+    c["gyr_bias"] = {k: float(np.sqrt(f**2 - 1) * max(c["curvature"][k], c["time_blocks"][k]))
+                     for k, f in zip(("j1", "j2"), bias.inflation, strict=True)}
+    result.uncertainty_deg = uncertainty_totals(c)
+    return result
+
+
+def _gravity(p: Prepared, j1, j2) -> dict:
+    """The gravity check of the axes at rest, when accelerometers came with the rates."""
+    if p.first[1] is None:
+        return {"periods": [], "max_mismatch_deg": None, "consistent": None,
+                "max_allowed_deg": MAX_MISMATCH_DEG}
+    return gravity_check(p.first[0], p.first[1], p.second[0], p.second[1], j1, j2, p.rate,
+                         window=p.window)
 
 
 def _fit(p: Prepared, s: AxisSettings) -> Multistart:
@@ -377,6 +427,7 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
         "time_blocks": _block_jackknife(d1, d2, x),
         "cutoff_shift": cutoff_shifts(sensitivity, ("j1", "j2"), "deg"),
         "model": {"j1": model, "j2": model},
+        "gyr_bias": {"j1": 0.0, "j2": 0.0},
     }
     keep = settled(fit.batch.final_cost, fit.reached)
     return {
@@ -516,18 +567,25 @@ def _refit_residuals(d1, d2, x) -> np.ndarray:
     for _ in range(OFFSET_STEPS):
         e, jac = _residuals_and_jacobians(d1, d2, x)
         jt = np.swapaxes(jac, 1, 2)
-        step = -np.linalg.solve(jt @ jac, (jt @ e[..., None]))[..., 0]
+        jtj = jt @ jac
+        # a touch of damping: a sensor that never turns leaves J^T J singular (the step
+        # is then 0, not an error)
+        damp = 1e-9 * np.trace(jtj, axis1=1, axis2=2)[:, None, None] + 1e-30
+        step = -np.linalg.solve(jtj + damp * np.eye(jtj.shape[-1]), jt @ e[..., None])[..., 0]
         x = _retract(x, step)
     return _residuals_and_jacobians(d1, d2, x)[0]
 
 
-def _diagnose(p: Prepared, q: dict, decision) -> tuple[list[str], list[str]]:
+def _diagnose(p: Prepared, q: dict, decision, gravity: dict) -> tuple[list[str], list[str]]:
     """(warnings, blocking) of an axis estimate; thresholds and their reasons in
     docs/quality.md."""
     doubts = unit_doubts(p.data)
     blocking = _blocking(p, q, decision, doubts)
     relative, sigma = q["relative"], max(q["uncertainty"].values())
     warnings = list(doubts)
+    warned = gravity_warning(gravity)
+    if warned:
+        warnings.append(warned)
     if not blocking:
         warnings += disagreement_warning(
             q["agreement"], "; the joint may have moved too little or not as a hinge")

@@ -47,6 +47,9 @@ class GyrBias:
         sensor's frame (the component along the axis is not observable and is 0).
     j1, j2 : (3,) unit axis of the joint fitted together with the biases.
     cost_ratio : mean squared eq. (1) residual without the biases over that with them.
+    inflation : (2,) how much estimating the biases widens each axis's uncertainty:
+        sqrt(trace) of the axis's covariance with the biases free (under their prior)
+        over that with the biases known, >= 1.
     """
 
     b1: np.ndarray
@@ -54,6 +57,7 @@ class GyrBias:
     j1: np.ndarray
     j2: np.ndarray
     cost_ratio: float
+    inflation: tuple[float, float] = (1.0, 1.0)
 
     @property
     def size(self) -> float:
@@ -75,6 +79,7 @@ class GyrBias:
         """The JSON block (rad/s)."""
         return {"applied": self.significant, "b1_rad_s": self.b1.tolist(),
                 "b2_rad_s": self.b2.tolist(), "cost_ratio": self.cost_ratio,
+                "inflation": list(self.inflation),
                 "prior_rad_s": PRIOR_RAD_S, "min_cost_ratio": MIN_COST_RATIO,
                 "max_plausible_rad_s": MAX_PLAUSIBLE_RAD_S}
 
@@ -123,7 +128,35 @@ def estimate_gyr_bias(gyr1: np.ndarray, gyr2: np.ndarray, j1: np.ndarray,
     b1, b2 = _across(p[6:9], k1), _across(p[9:12], k2)
     cost = float(np.mean(_residual(g1, g2, k1, k2, b1, b2) ** 2))
     ratio = cost0 / cost if cost > 0 else float("inf")
-    return GyrBias(b1, b2, k1, k2, float(ratio))
+    inflation = _inflation(jacobian(np.concatenate([k1, k2, b1, b2]))[:-6], k1, k2, weight)
+    return GyrBias(b1, b2, k1, k2, float(ratio), inflation)
+
+
+def _inflation(jac: np.ndarray, j1: np.ndarray, j2: np.ndarray,
+               weight: float) -> tuple[float, float]:
+    """Each axis's covariance with the biases free over that with them known (sqrt of
+    the traces' ratio), from the data rows' Jacobian ``jac`` (M, 12) at the joint fit."""
+    t = [_tangent(j1), _tangent(j2)]
+    jt = np.concatenate([jac[:, :3] @ t[0], jac[:, 3:6] @ t[1], jac[:, 6:]], axis=1)
+    info = jt.T @ jt
+    info[4:, 4:] += weight**2 * np.eye(6)  # the prior's information on the biases
+    try:
+        free = np.linalg.inv(info)[:4, :4]
+        known = np.linalg.inv(info[:4, :4])
+    except np.linalg.LinAlgError:
+        return (1.0, 1.0)
+    out = []
+    for sl in (slice(0, 2), slice(2, 4)):
+        ratio = np.trace(free[sl, sl]) / np.trace(known[sl, sl])
+        out.append(float(np.sqrt(ratio)) if np.isfinite(ratio) and ratio >= 1 else 1.0)
+    return out[0], out[1]
+
+
+def _tangent(j: np.ndarray) -> np.ndarray:
+    """(3, 2) orthonormal basis of the plane orthogonal to the unit vector ``j``."""
+    a = np.eye(3)[int(np.argmin(np.abs(j)))]
+    u = _unit(np.cross(j, a))
+    return np.stack([u, np.cross(j, u)], axis=1)
 
 
 def _residual(g1, g2, j1, j2, b1, b2) -> np.ndarray:

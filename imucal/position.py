@@ -345,7 +345,9 @@ def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
     # identifiable is the point across it.
     free = np.eye(6) if line is None else _across(line)
     sv = singular_values(jac @ free)
-    cov = free @ robust_covariance(e, jac @ free) @ free.T
+    inner = robust_covariance(e, jac @ free)
+    # a singular J^T J (a sensor that never moved) leaves no finite covariance: infinite
+    cov = free @ inner @ free.T if np.isfinite(inner).all() else np.full((6, 6), np.inf)
     sensitivity = _cutoff_sensitivity(p, x, line)
     components = {
         "curvature": {"o1": float(1000 * np.sqrt(np.trace(cov[:3, :3]))),

@@ -187,10 +187,14 @@ def cutoff_shifts(sensitivity: dict, names: tuple[str, str], unit: str) -> dict:
 
 def uncertainty_totals(components: dict) -> dict:
     """{name: :func:`total_sigma`} of each vector from its uncertainty ``components``
-    ("curvature", "time_blocks", "cutoff_shift" and, where there is one, "model")."""
+    ("curvature", "time_blocks", "cutoff_shift" and, where there is one, "model"), with
+    "gyr_bias" (the axis's widening by a removed gyroscope bias) added in quadrature."""
     model = components.get("model", {})
-    return {k: total_sigma(components["curvature"][k], components["time_blocks"][k],
-                           components["cutoff_shift"][k], model.get(k, 0.0))
+    bias = components.get("gyr_bias", {})
+    return {k: float(np.hypot(total_sigma(components["curvature"][k],
+                                          components["time_blocks"][k],
+                                          components["cutoff_shift"][k], model.get(k, 0.0)),
+                              bias.get(k, 0.0)))
             for k in components["curvature"]}
 
 

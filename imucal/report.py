@@ -50,6 +50,7 @@ def axis_report(result: AxisResult, *, input_info: dict, trace: bool = False) ->
                 "convention": result.settings["sign_convention"],
                 "j2_sign": result.settings["j2_sign"],
             },
+            "gravity": result.gravity,
         },
     )
     doc = {
@@ -60,10 +61,12 @@ def axis_report(result: AxisResult, *, input_info: dict, trace: bool = False) ->
         "convention": _axis_convention(result.settings["sign_convention"]),
         "units": {"j1": "unit vector", "j2": "unit vector", "rms_residual": "rad/s",
                   "cost": "rad/s (RMS residual)", "uncertainty": "deg", "spread": "deg",
-                  "time_offset": "s (positive: the second sensor's clock is late)"},
+                  "time_offset": "s (positive: the second sensor's clock is late)",
+                  "gyr_bias": "rad/s"},
         "j1": result.j1,
         "j2": result.j2,
         "time_offset": result.time_offset,
+        "gyr_bias": result.gyr_bias,
         "quality": quality,
         "convergence": _convergence_block(result, "agreement_deg"),
         "restarts": _restart_entries(result, "j1", "j2", trace),
@@ -102,12 +105,13 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
 
 
 UNCERTAINTY_METHOD = (
-    "sqrt(max(curvature, time_blocks)^2 + cutoff_shift^2 + model^2): curvature of the cost "
+    "sqrt(max(curvature, time_blocks)^2 + cutoff_shift^2 + model^2 + gyr_bias^2): curvature "
+    "of the cost "
     "at the estimate ((J^T J)^-1 S (J^T J)^-1, Newey-West S), delete-one-block jackknife "
     "over 10 contiguous time blocks, the largest shift of the cut-off refits (axis: 10 and "
     "20 Hz low-pass, or the cut-off halved and doubled; position: the cut-off x 0.75 and "
-    "x 1.5), and for the axis a model-error bound from the residual's smooth part (see "
-    "uncertainty_components and docs/quality.md)"
+    "x 1.5), and for the axis a model-error bound from the residual's smooth part and the "
+    "widening by a removed gyroscope bias (see uncertainty_components and docs/quality.md)"
 )
 SPREAD_METHOD = (
     "RMS distance between the estimate and the results of the restarts that reached it, "

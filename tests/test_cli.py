@@ -1,4 +1,5 @@
-"""The command line end to end, as a user runs it (subprocess, real files)."""
+"""The command line end to end, as a user runs it (real files; in-process but for one
+real interpreter, see :func:`conftest.run_imucal`)."""
 
 from __future__ import annotations
 
@@ -9,16 +10,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import axis_error_deg
+from conftest import axis_error_deg, run_imucal
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def imucal(*args, stdin: bytes | None = None, cwd=None):
-    return subprocess.run(
-        [sys.executable, "-m", "imucal", *map(str, args)],
-        input=stdin, capture_output=True, cwd=cwd, timeout=120,
-    )
+    # in-process (conftest.run_imucal); the real process is covered by
+    # test_loaders.py::test_cli_in_a_real_process_no_traceback_unless_debug and
+    # test_the_console_script_runs below
+    return run_imucal(*args, stdin=stdin, cwd=cwd)
 
 
 @pytest.fixture(scope="module")
@@ -103,6 +104,18 @@ def test_csv_from_stdin(recordings):
     doc = json.loads(run.stdout)
     assert doc["input"]["path"] == "<stdin>"
     assert doc["input"]["sample_rate_hz"] == pytest.approx(40.0)
+
+
+def test_the_console_script_runs(recordings):
+    # the one test here that starts a fresh interpreter: python -m imucal, data piped in
+    _, csv = recordings
+    run = subprocess.run([sys.executable, "-m", "imucal", "axis", "-", "--restarts", "10",
+                          "--seed", "1"], input=csv.read_bytes(), capture_output=True,
+                         timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert json.loads(run.stdout) == json.loads(imucal("axis", "-", "--restarts", 10,
+                                                       "--seed", 1,
+                                                       stdin=csv.read_bytes()).stdout)
 
 
 def test_window_is_on_the_recording_time_axis(recordings):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import vendor_writers as vw
-from conftest import axis_error_deg, simulated
+from conftest import axis_error_deg, run_imucal, simulated
 
 from imucal import estimate_axis, estimate_position, load_recording
 from imucal.errors import InputError
@@ -357,11 +357,7 @@ def test_position_from_vendor_file_equals_own_hdf5(fmt, tmp_path, reference_axis
 
 
 def run_cli(*args):
-    import subprocess
-    import sys
-
-    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
-                          capture_output=True, text=True)
+    return run_imucal(*args, text=True)
 
 
 def test_info_lists_every_sensor(tmp_path):

@@ -4,12 +4,10 @@ panels show) and the size and contents of the JSON (compact by default, --trace)
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
-from conftest import simulated
+from conftest import run_imucal, simulated
 
 from imucal import plots
 from imucal.axis import estimate_axis
@@ -24,8 +22,7 @@ MAX_DEFAULT_BYTES = 70_000
 
 
 def imucal(*args):
-    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
-                          capture_output=True, timeout=120)
+    return run_imucal(*args)
 
 
 @pytest.fixture(scope="module")

@@ -7,14 +7,12 @@ without a map, alone and as a study with ``--jobs``.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import h5py
 import numpy as np
 import pytest
 import vendor_writers as vw
-from conftest import axis_error_deg, simulated
+from conftest import axis_error_deg, run_imucal, simulated
 
 from imucal import load_recording
 from imucal.errors import InputError
@@ -27,8 +25,7 @@ def short():
 
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
-                          capture_output=True, text=True)
+    return run_imucal(*args, text=True)
 
 
 # ------------------------------------------------------------------------- map files

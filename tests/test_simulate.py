@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import run_imucal
 
 from imucal.errors import InputError
 from imucal.simulate import MOTIONS, _expmap, _simulate_with_internals, simulate
@@ -527,7 +528,7 @@ def test_command_line_realism_options(tmp_path):
                        (["--gyr-bias", "shank=1,2"], "--gyr-bias"),
                        (["--snr", "30", "--gyr-noise", "0.01"], "not both"),
                        (["--soft-tissue-mm", "-2"], "soft_tissue_mm")):
-        run = subprocess.run([*args[:5], *bad], capture_output=True, timeout=120, text=True)
+        run = run_imucal(*args[3:5], *bad, text=True)
         assert run.returncode == 2, bad
         lines = run.stderr.strip().splitlines()
         assert len(lines) == 1 and words in lines[0], run.stderr

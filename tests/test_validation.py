@@ -4,12 +4,11 @@ window, can stop it; gap messages name the first gap and its time."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import h5py
 import numpy as np
 import pytest
+from conftest import run_imucal
 
 import imucal
 from imucal.errors import InputError
@@ -20,8 +19,7 @@ RESTARTS = "5"
 
 
 def imucal_cli(*args):
-    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
-                          capture_output=True, text=True, timeout=120)
+    return run_imucal(*args, text=True)
 
 
 @pytest.fixture(scope="module")
