@@ -10,10 +10,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import axis_error_deg
-from typer.testing import CliRunner
+from conftest import axis_error_deg, run_imucal
 
-from imucal.cli import app
 from imucal.simulate import simulate
 from imucal.writers import save_recording
 
@@ -23,14 +21,15 @@ FAST = ("--restarts", "20", "--seed", "1")
 
 
 def cli(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
+    """``imucal ARGS`` in this process, as the console script runs it."""
+    return run_imucal(*args, text=True)
 
 
 @pytest.fixture(scope="module")
 def cal_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("cal") / "cal.json"
     run = cli("calibrate", SAMPLE / "circling.h5", *FAST, "--out", path)
-    assert run.exit_code == 0, run.stderr
+    assert run.returncode == 0, run.stderr
     assert run.stdout == ""
     return path, run
 
@@ -55,7 +54,7 @@ def test_calibrate_writes_every_joint_with_a_summary(cal_file):
 def test_a_drawn_seed_is_recorded(tmp_path):
     run = cli("calibrate", SAMPLE / "circling.h5", "--restarts", "5", "--joint",
               "knee=hinge:thigh,shank", "-q")
-    assert run.exit_code == 0 and run.stderr == ""
+    assert run.returncode == 0 and run.stderr == ""
     doc = json.loads(run.stdout)
     assert list(doc["joints"]) == ["knee"]
     assert isinstance(doc["settings"]["seed"], int)
@@ -72,7 +71,7 @@ def _sample_offset_and_rmse(flexion):
 def test_angles_of_the_sample_walk_as_csv_on_stdout(cal_file):
     path, _ = cal_file
     run = cli("angles", SAMPLE / "walking.h5", "--calibration", path)
-    assert run.exit_code == 0, run.stderr
+    assert run.returncode == 0, run.stderr
     table = pd.read_csv(io.StringIO(run.stdout))
     assert list(table.columns) == ["time", "knee_flexion_deg", "knee_flexion_sigma_deg"]
     assert len(table) == 3000 and table["time"].iloc[1] == pytest.approx(0.01)
@@ -95,7 +94,7 @@ def test_angles_to_h5_with_a_figure(cal_file, tmp_path):
     out, png = tmp_path / "knee.h5", tmp_path / "knee.png"
     run = cli("angles", SAMPLE / "walking.h5", "-c", path, "--out", out, "--plot", png,
               "--end", "10", "-q")
-    assert run.exit_code == 0, run.stderr
+    assert run.returncode == 0, run.stderr
     assert run.stdout == "" and run.stderr == ""
     import h5py
 
@@ -114,11 +113,11 @@ def test_another_mounting_exits_1_with_the_evidence_unless_force(cal_file, tmp_p
     save_recording(recording, rec)
     out = tmp_path / "knee.csv"
     run = cli("angles", rec, "-c", path, "--out", out)
-    assert run.exit_code == 1
+    assert run.returncode == 1
     assert "does not fit" in run.stderr and "hinge residual" in run.stderr
     assert "nothing written" in run.stderr and not out.exists()
     run = cli("angles", rec, "-c", path, "--out", out, "--force")
-    assert run.exit_code == 0 and "does not fit" in run.stderr
+    assert run.returncode == 0 and "does not fit" in run.stderr
     assert list(pd.read_csv(out).columns)[1] == "knee_flexion_deg"
 
 
@@ -132,7 +131,7 @@ def test_a_missing_or_broken_calibration_exits_2_naming_it(tmp_path, content, ph
     if content is not None:
         cal.write_text(content)
     run = cli("angles", SAMPLE / "walking.h5", "-c", cal, "--out", tmp_path / "a.csv")
-    assert run.exit_code == 2
+    assert run.returncode == 2
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and str(cal) in lines[0] and phrase in lines[0]
     assert run.stdout == "" and sorted(p.name for p in tmp_path.iterdir()) == (
@@ -153,8 +152,9 @@ def test_a_missing_or_broken_calibration_exits_2_naming_it(tmp_path, content, ph
 ])
 def test_usage_errors_exit_2_before_any_file_is_read(args, phrase):
     run = cli(*args)
-    assert run.exit_code == 2
-    assert phrase in run.stderr
+    assert run.returncode == 2 and run.stdout == ""
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("imucal: error: ") and phrase in lines[0]
     assert "no such file" not in run.stderr and "not found" not in run.stderr
 
 
@@ -162,7 +162,7 @@ def test_calibrate_study_gives_json_lines_like_axis(tmp_path):
     missing = tmp_path / "missing.h5"
     run = cli("calibrate", SAMPLE / "circling.h5", missing, "--restarts", "5", "--seed", "1",
               "--joint", "knee=hinge:thigh,shank")
-    assert run.exit_code == 2
+    assert run.returncode == 2
     lines = [json.loads(line) for line in run.stdout.splitlines()]
     assert [o["file"] for o in lines] == [str(SAMPLE / "circling.h5"), str(missing)]
     assert all(list(o) == ["file", "exit_code", "error", "warnings", "result"] for o in lines)
@@ -176,23 +176,23 @@ def test_a_joint_that_is_not_identifiable_is_written_marked_and_exits_1(tmp_path
     rec, out = tmp_path / "still.h5", tmp_path / "cal.json"
     save_recording(simulate(seed=3, rate=100.0, duration=5.0, motion="static")[0], rec)
     run = cli("calibrate", rec, "--restarts", "5", "--seed", "1", "--out", out)
-    assert run.exit_code == 1
+    assert run.returncode == 1
     assert "knee (not identifiable)" in run.stderr and "barely rotate" in run.stderr
     doc = json.loads(out.read_text())
     assert doc["joints"]["knee"]["verdict"] == "not identifiable"
     # angles refuse a knee the calibration could not identify, unless told
     run = cli("angles", rec, "-c", out)
-    assert run.exit_code == 1 and "not identifiable in the calibration" in run.stderr
+    assert run.returncode == 1 and "not identifiable in the calibration" in run.stderr
     assert run.stdout == ""
     assert cli("calibrate", rec, "--restarts", "5", "--seed", "1", "--out", out,
-               "--force", "-q").exit_code == 0
+               "--force", "-q").returncode == 0
 
 
 def test_simulate_mounting_seed(tmp_path):
     rec = tmp_path / "walk.h5"
     run = cli("simulate", rec, "--seed", "8", "--mounting-seed", "7", "--motion", "gait",
               "--duration", "2", "-q")
-    assert run.exit_code == 0, run.stderr
+    assert run.returncode == 0, run.stderr
     truth = json.loads(rec.with_name("walk.truth.json").read_text())
     sample = json.loads((SAMPLE / "circling.truth.json").read_text())
     assert truth["settings"]["mounting_seed"] == 7
