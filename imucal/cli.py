@@ -60,6 +60,13 @@ Jobs = Annotated[int, typer.Option(
     "error line and the others go on; exit status: the highest of the recordings' codes "
     "(0 ok, 1 not identifiable, 2 bad input, 3 internal error). --out writes the lines "
     "to a file (complete or not at all); --plot needs a single REC.")]
+CalibrateJobs = Annotated[int, typer.Option(
+    "--jobs", "-j", min=0, help="With several RECs: recordings processed at once, in separate "
+    "processes (0: one per CPU core). Output is JSON Lines in input order, one object "
+    "{file, exit_code, error, warnings, result} per recording, result the calibration "
+    "(also with exit_code 1: a joint not usable, marked); a failed recording gets an error "
+    "line and the others go on; exit status: the highest of the recordings' codes. --out "
+    "writes the lines to a file (complete or not at all).")]
 Restarts = Annotated[int, typer.Option(min=1, help="Random restarts (initial values and data "
                                        "subsets).")]
 Seed = Annotated[int | None, typer.Option(min=0, help="Random seed; default: a fresh one, "
@@ -277,7 +284,7 @@ def calibrate(
         "failed. The calibration is written either way, such joints marked by their "
         "verdict (a failed one without vectors); without --force the exit status is 1.")]
     = False,
-    jobs: Jobs = 1,
+    jobs: CalibrateJobs = 1,
     scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
