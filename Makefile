@@ -13,7 +13,8 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
-## demo: estimate knee axis and ankle position on the shipped sample recording
+## demo: estimate knee axis and ankle position on the shipped sample recording, calibrate
+## it, and measure knee flexion on the sample walking trial of the same mounting
 demo: $(STAMP)
 	mkdir -p $(DEMO_DIR)
 	$(BIN)/imucal info sample_data/circling.h5
@@ -21,8 +22,14 @@ demo: $(STAMP)
 		--out $(DEMO_DIR)/knee_axis.json --plot $(DEMO_DIR)/knee_axis.png
 	$(BIN)/imucal position sample_data/circling.h5 --sensors shank,foot --seed 1 \
 		--out $(DEMO_DIR)/ankle_position.json --plot $(DEMO_DIR)/ankle_position.png
-	@echo "demo: results written to $(DEMO_DIR)/ (knee_axis.json/.png, ankle_position.json/.png);"
-	@echo "      the true values are in sample_data/circling.truth.json"
+	$(BIN)/imucal calibrate sample_data/circling.h5 --seed 1 --out $(DEMO_DIR)/calibration.json
+	$(BIN)/imucal angles sample_data/walking.h5 --calibration $(DEMO_DIR)/calibration.json \
+		--out $(DEMO_DIR)/knee_angles.csv --plot $(DEMO_DIR)/knee_angles.png
+	@echo "demo: results written to $(DEMO_DIR)/ (knee_axis.json/.png, ankle_position.json/.png,"
+	@echo "      calibration.json, knee_angles.csv/.png); the true values are in"
+	@echo "      sample_data/circling.truth.json (axes, centres) and sample_data/walking.truth.json"
+	@echo "      (knee_flexion_deg per sample; its zero is straight, imucal's the calibration"
+	@echo "      trial's most extended posture: compare after removing the mean difference)"
 
 ## test: lint and the whole test suite (on every core; one BLAS thread per worker, as
 ## the command line runs)
@@ -43,10 +50,13 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 
-## sample-data: regenerate sample_data/ with the simulator (deterministic seeds)
+## sample-data: regenerate sample_data/ with the simulator (deterministic seeds);
+## walking.h5 is a gait trial with the mounting of circling.h5 (--mounting-seed 7)
 sample-data: $(STAMP)
 	$(BIN)/imucal simulate sample_data/circling.h5 --seed 7 --rate 100 --duration 20 --snr 100 --motion circling
 	$(BIN)/imucal simulate sample_data/circling_40hz.csv --seed 7 --rate 40 --duration 20 --snr 100 --motion circling
+	$(BIN)/imucal simulate sample_data/walking.h5 --seed 8 --mounting-seed 7 --rate 100 \
+		--duration 30 --motion gait --gyr-noise 0.01 --acc-noise 0.05 --gyr-bias 0.02
 
 clean:
 	rm -rf $(VENV) $(DEMO_DIR) .pytest_cache .ruff_cache

@@ -12,6 +12,10 @@ Library use::
     axis = imucal.estimate_axis(thigh.gyr, shank.gyr, rate=rec.rate, seed=1)
     axis.j1, axis.j2          # unit knee axis in the thigh / shank sensor frames
 
+    cal = imucal.calibrate(rec, seed=1)          # every joint; cal.write("cal.json")
+    angles = imucal.joint_angles(imucal.load_recording("walk.h5"), cal)
+    angles.to_frame()         # time (s), knee_flexion_deg, knee_flexion_sigma_deg
+
 Units everywhere: rad/s, m/s^2, Hz, s, m.
 """
 
@@ -30,6 +34,11 @@ __version__ = "0.1.0"
 # arguments (docs/performance.md).
 _LAZY = {
     "AxisResult": ".axis",
+    "Calibration": ".calibration",
+    "calibrate": ".calibration",
+    "load_calibration": ".calibration",
+    "JointAngles": ".angles",
+    "joint_angles": ".angles",
     "estimate_axis": ".axis",
     "PositionResult": ".position",
     "estimate_position": ".position",
@@ -40,7 +49,9 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:  # static analysers and IDEs see ordinary imports
+    from .angles import JointAngles, joint_angles
     from .axis import AxisResult, estimate_axis
+    from .calibration import Calibration, calibrate, load_calibration
     from .loaders import load_recording
     from .position import PositionResult, estimate_position
     from .recording import Recording, SensorData, make_recording
@@ -60,6 +71,8 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "AxisResult",
+    "Calibration",
+    "JointAngles",
     "ImucalError",
     "InputError",
     "NotIdentifiableError",
@@ -67,8 +80,11 @@ __all__ = [
     "Recording",
     "SensorData",
     "__version__",
+    "calibrate",
     "estimate_axis",
     "estimate_position",
+    "joint_angles",
+    "load_calibration",
     "load_recording",
     "make_recording",
 ]

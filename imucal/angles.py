@@ -652,6 +652,18 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     if reference is None:
         zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
                 "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
+        if sign != int(ref["flexion_sign"]) and abs(ref["sign_evidence"]) < SIGN_EVIDENCE_MIN:
+            # The calibration trial's zero is its most extended posture under the sign it
+            # guessed (its evidence was weak), which is the most flexed one under this
+            # sign. (A sign pinned against a clear calibration just negates the angle.)
+            if ref["zero_time_s"] is None:  # the 1st percentile: take the other end
+                zero["raw_deg"] = (ref["zero_deg"]
+                                   + int(ref["flexion_sign"]) * ref["flexion_range_deg"][1])
+                zero["method"] += " (with the flexion direction used here)"
+            else:
+                warnings.append(f"{jc.name}: the calibration's zero (its most extended still "
+                                "period) was chosen for the opposite flexion direction; give "
+                                "a reference ('standing' or a time) for a meaningful zero")
     elif reference == "standing":
         periods = still_periods((s1.gyr, s2.gyr), rec.rate)
         if not periods:
@@ -687,13 +699,16 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float) -> dict:
     """Does the calibration still fit this recording? (docs/angles.md)"""
     res = hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2)
     dis = math.degrees(fus.disagreement)
-    res_lim = FIT_FACTOR * ref["hinge_residual"] + FIT_FLOOR_RESIDUAL
-    dis_lim = FIT_FACTOR * ref["acc_gyro_disagreement_deg"] + FIT_FLOOR_DEG
+    # A calibration trial that never moved has no residual (NaN, null in its file): no
+    # reference, so no evidence either way.
+    ref_res, ref_dis = (math.nan if ref[k] is None else float(ref[k])
+                        for k in ("hinge_residual", "acc_gyro_disagreement_deg"))
+    res_lim = FIT_FACTOR * ref_res + FIT_FLOOR_RESIDUAL
+    dis_lim = FIT_FACTOR * ref_dis + FIT_FLOOR_DEG
     bad = []
-    if not (res <= res_lim):  # NaN (never moved) is no evidence against
-        bad += [] if math.isnan(res) else [
-            f"hinge residual {res:.3f} > {res_lim:.3f} (calibration trial "
-            f"{ref['hinge_residual']:.3f})"]
+    if res > res_lim:  # NaN (never moved, here or there) is no evidence against
+        bad.append(f"hinge residual {res:.3f} > {res_lim:.3f} (calibration trial "
+                   f"{ref_res:.3f})")
     gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rate)
     if gravity["consistent"] is False:
         worst = gravity["max_mismatch_deg"]
@@ -702,7 +717,7 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float) -> dict:
                    f"{gravity['max_allowed_deg']:g} deg)")
     if dis > dis_lim:
         bad.append(f"acc- vs gyro-angle disagreement {dis:.2f} deg > {dis_lim:.2f} deg "
-                   f"(calibration trial {ref['acc_gyro_disagreement_deg']:.2f} deg)")
+                   f"(calibration trial {ref_dis:.2f} deg)")
     out = {"fits": not bad, "hinge_residual": res, "hinge_residual_limit": res_lim,
            "calibration_hinge_residual": ref["hinge_residual"],
            "acc_gyro_disagreement_deg": dis, "acc_gyro_disagreement_limit_deg": dis_lim,

@@ -21,7 +21,7 @@ import typer
 
 from . import __version__
 from .atomic import check_not_inputs, check_writable, write_atomic, write_text_atomic
-from .errors import ImucalError, InputError
+from .errors import ImucalError, InputError, NotIdentifiableError
 
 
 def _examples(*lines: str) -> str:
@@ -60,6 +60,13 @@ Jobs = Annotated[int, typer.Option(
     "error line and the others go on; exit status: the highest of the recordings' codes "
     "(0 ok, 1 not identifiable, 2 bad input, 3 internal error). --out writes the lines "
     "to a file (complete or not at all); --plot needs a single REC.")]
+CalibrateJobs = Annotated[int, typer.Option(
+    "--jobs", "-j", min=0, help="With several RECs: recordings processed at once, in separate "
+    "processes (0: one per CPU core). Output is JSON Lines in input order, one object "
+    "{file, exit_code, error, warnings, result} per recording, result the calibration "
+    "(also with exit_code 1: a joint not usable, marked); a failed recording gets an error "
+    "line and the others go on; exit status: the highest of the recordings' codes. --out "
+    "writes the lines to a file (complete or not at all).")]
 Restarts = Annotated[int, typer.Option(min=1, help="Random restarts (initial values and data "
                                        "subsets).")]
 Seed = Annotated[int | None, typer.Option(min=0, help="Random seed; default: a fresh one, "
@@ -243,12 +250,235 @@ def position(
 
 @app.command(
     epilog=_examples(
+        "imucal calibrate cal_trial.h5 --out cal.json",
+        "imucal calibrate cal_trial.h5 --joint left_knee=hinge:left_thigh,left_shank \\",
+        "    --joint right_knee=hinge:right_thigh,right_shank --seed 1 --out cal.json",
+        "imucal angles walk1.h5 --calibration cal.json --out walk1_knee.csv",
+        "imucal calibrate session*/calibration.h5 --jobs 4 --out cals.jsonl   # a study",
+        "jq '.joints | map_values(.verdict)' cal.json",
+    )
+)
+def calibrate(
+    ctx: typer.Context,
+    rec: Recs,
+    joint: Annotated[list[str] | None, typer.Option(
+        "--joint", metavar="NAME=KIND:FIRST,SECOND", show_default=False,
+        help="A joint to calibrate (repeatable), KIND hinge or spheroidal, FIRST the "
+        "proximal sensor, e.g. left_knee=hinge:left_thigh,left_shank. Default: every joint "
+        "the sensor names allow (thigh/shank/foot/pelvis and synonyms, left_/right_ or "
+        "vendor labels): knee (hinge), ankle and hip (spheroidal).")] = None,
+    restarts: Restarts = 100,
+    seed: Seed = None,
+    start: Start = None,
+    end: End = None,
+    time_offset: TimeOffset = "auto",
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Write the calibration file (JSON) here instead of stdout.",
+        show_default=False)] = None,
+    rate: Rate = None,
+    gyr_units: GyrUnits = None,
+    acc_units: AccUnits = None,
+    sensor_map: SensorMap = None,
+    force: Annotated[bool, typer.Option(
+        "--force", help="Exit 0 even when a joint is not identifiable or its estimate "
+        "failed. The calibration is written either way, such joints marked by their "
+        "verdict (a failed one without vectors); without --force the exit status is 1.")]
+    = False,
+    jobs: CalibrateJobs = 1,
+    scheduler: Scheduler = None,
+    quiet: Quiet = False,
+    debug: Debug = False,
+) -> None:
+    """Calibrate every joint of a calibration trial into one file: knee axis and centre
+    (hinge), ankle and hip centres (spheroidal), with each joint's quality block and what
+    `imucal angles` needs to apply it to other trials (docs/json.md, docs/angles.md)."""
+    with _errors(debug):
+        from .settings import CalibrateSettings
+
+        settings = _settings(ctx, CalibrateSettings, joints=tuple(joint or ()),
+                             restarts=restarts, seed=seed, time_offset=time_offset)
+        job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
+                   gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
+                   force=force)
+        if len(rec) > 1:
+            from .study import run_study
+
+            raise typer.Exit(run_study(job, rec, out=out, jobs=jobs, scheduler=scheduler,
+                                       quiet=quiet))
+        from .runner import run
+
+        _check_outputs(out, None, rec[0], sensor_map)
+        outcome = run(job, rec[0])
+        for w in outcome.warnings:
+            _err(f"imucal: warning: {w}")
+        if outcome.headline is not None and not quiet:
+            _err(outcome.headline)
+        if outcome.document is None:
+            raise outcome.exception
+        _emit(outcome.document, out)
+        if not quiet:
+            _calibration_summary(outcome.document)
+        if outcome.error is not None:
+            _err(f"imucal: error: {outcome.error}")
+        raise typer.Exit(outcome.exit_code)
+
+
+@app.command(
+    epilog=_examples(
+        "imucal angles walk.h5 --calibration cal.json > knee.csv",
+        "imucal angles walk.h5 --calibration cal.json --out knee.csv --plot knee.png",
+        "imucal angles walk.h5 -c cal.json --reference standing --out knee.h5",
+        "imucal angles walk.h5 -c cal.json --reference 3.5 --flexion-sign +",
+    )
+)
+def angles(
+    ctx: typer.Context,
+    rec: Rec,
+    calibration: Annotated[Path, typer.Option(
+        "--calibration", "-c", metavar="CAL.json", show_default=False,
+        help="Calibration file written by imucal calibrate (same sensors, same mounting).")],
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", show_default=False,
+        help="Write the table here instead of CSV on stdout: .csv, or .h5/.hdf5 (one "
+        "dataset per column, the JSON summary as the root attribute 'imucal').")] = None,
+    plot: Annotated[Path | None, typer.Option(
+        show_default=False, help="Write the figure (flexion over time with its 2-sigma "
+        "band, gait cycles when walking): .png, .pdf or .svg.")] = None,
+    reference: Annotated[str | None, typer.Option(
+        metavar="standing|SECONDS", show_default=False,
+        help="What 0 deg means. Default: the calibration's zero (its trial's most extended "
+        "still period, else its most extended posture), shared by every trial of the "
+        "mounting; standing: this recording's most extended still period; a number: the "
+        "angle at that time (s on this recording's time axis).")] = None,
+    flexion_sign: Annotated[str, typer.Option(
+        "--flexion-sign", metavar="auto|+|-",
+        help="auto: decided on the calibration trial (knees flex more than they "
+        "hyperextend), or on this recording when that was ambiguous; + / -: flexion is "
+        "the right-handed rotation of the second segment about the calibration's axis, "
+        "or the opposite.")] = "auto",
+    start: Start = None,
+    end: End = None,
+    rate: Rate = None,
+    gyr_units: GyrUnits = None,
+    acc_units: AccUnits = None,
+    sensor_map: SensorMap = None,
+    force: Annotated[bool, typer.Option(
+        "--force", help="Write the angles even when the calibration does not fit this "
+        "recording or a knee in it is not identifiable (exit 0, the warnings on stderr). "
+        "Without it such a run writes nothing and exits 1.")] = False,
+    quiet: Quiet = False,
+    debug: Debug = False,
+) -> None:
+    """Flexion of every hinge (knee) of a calibration over a recording, deg: a table with
+    `time` (s), `<joint>_flexion_deg` and `<joint>_flexion_sigma_deg` (1-sigma) per
+    joint (docs/angles.md). Data on stdout or --out, messages on stderr."""
+    with _errors(debug):
+        ref = _reference(ctx, reference)
+        if flexion_sign not in ("auto", "+", "-"):
+            raise typer.BadParameter(f"must be auto, + or -, got '{flexion_sign}'", ctx=ctx,
+                                     param_hint="'--flexion-sign'")
+        if start is not None and end is not None and end <= start:
+            raise typer.BadParameter(f"must be after --start ({start:g} s), got {end:g} s",
+                                     ctx=ctx, param_hint="'--end'")
+        if out is not None and out.suffix.lower() not in (".csv", ".h5", ".hdf5"):
+            raise typer.BadParameter(f"{out}: unknown table format "
+                                     f"'{out.suffix or out.name}'; use .csv, .h5 or .hdf5",
+                                     ctx=ctx, param_hint="'--out'")
+        _check_outputs(out, plot, rec, sensor_map)
+        check_not_inputs([("--out", out), ("--plot", plot)], [calibration])
+        from .angles import joint_angles
+        from .calibration import load_calibration
+        from .loaders import load_recording
+
+        cal = load_calibration(calibration)
+        recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
+                                   names=sensor_map)
+        result = joint_angles(recording, cal, reference=ref, flexion_sign=flexion_sign,
+                              start=start, end=end)
+        for w in result.warnings:
+            _err(f"imucal: warning: {recording.source}: {w}")
+        problems = [f"joint '{j.name}': {j.verdict} in the calibration"
+                    for j in cal.hinges if j.name in result.joints
+                    and j.verdict == "not identifiable"]
+        for j in result.joints.values():
+            for w in j.warnings:
+                _err(f"imucal: warning: {w}")
+            if not j.fits:
+                problems.append(f"joint '{j.name}': the calibration does not fit")
+        if problems and not force:
+            raise NotIdentifiableError(
+                f"{recording.source} with {calibration}: {'; '.join(problems)}; nothing "
+                "written (--force writes the angles with these warnings)")
+        if out is None:
+            _write_stdout(lambda stream: result.to_frame().to_csv(
+                stream, index=False, float_format="%.6g"))
+        else:
+            result.write(out)
+        if plot is not None:
+            from .angle_plots import plot_angles
+
+            plot_angles(result, plot)
+        if not quiet:
+            _angles_summary(result, out)
+
+
+def _write_stdout(write) -> None:
+    """``write(sys.stdout)``; a reader that stops early (``| head``) ends the command
+    quietly with the status a shell gives a process stopped by SIGPIPE (141)."""
+    try:
+        write(sys.stdout)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # Python would complain again when it flushes stdout at exit.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        raise typer.Exit(141) from None
+
+
+def _reference(ctx: typer.Context, text: str | None):
+    """--reference: None, "standing" or a time in s; anything else is a usage error."""
+    if text is None or text.strip().lower() == "standing":
+        return None if text is None else "standing"
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise typer.BadParameter(f"must be standing or a time in s, got '{text}'", ctx=ctx,
+                                 param_hint="'--reference'")
+    return value
+
+
+def _angles_summary(result, out) -> None:
+    """Per joint on stderr: range, sign, zero, the fit check, gait."""
+    doc = result.to_document()
+    where = "stdout" if out is None else str(out)
+    _err(f"imucal angles: {doc['input']['path']}: {doc['input']['samples']} samples at "
+         f"{doc['input']['sample_rate_hz']:g} Hz, calibration {doc['calibration']} -> {where}")
+    for j in doc["joints"].values():
+        lo, hi = j["range_deg"]
+        c = j["check"]
+        gait = "" if j["gait"] is None else (f"; walking: {j['gait']['strides']} strides of "
+                                             f"{j['gait']['stride_s']:.2f} s")
+        _err(f"  {j['column']}: {lo:.1f} to {hi:.1f} deg (median 1-sigma "
+             f"{j['sigma_deg']['median']:.2f} deg), sign {j['flexion_sign']:+d} from "
+             f"{j['sign_source']}, 0 = {j['zero']['method']}{gait}")
+        _err(f"    fit check: {'fits' if j['fits'] else 'DOES NOT FIT'} (hinge residual "
+             f"{_num(c['hinge_residual'], '.3f')}, limit "
+             f"{_num(c['hinge_residual_limit'], '.3f')}; acc-gyro disagreement "
+             f"{_num(c['acc_gyro_disagreement_deg'], '.2f')} deg, limit "
+             f"{_num(c['acc_gyro_disagreement_limit_deg'], '.2f')} deg)")
+
+
+@app.command(
+    epilog=_examples(
         "imucal simulate rec.h5 --seed 1",
         "imucal simulate rec.csv --rate 40 --snr 30 --motion gait",
         "imucal simulate rec.h5 --motion protocol --rate 40 --duration 30 --gyr-noise 0.01 "
         "--acc-noise 0.05",
         "imucal simulate rec.h5 --motion gait --soft-tissue-deg 2 --soft-tissue-mm 3 "
         "--clock-offset shank=0.02 --gyr-bias 0.02",
+        "imucal simulate walk.h5 --seed 8 --mounting-seed 7 --motion gait --duration 30 "
+        "# same mounting as --seed 7",
     )
 )
 def simulate(
@@ -292,6 +522,13 @@ def simulate(
         metavar="RAD/S|SENSOR=RAD/S|SENSOR=X,Y,Z", show_default=False,
         help="Constant gyroscope bias, rad/s, sensor frame: one magnitude for every sensor "
         "(random directions), or per sensor a magnitude or a vector (repeatable).")] = None,
+    mounting_seed: Annotated[int | None, typer.Option(
+        min=0, show_default=False,
+        help="Seed of the sensor mounting alone (poses on the segments, segment "
+        "lengths): recordings with different --seed but one --mounting-seed are trials of "
+        "one session with the sensors left in place (calibrate on one, measure angles on "
+        "another); the mounting equals the one of --seed N. Default: from --seed.")]
+    = None,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
@@ -320,6 +557,7 @@ def simulate(
             snr="auto" if snr is None else None if math.isinf(snr) else snr,
             gyr_noise=gyr_noise, acc_noise=acc_noise, soft_tissue_deg=soft_tissue_deg,
             soft_tissue_mm=soft_tissue_mm, clock_offset=offsets, gyr_bias=bias,
+            mounting_seed=mounting_seed,
         )
         save_recording(recording, out)
         write_text_atomic(truth_path, json.dumps(clean(truth), indent=2) + "\n")
@@ -420,12 +658,14 @@ def _settings(ctx: typer.Context, cls, **values):
         raise _usage_error(ctx, str(err)) from None
 
 
-def _job(ctx: typer.Context, command: str, sensors: str, settings, **options):
-    """The runner's job from the options; a bad --sensors or window is a usage error."""
+def _job(ctx: typer.Context, command: str, sensors: str | None, settings, **options):
+    """The runner's job from the options; a bad --sensors or window is a usage error.
+    ``sensors`` None: a command on the whole recording (calibrate)."""
     from .runner import Job, parse_sensors
 
     try:
-        return Job(command, parse_sensors(sensors), settings, **options)
+        return Job(command, () if sensors is None else parse_sensors(sensors), settings,
+                   **options)
     except InputError as err:
         raise _usage_error(ctx, str(err)) from None
 
@@ -608,6 +848,46 @@ def _summary(doc: dict, names) -> None:
     _err(f"  verdict: {q['verdict']}")
     for w in q["warnings"]:
         _err(f"  warning: {w}")
+
+
+def _calibration_summary(doc: dict) -> None:
+    """One or two stderr lines per joint of a calibration document: verdict and numbers."""
+    for name, j in doc["joints"].items():
+        pair = f"{j['sensors'][0]} -> {j['sensors'][1]}"
+        head = f"  {name} ({j['joint']}, {pair}): {j['verdict']}"
+        if j["o1"] is None:
+            _err(head)
+        elif j["joint"] == "hinge":
+            q, a = j["axis"]["quality"], j["angle"] or {}
+            u = j["axis"]["units"]["uncertainty"]
+            sigma = "/".join("-" if q[f"{v}_uncertainty_{u}"] is None
+                             else f"{q[f'{v}_uncertainty_{u}']:.2f}" for v in ("j1", "j2"))
+            _err(f"{head}; j1 = {_vec(j['j1'])}, j2 = {_vec(j['j2'])} (1-sigma {sigma} {u}); "
+                 f"centre o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m")
+            if a:
+                from .angles import SIGN_EVIDENCE_MIN
+
+                weak = ("; weak: each recording decides" if abs(a["sign_evidence"])
+                        < SIGN_EVIDENCE_MIN else "")
+                _err(f"    flexion sign {a['flexion_sign']:+d} (evidence "
+                     f"{a['sign_evidence']:+.2f}{weak}), zero: {a['zero_method']}; hinge "
+                     f"residual {_num(a['hinge_residual'], '.3f')}, acc-gyro angle "
+                     f"disagreement {_num(a['acc_gyro_disagreement_deg'], '.2f')} deg")
+        else:
+            q = j["position"]["quality"]
+            u = j["position"]["units"]["uncertainty"]
+            sigma = "/".join("-" if q[f"{v}_uncertainty_{u}"] is None
+                             else f"{q[f'{v}_uncertainty_{u}']:.1f}" for v in ("o1", "o2"))
+            _err(f"{head}; o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m (1-sigma {sigma} "
+                 f"{u})")
+        for w in j["warnings"]:
+            if not w.startswith("position: axis: "):  # the hinge's axis, said above
+                _err(f"    warning: {w}")
+
+
+def _num(x, spec: str) -> str:
+    """A number of a JSON document, which has null where there is none (NaN)."""
+    return "-" if x is None else format(x, spec)
 
 
 def _vec(v) -> str:

@@ -1,7 +1,7 @@
 """The headless runner: one recording through load -> window -> estimate -> report.
 
-Everything the ``axis`` and ``position`` commands do with a recording, as plain functions
-that print nothing and return an :class:`Outcome`. The single-file command prints an
+Everything the ``axis``, ``position`` and ``calibrate`` commands do with a recording, as
+plain functions that print nothing and return an :class:`Outcome`. The single-file command prints an
 outcome (:mod:`imucal.cli`), a study turns each outcome into one JSON line
 (:mod:`imucal.study`); neither the runner nor the study imports the command line.
 
@@ -47,11 +47,16 @@ class Command:
     report : ``(result, input_info=..., trace=...) -> dict``: the JSON document
         (docs/json.md).
     figure : ``(result, pair) -> matplotlib Figure``; ``pair`` reads "first - second".
+    process : for a command that works on the whole recording rather than on two sensors
+        (``calibrate``): ``(job, recording, outcome) -> None`` fills the outcome (document,
+        result, headline, warnings, and exit code and error for a result that is not
+        usable); ``estimate``, ``report`` and ``figure`` are then None.
     """
 
-    estimate: Callable[..., Any]
-    report: Callable[..., dict]
-    figure: Callable[..., Any]
+    estimate: Callable[..., Any] | None
+    report: Callable[..., dict] | None
+    figure: Callable[..., Any] | None
+    process: Callable[..., None] | None = None
 
 
 def _estimate_axis(first, second, rate, kwargs):
@@ -88,11 +93,56 @@ def _figure(name: str) -> Callable[..., Any]:
     return draw
 
 
+def _process_calibrate(job, recording, outcome) -> None:
+    """``imucal calibrate``: every joint of the recording in one document. Joints that
+    are not identifiable or failed stay in it, marked; they make the outcome exit code 1
+    (with the document) unless ``job.force``."""
+    from .calibration import calibrate
+    from .restarts import resolve_seed
+
+    s = job.settings
+    # one seed for every joint, drawn here when none is given, so the file can say it
+    seed = resolve_seed(s.seed)
+    cal = calibrate(recording, joints=list(s.joints) or None, restarts=s.restarts,
+                    seed=seed, start=job.start, end=job.end, time_offset=s.time_offset)
+    if job.sensor_map is not None:
+        cal.settings["sensor_map"] = str(job.sensor_map)
+    names = ", ".join(f"{j.name} ({j.sensors[0]} -> {j.sensors[1]})"
+                      for j in cal.joints.values())
+    outcome.headline = (f"imucal calibrate: {recording.source}: {names}; "
+                        f"{recording.n_samples} samples at {recording.rate:g} Hz "
+                        f"({recording.duration:.1f} s)")
+    outcome.warnings.extend(f"{recording.source}: {w}" for w in recording.warnings)
+    outcome.document, outcome.result = cal.to_document(), cal
+    bad = [j for j in cal.joints.values() if j.verdict in ("not identifiable", "failed")]
+    if bad and not job.force:
+        reason = _reason(bad[0])
+        which = ", ".join(f"{j.name} ({j.verdict})" for j in bad)
+        outcome.exit_code = NotIdentifiableError.exit_code
+        outcome.error = (f"{recording.source}: joint{'s' if len(bad) > 1 else ''} {which}: "
+                         f"{reason}; the calibration is written with "
+                         f"{'them' if len(bad) > 1 else 'it'} marked (--force: exit 0)")
+        outcome.exception = NotIdentifiableError(outcome.error)
+
+
+def _reason(joint) -> str:
+    """Why a calibrated joint is not usable: the error that stopped its estimate (its last
+    warning), or the first warning of the estimate that cannot identify it (blocking
+    reasons come first)."""
+    if joint.verdict == "failed":
+        return joint.warnings[-1] if joint.warnings else "failed"
+    for what, doc in (("axis", joint.axis), ("position", joint.position)):
+        if doc is not None and doc["quality"]["verdict"] == "not identifiable":
+            return f"{what}: {doc['quality']['warnings'][0]}"
+    return joint.verdict
+
+
 #: The estimating commands by name. A new one is one entry here (plus its option parsing
 #: in imucal.cli); see docs/architecture.md.
 COMMANDS: dict[str, Command] = {
     "axis": Command(_estimate_axis, _report("axis"), _figure("axis")),
     "position": Command(_estimate_position, _report("position"), _figure("position")),
+    "calibrate": Command(None, None, None, process=_process_calibrate),
 }
 
 
@@ -103,7 +153,8 @@ class Job:
     Attributes
     ----------
     command : a key of :data:`COMMANDS`.
-    sensors : the (first, second) sensor names.
+    sensors : the (first, second) sensor names; empty for a command that works on the
+        whole recording (``calibrate``: its joints are in the settings).
     settings : the estimator's settings object (:class:`imucal.settings.AxisSettings`,
         :class:`~imucal.settings.PositionSettings`); its own ``start``/``end`` are
         replaced by the window below.
@@ -117,7 +168,7 @@ class Job:
     """
 
     command: str
-    sensors: tuple[str, str]
+    sensors: tuple[str, ...]
     settings: Any
     start: float | None = None
     end: float | None = None
@@ -167,7 +218,7 @@ class Outcome:
     headline: str | None = None
     document: dict | None = None
     result: Any = None
-    sensors: tuple[str, str] = ("", "")
+    sensors: tuple[str, ...] = ("", "")
 
 
 def parse_sensors(text: str) -> tuple[str, str]:
@@ -264,6 +315,9 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
     names = job.sensors
     recording = load_recording(file, rate=job.rate, gyr_units=job.gyr_units,
                                acc_units=job.acc_units, names=job.sensor_map)
+    if command.process is not None:
+        command.process(job, recording, outcome)
+        return
     for n in names:
         if n not in recording.sensors:
             recording.sensor(n)  # raises with the list of sensors that exist

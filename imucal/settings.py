@@ -135,6 +135,40 @@ class PositionSettings(AxisSettings):
             raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{self.joint}'")
 
 
+@dataclass(frozen=True)
+class CalibrateSettings:
+    """Settings of :func:`imucal.calibrate` (``imucal calibrate``).
+
+    Attributes
+    ----------
+    joints : tuple of str or JointSpec
+        Explicit joints (``"left_knee=hinge:left_thigh,left_shank"``), parsed into
+        :class:`imucal.calibration.JointSpec`; empty: found from the sensor names.
+    restarts, seed, time_offset
+        As in :class:`AxisSettings`; every joint uses the same.
+    """
+
+    joints: tuple = ()
+    restarts: int = 100
+    seed: int | None = None
+    time_offset: float | str = "auto"
+
+    def __post_init__(self) -> None:
+        from .calibration import JointSpec, parse_joint_spec
+
+        specs = tuple(j if isinstance(j, JointSpec) else parse_joint_spec(j)
+                      for j in self.joints)
+        names = [s.name for s in specs]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise InputError(f"joint '{twice[0]}' given twice")
+        object.__setattr__(self, "joints", specs)
+        _check_int(self, "restarts", 1)
+        if self.seed is not None:
+            _check_int(self, "seed", 0)
+        object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
+
+
 def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) -> AxisSettings:
     """The settings an estimator runs with: ``settings`` itself, or ``cls(**kwargs)`` built
     (and so checked) from the estimator's keyword arguments.

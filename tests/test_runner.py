@@ -76,7 +76,7 @@ def test_job_and_sensor_checks():
         Job("axis", ("a", "b"), AxisSettings(), start=5.0, end=5.0)
     with pytest.raises(Exception, match="unknown command"):
         Job("knee", ("a", "b"), AxisSettings())
-    assert set(COMMANDS) == {"axis", "position"}
+    assert set(COMMANDS) == {"axis", "position", "calibrate"}
 
 
 def test_no_module_imports_the_command_line():

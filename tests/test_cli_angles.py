@@ -1,0 +1,210 @@
+"""`imucal calibrate` and `imucal angles` (issue 13), in-process: calibrate on the sample
+calibration trial, measure the sample walking trial, studies, exit codes, usage errors."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import axis_error_deg, run_imucal
+
+from imucal.simulate import simulate
+from imucal.writers import save_recording
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLE = ROOT / "sample_data"
+FAST = ("--restarts", "20", "--seed", "1")
+
+
+def cli(*args):
+    """``imucal ARGS`` in this process, as the console script runs it."""
+    return run_imucal(*args, text=True)
+
+
+@pytest.fixture(scope="module")
+def cal_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("cal") / "cal.json"
+    run = cli("calibrate", SAMPLE / "circling.h5", *FAST, "--out", path)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == ""
+    return path, run
+
+
+def test_calibrate_writes_every_joint_with_a_summary(cal_file):
+    path, run = cal_file
+    doc = json.loads(path.read_text())
+    truth = json.loads((SAMPLE / "circling.truth.json").read_text())
+    assert doc["format"] == "imucal-calibration" and doc["command"] == "calibrate"
+    assert list(doc["joints"]) == ["knee", "ankle"]
+    knee, ankle = doc["joints"]["knee"], doc["joints"]["ankle"]
+    assert knee["verdict"] == "good" and ankle["verdict"] == "good"
+    assert max(axis_error_deg(np.array(knee["j1"]), np.array(knee["j2"]),
+                              truth["j1"], truth["j2"])) < 0.5
+    for k in ("o1", "o2"):  # the ankle centre, within 5 mm
+        assert np.linalg.norm(np.subtract(ankle[k], truth[k])) < 0.005
+    assert doc["settings"]["seed"] == 1 and doc["settings"]["restarts"] == 20
+    assert "knee (hinge, thigh -> shank): good" in run.stderr
+    assert "ankle (spheroidal, shank -> foot): good" in run.stderr
+
+
+def test_a_drawn_seed_is_recorded(tmp_path):
+    run = cli("calibrate", SAMPLE / "circling.h5", "--restarts", "5", "--joint",
+              "knee=hinge:thigh,shank", "-q")
+    assert run.returncode == 0 and run.stderr == ""
+    doc = json.loads(run.stdout)
+    assert list(doc["joints"]) == ["knee"]
+    assert isinstance(doc["settings"]["seed"], int)
+    assert doc["joints"]["knee"]["axis"]["settings"]["seed"] == doc["settings"]["seed"]
+
+
+def _sample_offset_and_rmse(flexion):
+    truth = np.array(json.loads((SAMPLE / "walking.truth.json").read_text())
+                     ["knee_flexion_deg"])
+    err = np.asarray(flexion) - truth
+    return float(err.mean()), float(np.sqrt(np.mean((err - err.mean()) ** 2))), err
+
+
+def test_angles_of_the_sample_walk_as_csv_on_stdout(cal_file):
+    path, _ = cal_file
+    run = cli("angles", SAMPLE / "walking.h5", "--calibration", path)
+    assert run.returncode == 0, run.stderr
+    table = pd.read_csv(io.StringIO(run.stdout))
+    assert list(table.columns) == ["time", "knee_flexion_deg", "knee_flexion_sigma_deg"]
+    assert len(table) == 3000 and table["time"].iloc[1] == pytest.approx(0.01)
+    offset, rmse, err = _sample_offset_and_rmse(table["knee_flexion_deg"])
+    assert rmse < 1.0, rmse
+    assert abs(err[-1000:].mean() - err[:1000].mean()) < 1.0  # no drift
+    # walking swings the knee through 60 deg; the band is a fraction of a degree
+    assert 50 < np.ptp(table["knee_flexion_deg"]) < 70
+    assert 0 < table["knee_flexion_sigma_deg"].median() < 1.0
+    # The zero is the calibration trial's most extended posture (no still period in it);
+    # circling never straightens the knee, so walking reads lower by circling's 1st
+    # percentile of flexion, whichever sign the calibration first guessed.
+    _, circ = simulate(seed=7, rate=100.0, duration=20.0, snr=100.0, motion="circling")
+    assert offset == pytest.approx(-np.percentile(circ["knee_flexion_deg"], 1), abs=2.0)
+    assert "walking: 2" in run.stderr and "fit check: fits" in run.stderr
+
+
+def test_angles_to_h5_with_a_figure(cal_file, tmp_path):
+    path, _ = cal_file
+    out, png = tmp_path / "knee.h5", tmp_path / "knee.png"
+    run = cli("angles", SAMPLE / "walking.h5", "-c", path, "--out", out, "--plot", png,
+              "--end", "10", "-q")
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == "" and run.stderr == ""
+    import h5py
+
+    with h5py.File(out) as f:
+        assert f["knee_flexion_deg"].shape == (1000,)
+        doc = json.loads(f.attrs["imucal"])
+    assert doc["command"] == "angles" and doc["fits"] is True
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_another_mounting_exits_1_with_the_evidence_unless_force(cal_file, tmp_path):
+    path, _ = cal_file
+    rec = tmp_path / "restrapped.h5"
+    recording, _ = simulate(seed=8, mounting_seed=9, rate=100.0, duration=10.0,
+                            motion="gait", gyr_noise=0.01, acc_noise=0.05)
+    save_recording(recording, rec)
+    out = tmp_path / "knee.csv"
+    run = cli("angles", rec, "-c", path, "--out", out)
+    assert run.returncode == 1
+    assert "does not fit" in run.stderr and "hinge residual" in run.stderr
+    assert "nothing written" in run.stderr and not out.exists()
+    run = cli("angles", rec, "-c", path, "--out", out, "--force")
+    assert run.returncode == 0 and "does not fit" in run.stderr
+    assert list(pd.read_csv(out).columns)[1] == "knee_flexion_deg"
+
+
+@pytest.mark.parametrize(("content", "phrase"), [
+    (None, "calibration file not found"),
+    ("{", "not a calibration file (not readable as JSON"),
+    ('{"command": "axis"}', "an imucal 'axis' result"),
+])
+def test_a_missing_or_broken_calibration_exits_2_naming_it(tmp_path, content, phrase):
+    cal = tmp_path / "cal.json"
+    if content is not None:
+        cal.write_text(content)
+    run = cli("angles", SAMPLE / "walking.h5", "-c", cal, "--out", tmp_path / "a.csv")
+    assert run.returncode == 2
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(cal) in lines[0] and phrase in lines[0]
+    assert run.stdout == "" and sorted(p.name for p in tmp_path.iterdir()) == (
+        [] if content is None else ["cal.json"])
+
+
+@pytest.mark.parametrize(("args", "phrase"), [
+    (["calibrate", "missing.h5", "--joint", "knee"], "'--joint'"),
+    (["calibrate", "missing.h5", "--joint", "knee=saddle:thigh,shank"], "unknown joint type"),
+    (["calibrate", "missing.h5", "--joint", "k=hinge:a,b", "--joint", "k=hinge:c,d"],
+     "given twice"),
+    (["calibrate", "missing.h5", "--time-offset", "soon"], "'--time-offset'"),
+    (["calibrate", "missing.h5", "--start", "5", "--end", "2"], "'--end'"),
+    (["angles", "missing.h5", "-c", "missing.json", "--reference", "soon"], "'--reference'"),
+    (["angles", "missing.h5", "-c", "missing.json", "--flexion-sign", "up"],
+     "'--flexion-sign'"),
+    (["angles", "missing.h5", "-c", "missing.json", "--out", "a.json"], "table format"),
+])
+def test_usage_errors_exit_2_before_any_file_is_read(args, phrase):
+    run = cli(*args)
+    assert run.returncode == 2 and run.stdout == ""
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("imucal: error: ") and phrase in lines[0]
+    assert "no such file" not in run.stderr and "not found" not in run.stderr
+
+
+def test_calibrate_study_gives_json_lines_like_axis(tmp_path):
+    missing = tmp_path / "missing.h5"
+    run = cli("calibrate", SAMPLE / "circling.h5", missing, "--restarts", "5", "--seed", "1",
+              "--joint", "knee=hinge:thigh,shank")
+    assert run.returncode == 2
+    lines = [json.loads(line) for line in run.stdout.splitlines()]
+    assert [o["file"] for o in lines] == [str(SAMPLE / "circling.h5"), str(missing)]
+    assert all(list(o) == ["file", "exit_code", "error", "warnings", "result"] for o in lines)
+    assert [o["exit_code"] for o in lines] == [0, 2]
+    assert lines[0]["result"]["joints"]["knee"]["verdict"] == "good"
+    assert lines[1]["result"] is None and "no such file" in lines[1]["error"]
+    assert f"imucal: error: {missing}: no such file" in run.stderr
+
+
+def test_a_joint_that_is_not_identifiable_is_written_marked_and_exits_1(tmp_path):
+    rec, out = tmp_path / "still.h5", tmp_path / "cal.json"
+    save_recording(simulate(seed=3, rate=100.0, duration=5.0, motion="static")[0], rec)
+    run = cli("calibrate", rec, "--restarts", "5", "--seed", "1", "--out", out)
+    assert run.returncode == 1
+    assert "knee (not identifiable)" in run.stderr and "barely rotate" in run.stderr
+    doc = json.loads(out.read_text())
+    assert doc["joints"]["knee"]["verdict"] == "not identifiable"
+    # angles refuse a knee the calibration could not identify, unless told
+    run = cli("angles", rec, "-c", out)
+    assert run.returncode == 1 and "not identifiable in the calibration" in run.stderr
+    assert run.stdout == ""
+    assert cli("calibrate", rec, "--restarts", "5", "--seed", "1", "--out", out,
+               "--force", "-q").returncode == 0
+
+
+def test_simulate_mounting_seed(tmp_path):
+    rec = tmp_path / "walk.h5"
+    run = cli("simulate", rec, "--seed", "8", "--mounting-seed", "7", "--motion", "gait",
+              "--duration", "2", "-q")
+    assert run.returncode == 0, run.stderr
+    truth = json.loads(rec.with_name("walk.truth.json").read_text())
+    sample = json.loads((SAMPLE / "circling.truth.json").read_text())
+    assert truth["settings"]["mounting_seed"] == 7
+    np.testing.assert_allclose(truth["j1"], sample["j1"], atol=1e-12)
+    np.testing.assert_allclose(truth["o2"], sample["o2"], atol=1e-12)
+
+
+def test_library_exports():
+    import imucal
+    from imucal import angles, calibration
+
+    assert imucal.calibrate is calibration.calibrate
+    assert imucal.load_calibration is calibration.load_calibration
+    assert imucal.joint_angles is angles.joint_angles
+    assert {"Calibration", "JointAngles", "calibrate", "joint_angles"} <= set(imucal.__all__)
