@@ -76,6 +76,16 @@ def safe_newton(jtj: np.ndarray, hess: np.ndarray) -> np.ndarray:
     """
     scale = np.trace(jtj, axis1=1, axis2=2)
     finite = np.isfinite(hess).all(axis=(1, 2))
+    if finite.all():
+        # The usual case near a minimum, tested at a fifth of the cost of eigenvalues:
+        # every lowest eigenvalue exceeds the bound iff every hess - bound I has a
+        # Cholesky factor.
+        bound = MIN_HESSIAN_EIGENVALUE * scale
+        try:
+            np.linalg.cholesky(hess - bound[:, None, None] * np.eye(hess.shape[-1]))
+            return hess
+        except np.linalg.LinAlgError:
+            pass
     # eigvalsh fails for the whole batch on one non-finite matrix; such a row keeps
     # Gauss-Newton (the solver drops it if J^T J is not finite either).
     eye = np.eye(hess.shape[-1])

@@ -99,14 +99,18 @@ def decide_relative_sign(gyr1, gyr2, j1, j2, rate, acc1=None, acc2=None, *,
     ``gyr*`` rad/s, ``acc*`` m/s^2 (N, 3), full recording (the filter runs on the whole
     signal, then the window is cut); ``j1``, ``j2`` unit (3,).
     """
-    f1, f2 = lowpass(gyr1, rate, cutoff), lowpass(gyr2, rate, cutoff)
+    signals = [gyr1, gyr2] + ([acc1, acc2] if acc1 is not None and acc2 is not None else [])
+    # one filter call for all channels (each is filtered on its own): the call's fixed
+    # cost (the filter's initial conditions) is that of filtering several channels
+    f1, f2, *acc = np.split(lowpass(np.concatenate(signals, axis=1), rate, cutoff),
+                            len(signals), axis=1)
     tests = {
         "plane": plane_test(f1[window], f2[window], j1, j2, rate),
         "range": range_test(f1[window], f2[window], j1, j2, rate),
     }
-    if acc1 is not None and acc2 is not None:
-        parts = [(f[window], derivative(f, rate)[window], lowpass(a, rate, cutoff)[window])
-                 for f, a in ((f1, acc1), (f2, acc2))]
+    if acc:
+        parts = [(f[window], derivative(f, rate)[window], a[window])
+                 for f, a in ((f1, acc[0]), (f2, acc[1]))]
         tests["acc"] = acc_test(*parts[0], *parts[1], j1, j2)
     return combine(tests)
 
