@@ -133,9 +133,12 @@ def plane_test(gyr1, gyr2, j1, j2, rate) -> SignTest:
     short projection is noise)."""
     dt = 1.0 / rate
     a1, len1 = _plane_angle(gyr1, j1)
+    # flipping j flips the plane's second basis vector (perpendicular(-j) = perpendicular(j)):
+    # the angle changes sign, the length stays
+    angle2, len2 = _plane_angle(gyr2, j2)
     errors = []
     for s in (1.0, -1.0):
-        a2, len2 = _plane_angle(gyr2, s * j2)
+        a2 = s * angle2
         rel = np.diff(a1 - a2)
         rel = (rel + np.pi) % (2 * np.pi) - np.pi
         thetadot = gyr2 @ (s * j2) - gyr1 @ j1
@@ -165,17 +168,18 @@ def acc_test(g1, gdot1, a1, g2, gdot2, a2, j1, j2) -> SignTest:
     pick = np.linspace(0, n - 1, min(n, ACC_MAX_SAMPLES)).astype(int)
     rows1 = _axis_row(g1[pick], gdot1[pick], j1)
     rows2 = _axis_row(g2[pick], gdot2[pick], j2)
-    errors = []
-    for s in (1.0, -1.0):
-        # j1.a1 - s j2.a2 = j1^T Gamma1 o1 - s j2^T Gamma2 o2, linear in (o1, o2)
-        y = a1[pick] @ j1 - s * (a2[pick] @ j2)
-        design = np.concatenate([rows1, -s * rows2], axis=1)
-        try:
-            o, *_ = np.linalg.lstsq(design, y, rcond=None)
-            e = y - design @ o
-            errors.append(float(np.sqrt(np.mean(e * e))))
-        except np.linalg.LinAlgError:
-            errors.append(float("nan"))
+    # j1.a1 - s j2.a2 = j1^T Gamma1 o1 - s j2^T Gamma2 o2, linear in (o1, o2); the sign s
+    # of the second block of columns leaves their span, so the residual, alike: both
+    # signs are one least-squares problem with two right-hand sides
+    y1, y2 = a1[pick] @ j1, a2[pick] @ j2
+    ys = np.stack([y1 - s * y2 for s in (1.0, -1.0)], axis=1)
+    design = np.concatenate([rows1, rows2], axis=1)
+    try:
+        o, *_ = np.linalg.lstsq(design, ys, rcond=None)
+        e = ys - design @ o
+        errors = [float(v) for v in np.sqrt(np.mean(e * e, axis=0))]
+    except np.linalg.LinAlgError:
+        errors = [float("nan")] * 2
     if not np.isfinite(errors).all():
         return SignTest(1.0, 1.0, {"rms_residual_m_s2": (None, None)})
     return _verdict(errors, {"rms_residual_m_s2": tuple(errors)})
@@ -199,9 +203,9 @@ def _largest_span_deg(thetadot, rate) -> float:
     count = max(1, int(round(n / (RANGE_BLOCK_S * rate))))
     spans = []
     for part in np.array_split(theta, count):
-        if part.size > 2:
-            t = np.arange(part.size)
-            part = part - np.polyval(np.polyfit(t, part, 1), t)
+        if part.size > 2:  # remove the least-squares line (closed form)
+            t = np.arange(part.size) - (part.size - 1) / 2
+            part = part - part.mean() - t * (t @ part) / (t @ t)
         spans.append(float(np.degrees(np.ptp(part))))
     return max(spans)
 
