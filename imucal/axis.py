@@ -700,6 +700,16 @@ class _HingeProblem:
         self.blocks = [slice(k, min(k + CHUNK, n)) for k in range(0, n, CHUNK)]
         self._work = None
 
+    def with_mask(self, mask: np.ndarray | None) -> _HingeProblem:
+        """The same data with other subset weights (see ``__init__``), sharing the tables."""
+        other = object.__new__(type(self))  # a shallow copy
+        other.__dict__.update(self.__dict__)
+        other.mask = None if mask is None else mask.astype(self.dtype)
+        other.count = (float(self.g1.shape[0]) if mask is None
+                       else mask.sum(axis=1, dtype=np.float64))
+        other._work = None
+        return other
+
     def _buffers(self, r: int):
         width = self.blocks[0].stop - self.blocks[0].start
         if self._work is None or self._work.shape[1] < r:

@@ -103,7 +103,9 @@ class Stages:
     problem : ``(data, mask, dtype, newton) -> problem`` with ``normal(x, rows)`` and
         ``cost(x, rows)`` for many restarts; ``data`` is a tuple of per-sample arrays
         (first axis: samples), ``mask`` (R, N) 0/1 subset weights or None (all samples),
-        ``newton`` True for exact-Hessian steps where safe.
+        ``newton`` True for exact-Hessian steps where safe; it may offer
+        ``with_mask(mask)``, the same problem with other subset weights (no rebuilt
+        tables).
     retract : ``(x, step) -> x``: apply local steps (R, k) to states (R, s).
     distance : ``(x, y) -> d``: distance between states (units of ``agreement``).
     agreement : two restarts within this distance found the same estimate.
@@ -212,7 +214,9 @@ def multistart(stages: Stages, data: tuple, mask: np.ndarray | None, x0: np.ndar
                           stages.restart_step_tolerance)
     batch = fitted if batch is None else chain(batch, fitted)
 
-    everything = stages.problem(data, None, RESTART_DTYPE, True)
+    # the same data without subsets: share the subset problem's tables where it can
+    everything = (subset.with_mask(None) if hasattr(subset, "with_mask")
+                  else stages.problem(data, None, RESTART_DTYPE, True))
     refined = stages.solve(everything, batch.x, max_iterations, stages.restart_step_tolerance)
     project = stages.project or (lambda x: x)
     best, _ = best_restart(project(refined.x), refined.final_cost, stages.distance,

@@ -576,6 +576,15 @@ class _SpheroidalProblem:
             ))
         self._work = None
 
+    def with_mask(self, mask: np.ndarray | None) -> _SpheroidalProblem:
+        """The same data with other subset weights (see ``__init__``), sharing the tables."""
+        other = object.__new__(type(self))  # a shallow copy
+        other.__dict__.update(self.__dict__)
+        other.mask = None if mask is None else mask.astype(self.dtype)
+        other.count = float(self.n) if mask is None else mask.sum(axis=1, dtype=np.float64)
+        other._work = None
+        return other
+
     @staticmethod
     def _gamma(g, gdot):
         """(3, 3, N) array G with (Gamma_n o)_k = sum_i G[k, i, n] o_i, where
