@@ -539,8 +539,9 @@ def _cutoff_sensitivity(p: Prepared, x: np.ndarray) -> dict:
     """
     rate = p.rate
     pair = sensitivity_cutoffs(p.cutoff, default_cutoff(rate), MAX_CUTOFF_FRACTION * rate)
-    data = [tuple(lowpass(h, rate, c)[p.window][::p.step][p.selection.index]
-                  for h in (p.first[0], p.second[0])) for c in pair]
+    both = np.concatenate([p.first[0], p.second[0]], axis=1)  # one filter call per cut-off
+    data = [tuple(np.split(lowpass(both, rate, c)[p.window][::p.step][p.selection.index], 2,
+                           axis=1)) for c in pair]
     y = HINGE.refit_each(data, x, SENSITIVITY_ITERATIONS)
     shifts = {"j1": [float(a) for a in _angle_deg(y[:, :3], x[:3])],
               "j2": [float(a) for a in _angle_deg(y[:, 3:], x[3:])]}
@@ -748,24 +749,32 @@ class _HingeProblem:
         self.floor2 = ((rel * self.gg2 + 1e-24).astype(dtype), self.gg2)
         self.mask = mask
         self.count = float(n) if mask is None else mask.sum(axis=1, dtype=np.float64)
-        # Tables of g g^T products: the normal equations' blocks are weighted sums of them.
-        # Split into GEMMs at most 6 columns wide: OpenBLAS multiplies a (restarts x N)
-        # matrix by N x 6 three times faster than by N x 9.
+        # Tables of g g^T products (upper triangles) and g1 g2^T: the normal equations'
+        # blocks are weighted sums of them, one matrix product each. A product's cost
+        # grows with the restarts x samples operand, hardly with the table's width.
         up = np.triu_indices(3)
-        p12 = (g1[:, :, None] * g2[:, None, :]).reshape(n, 9)
         self.tables = [
             np.ascontiguousarray((g1[:, :, None] * g1[:, None, :])[:, up[0], up[1]]),
             np.ascontiguousarray((g2[:, :, None] * g2[:, None, :])[:, up[0], up[1]]),
-            np.ascontiguousarray(p12[:, :5]),
-            np.ascontiguousarray(p12[:, 5:]),
+            np.ascontiguousarray((g1[:, :, None] * g2[:, None, :]).reshape(n, 9)),
         ]
         self.blocks = [slice(k, min(k + CHUNK, n)) for k in range(0, n, CHUNK)]
         self._work = None
 
+    def with_mask(self, mask: np.ndarray | None) -> _HingeProblem:
+        """The same data with other subset weights (see ``__init__``), sharing the tables."""
+        other = object.__new__(type(self))  # a shallow copy
+        other.__dict__.update(self.__dict__)
+        other.mask = None if mask is None else mask.astype(self.dtype)
+        other.count = (float(self.g1.shape[0]) if mask is None
+                       else mask.sum(axis=1, dtype=np.float64))
+        other._work = None
+        return other
+
     def _buffers(self, r: int):
         width = self.blocks[0].stop - self.blocks[0].start
         if self._work is None or self._work.shape[1] < r:
-            self._work = np.empty((7, max(r, 1), width), dtype=self.dtype)
+            self._work = np.empty((6, max(r, 1), width), dtype=self.dtype)
         return [w[:r] for w in self._work]
 
     def _block(self, x, rows, sl, buf):
@@ -808,6 +817,36 @@ class _HingeProblem:
             total += np.einsum("ij,ij->i", e, e)
         return total / self._count(rows)
 
+    def _sums(self, x, rows):
+        """Per restart, the weighted sums of the tables the normal equations need:
+        ``a[k]`` sum c^2 g g^T and ``p[k]`` sum (e / n) g g^T of sensor k (upper
+        triangles), ``q[k]`` sum c^2 (e / n) g g^T (with ``newton``), ``cross`` sum
+        c1 c2 g1 g2^T (9), and the sum of e^2; c = (g.j) / n, n = |g x j|."""
+        r = x.shape[0]
+        buf = self._buffers(r)
+        a, p, q = (np.zeros((2, r, 6)) for _ in range(3))
+        cross, total = np.zeros((r, 9)), np.zeros(r)
+        for sl in self.blocks:
+            d1, d2, n1, n2, e, w = self._block(x, rows, sl, buf)
+            tmp = buf[5][:, :sl.stop - sl.start]
+            for k, (d, nrm) in enumerate(((d1, n1), (d2, n2))):
+                table = self.tables[k][sl]
+                # the weights enter once, through 1/n (w^2 = w): then c, c^2, e/n, c1 c2
+                # are all weighted
+                inv = np.divide(1.0 if w is None else w, nrm, out=nrm)
+                np.multiply(d, inv, out=d)  # c
+                np.multiply(d, d, out=tmp)  # c^2
+                a[k] += tmp @ table
+                np.multiply(inv, e, out=inv)  # e / n
+                p[k] += inv @ table
+                if self.newton:
+                    np.multiply(tmp, inv, out=tmp)
+                    q[k] += tmp @ table
+            np.multiply(d1, d2, out=tmp)
+            cross += tmp @ self.tables[2][sl]
+            total += np.einsum("ij,ij->i", e, e)
+        return a, p, q, cross, total
+
     def normal(self, x, rows):
         """Cost (r,), J^T J (r, 4, 4) and J^T e (r, 4) in tangent-plane coordinates.
 
@@ -817,68 +856,46 @@ class _HingeProblem:
         step 0.2-0.9 times the last; Newton steps converge quadratically near a minimum.
         The Hessian of |g x j| on the sphere, in the tangent basis B, is
         -(|g|^2 / n^3) B^T g g^T B + ((g.j)^2 / n) I with n = |g x j|.
+
+        d|g x j| / dj = -(g.j) g / n (eq. 2); e = n1 - n2, so the Jacobian row is
+        (-c1 g1^T B1, c2 g2^T B2) with c = (g.j) / n. Every sum is a table sum
+        (:meth:`_sums`): J^T e's sum (e / n)(g.j) g is (sum (e / n) g g^T) j, the Hessian's
+        sum e (g.j)^2 / n is j^T (sum (e / n) g g^T) j, and its sum e |g|^2 / n^3 g g^T is
+        sum (e / n)(1 + c^2) g g^T, as |g|^2 = n^2 + (g.j)^2.
         """
         r = x.shape[0]
-        buf = self._buffers(r)
-        sums = [np.zeros((r, t.shape[1])) for t in self.tables]
-        grad = np.zeros((2, r, 3))
-        total = np.zeros(r)
-        if self.newton:
-            curv = np.zeros((2, r, 6))  # sum e |g|^2/n^3 g g^T, upper triangles
-            shift = np.zeros((2, r))  # sum e (g.j)^2 / n
-        for sl in self.blocks:
-            d1, d2, n1, n2, e, w = self._block(x, rows, sl, buf)
-            width = sl.stop - sl.start
-            tmp, aux = buf[5][:, :width], buf[6][:, :width]
-            # d|g x j| / dj = -(g.j) g / |g x j|  (eq. 2), projected on the tangent plane;
-            # e = n1 - n2, so the Jacobian row is (-c1 g1^T B1, c2 g2^T B2) with
-            # c_i = (g_i.j_i)/n_i. The sign of the first block is applied to the sums.
-            c1, c2 = np.divide(d1, n1, out=d1), np.divide(d2, n2, out=d2)
-            if w is not None:  # weight the Jacobian rows (w^2 = w)
-                np.multiply(c1, w, out=c1)
-                np.multiply(c2, w, out=c2)
-            for k, (c, nrm) in enumerate(((c1, n1), (c2, n2))):
-                np.multiply(c, c, out=tmp)
-                sums[k] += tmp @ self.tables[k][sl]
-                if self.newton:
-                    # (g.j)^2/n = c^2 n and |g|^2/n^3 = (1 + c^2)/n, as |g|^2 = n^2 + (g.j)^2
-                    np.multiply(e, nrm, out=aux)
-                    shift[k] += np.einsum("ij,ij->i", tmp, aux)
-                    tmp += 1.0
-                    np.multiply(tmp, e, out=tmp)
-                    np.divide(tmp, nrm, out=tmp)
-                    curv[k] += tmp @ self.tables[k][sl]
-            np.multiply(c1, c2, out=tmp)
-            sums[2] += tmp @ self.tables[2][sl]
-            sums[3] += tmp @ self.tables[3][sl]
-            np.multiply(c1, e, out=tmp)
-            grad[0] += tmp @ self.g1[sl]
-            np.multiply(c2, e, out=tmp)
-            grad[1] += tmp @ self.g2[sl]
-            total += np.einsum("ij,ij->i", e, e)
-        grad[0] *= -1.0
-        s11 = sums[0][:, SYMMETRIC]
-        s22 = sums[1][:, SYMMETRIC]
-        s12 = -np.concatenate(sums[2:], axis=1).reshape(r, 3, 3)
+        a, p, q, cross, total = self._sums(x, rows)
+        j = x.reshape(r, 2, 3).transpose(1, 0, 2)  # (2, r, 3)
+        pm = p[:, :, SYMMETRIC]  # (2, r, 3, 3)
+        pj = (pm @ j[..., None])[..., 0]  # (2, r, 3): sum (e/n)(g.j) g
+        # J^T J in ambient coordinates (r, 6, 6), then in the tangent bases (r, 6, 4)
+        m = np.empty((2, r, 6, 6)) if self.newton else np.empty((1, r, 6, 6))
+        m[0, :, :3, :3] = a[0][:, SYMMETRIC]
+        m[0, :, 3:, 3:] = a[1][:, SYMMETRIC]
+        m[0, :, :3, 3:] = -cross.reshape(r, 3, 3)
+        m[0, :, 3:, :3] = np.swapaxes(m[0, :, :3, 3:], 1, 2)
+        basis = np.zeros((r, 6, 4))
         both = _tangent_basis(x.reshape(2 * r, 3))  # rows j1, j2, j1, j2, ...
-        b1, b2 = both[0::2], both[1::2]
-        b1t, b2t = np.swapaxes(b1, 1, 2), np.swapaxes(b2, 1, 2)
-        jtj = np.empty((r, 4, 4))
-        jtj[:, :2, :2] = b1t @ s11 @ b1
-        jtj[:, 2:, 2:] = b2t @ s22 @ b2
-        jtj[:, :2, 2:] = b1t @ s12 @ b2
-        jtj[:, 2:, :2] = np.swapaxes(jtj[:, :2, 2:], 1, 2)
-        jte = np.concatenate([(grad[0][:, None, :] @ b1)[:, 0],
-                              (grad[1][:, None, :] @ b2)[:, 0]], axis=1)
+        basis[:, :3, :2], basis[:, 3:, 2:] = both[0::2], both[1::2]
+        bt = np.swapaxes(basis, 1, 2)
+        grad = np.concatenate([-pj[0], pj[1]], axis=1)
+        jte = (bt @ grad[..., None])[..., 0]
         cost = total / self._count(rows)
+        if self.newton:
+            # e = n1 - n2: the second sensor's curvature enters with the opposite sign;
+            # sum e |g|^2 / n^3 g g^T = sum (e/n)(1 + c^2) g g^T
+            m[1] = m[0]
+            m[1, :, :3, :3] -= pm[0] + q[0][:, SYMMETRIC]
+            m[1, :, 3:, 3:] += pm[1] + q[1][:, SYMMETRIC]
+        both = bt @ m @ basis  # (1 or 2, r, 4, 4)
+        jtj = both[0]
         if not self.newton:
             return cost, jtj, jte
-        # e = n1 - n2: the second sensor's curvature enters with the opposite sign
-        hess = jtj.copy()
-        eye = np.eye(2)
-        hess[:, :2, :2] += (-(b1t @ curv[0][:, SYMMETRIC] @ b1)
-                            + shift[0][:, None, None] * eye)
-        hess[:, 2:, 2:] += b2t @ curv[1][:, SYMMETRIC] @ b2 - shift[1][:, None, None] * eye
+        hess = both[1]
+        shift = np.sum(pj * j, axis=2)  # sum e (g.j)^2 / n, per sensor
+        idx = np.arange(2)
+        hess[:, idx, idx] += shift[0][:, None]
+        hess[:, idx + 2, idx + 2] -= shift[1][:, None]
         return cost, safe_newton(jtj, hess), jte
 
 

@@ -560,8 +560,9 @@ def _cutoff_sensitivity(p: Prepared, x: np.ndarray, line) -> dict:
     rate = p.rate
     pair = sensitivity_cutoffs(p.cutoff, default_joint_cutoff(rate), MAX_CUTOFF_FRACTION * rate,
                                factors=SENSITIVITY_FACTORS)
-    data = [tuple(arr[p.window][::p.step][p.selection.index] for sensor in (p.first, p.second)
-                  for arr in _filtered(*sensor, rate, c)) for c in pair]
+    data = [tuple(arr[p.window][::p.step][p.selection.index]
+                  for sensor in _filtered_sensors((p.first, p.second), rate, c)
+                  for arr in sensor) for c in pair]
     y = SPHEROIDAL.refit_each(data, x, SENSITIVITY_ITERATIONS)
     if line is not None:
         y = closest_point_on_axis(y, line)
@@ -588,7 +589,9 @@ class _SpheroidalProblem:
 
     ``Gamma_g(o) = (g g^T - |g|^2 I + [gdot]x) o`` is linear in ``o``: each sample's 3x3
     matrix is built once, and every restart's ``a - Gamma(o)`` is one matrix product
-    (restarts x 3 samples). Data subsets are 0/1 weights, so no per-restart copies.
+    (restarts x 3 samples). So is the Jacobian's ``Gamma^T (a - Gamma o)``, from the fixed
+    ``Gamma^T a`` and ``Gamma^T Gamma``. Data subsets are 0/1 weights, so no per-restart
+    copies.
     """
 
     def __init__(self, g1, gdot1, a1, g2, gdot2, a2, mask, dtype=np.float64,
@@ -599,22 +602,35 @@ class _SpheroidalProblem:
         self.dtype = dtype
         self.newton = newton
         self.mask = None if mask is None else mask.astype(dtype)
-        self.count = float(g1.shape[0]) if mask is None else mask.sum(axis=1,
-                                                                       dtype=np.float64)
+        self.n = g1.shape[0]
+        self.count = float(self.n) if mask is None else mask.sum(axis=1, dtype=np.float64)
         # Component-major layouts (3, N), so every sum over x, y, z adds three
-        # contiguous rows instead of reducing a short inner axis.
+        # contiguous rows instead of reducing a short inner axis. Per sensor: a^T, the
+        # flattened Gamma and Gamma^T Gamma (row i holds component i's coefficient of
+        # every output component and sample), Gamma^T a, and the upper triangles of
+        # Gamma^T Gamma per sample (N, 6).
+        up = np.triu_indices(3)
         self.sensors = []
         for g, gdot, a in ((g1, gdot1, a1), (g2, gdot2, a2)):
             gam = self._gamma(g, gdot)
-            flat = np.ascontiguousarray(gam.transpose(1, 0, 2).reshape(3, -1))
-            self.sensors.append((gam.astype(dtype), np.ascontiguousarray(a.T, dtype=dtype),
-                                 flat.astype(dtype)))
-        if newton:  # (N, 6) upper triangles of Gamma^T Gamma per sample
-            up = np.triu_indices(3)
-            self.gtg = [np.ascontiguousarray(np.einsum("kin,kjn->nij", gam, gam)[:, up[0],
-                                                                                up[1]])
-                        .astype(dtype) for gam, _, _ in self.sensors]
+            gtg = np.einsum("kin,kjn->ijn", gam, gam)
+            self.sensors.append((
+                np.ascontiguousarray(a.T, dtype=dtype),
+                np.ascontiguousarray(gam.transpose(1, 0, 2).reshape(3, -1), dtype=dtype),
+                np.ascontiguousarray(gtg.transpose(1, 0, 2).reshape(3, -1), dtype=dtype),
+                np.ascontiguousarray(np.einsum("kin,kn->in", gam, a.T), dtype=dtype),
+                np.ascontiguousarray(gtg[up[0], up[1]].T, dtype=dtype),
+            ))
         self._work = None
+
+    def with_mask(self, mask: np.ndarray | None) -> _SpheroidalProblem:
+        """The same data with other subset weights (see ``__init__``), sharing the tables."""
+        other = object.__new__(type(self))  # a shallow copy
+        other.__dict__.update(self.__dict__)
+        other.mask = None if mask is None else mask.astype(self.dtype)
+        other.count = float(self.n) if mask is None else mask.sum(axis=1, dtype=np.float64)
+        other._work = None
+        return other
 
     @staticmethod
     def _gamma(g, gdot):
@@ -631,16 +647,22 @@ class _SpheroidalProblem:
         m[2, 1] += dt[0]
         return m
 
-    def _r(self, k, o):
+    def _r(self, k, o, out=None):
         """a - Gamma(o) for sensor k and offsets o (r, 3): (r, 3, N)."""
-        _, at, flat = self.sensors[k]
-        n = at.shape[1]
+        at, flat = self.sensors[k][:2]
         # (r, 3) @ (3, 3N): row r holds (Gamma_n o_r)_k for every component k, sample n
-        return at - (o.astype(self.dtype, copy=False) @ flat).reshape(o.shape[0], 3, n)
+        prod = np.matmul(o.astype(self.dtype, copy=False), flat,
+                         out=None if out is None else out.reshape(o.shape[0], -1))
+        prod = prod.reshape(o.shape[0], 3, self.n)
+        return np.subtract(at, prod, out=prod)
 
     @staticmethod
-    def _norm(r):
-        return np.sqrt(r[:, 0] ** 2 + r[:, 1] ** 2 + r[:, 2] ** 2)
+    def _norm(r, out=None):
+        """|r| over the component axis of (r, 3, N), (r, N)."""
+        out = np.multiply(r[:, 0], r[:, 0], out=out)
+        out += r[:, 1] * r[:, 1]
+        out += r[:, 2] * r[:, 2]
+        return np.sqrt(out, out=out)
 
     def _weights(self, rows):
         if self.mask is None:
@@ -660,49 +682,48 @@ class _SpheroidalProblem:
 
     def cost(self, x, rows):
         e = self.residual(x)
-        e *= e
-        w = self._weights(rows)
-        if w is not None:
-            e *= w
-        return e.sum(axis=1, dtype=np.float64) / self._count(rows)
+        we = e if self.mask is None else e * self._weights(rows)
+        return np.einsum("ij,ij->i", we, e, dtype=np.float64) / self._count(rows)
 
     def _buffers(self, r: int):
         """Work arrays for ``r`` restarts, reused across iterations: fresh large
-        temporaries cost more (page faults) than the arithmetic on them."""
-        n = self.sensors[0][1].shape[1]
+        temporaries cost more (page faults) than the arithmetic on them. The first is
+        the stacked left operand of :meth:`normal`'s one batched product."""
         if self._work is None or self._work[0].shape[0] < r:
-            self._work = (np.empty((r, 6, n), self.dtype), np.empty((r, 6, n), self.dtype),
-                          np.empty((r, 3, n), self.dtype), np.empty((r, 3, n), self.dtype),
-                          np.empty((2, r, n), self.dtype))
-        return [w[:r] for w in self._work[:4]] + [self._work[4][:, :r]]
+            self._work = (np.empty((r, 13, self.n), self.dtype),
+                          np.empty((r, 3, self.n), self.dtype),
+                          np.empty((2, r, self.n), self.dtype))
+        return self._work[0][:r], self._work[1][:r], self._work[2][:, :r]
 
-    def _linearise(self, x):
-        """e (r, N), Jacobian (r, 6, N) of eq. (4) (a reused buffer) and |r_k| (2, r, N)."""
+    def _linearise(self, x, rows=None):
+        """(stack, norms): ``stack`` (r, 13, N) holds the Jacobian of eq. (4) in rows 0-5
+        (times the subset weights when ``rows`` is given) and e in row 6 (not weighted),
+        rows 7-12 are work space; ``norms`` (2, r, N) the weighted 1 / |r_k|."""
         r = x.shape[0]
-        jac, _, res, tmp, norms = self._buffers(r)
+        stack, res, norms = self._buffers(r)
+        w = None if rows is None else self._weights(rows)
         for k in (0, 1):
-            gam = self.sensors[k][0]
-            np.copyto(res, self._r(k, x[:, 3 * k:3 * k + 3]))
-            nr = norms[k]
-            np.multiply(res[:, 0], res[:, 0], out=nr)
-            nr += res[:, 1] ** 2
-            nr += res[:, 2] ** 2
-            np.sqrt(nr, out=nr)
-            res /= np.maximum(nr, 1e-12)[:, None, :]
-            # d|a - Gamma o| / do = -Gamma^T r / |r|  (eq. 4); e = |r1| - |r2|
-            out = jac[:, 3 * k:3 * k + 3]
-            np.multiply(res[:, 0, None, :], gam[0][None], out=out)
-            for c in (1, 2):
-                np.multiply(res[:, c, None, :], gam[c][None], out=tmp)
-                out += tmp
+            _, _, mflat, b, _ = self.sensors[k]
+            o = x[:, 3 * k:3 * k + 3].astype(self.dtype, copy=False)
+            nr = self._norm(self._r(k, o, out=res), out=norms[k])
+            stack[:, 6] = nr if k == 0 else stack[:, 6] - nr
+            # d|a - Gamma o| / do = -Gamma^T (a - Gamma o) / |r| = (Gamma^T Gamma o -
+            # Gamma^T a) / |r|  (eq. 4); e = |r1| - |r2|, so sensor 2's enters negated
+            out = stack[:, 3 * k:3 * k + 3]
+            np.matmul(o, mflat, out=res.reshape(r, -1))
             if k == 0:
-                np.negative(out, out=out)
-        return norms[0] - norms[1], jac, norms
+                np.subtract(res, b, out=out)
+            else:
+                np.subtract(b, res, out=out)
+            np.maximum(nr, 1e-12, out=nr)
+            np.divide(1.0 if w is None else w, nr, out=nr)
+            out *= nr[:, None, :]
+        return stack, norms
 
     def linearise(self, x):
         """e (r, N) and Jacobian (r, N, 6) of eq. (4)."""
-        e, jac, _ = self._linearise(x)
-        return e, np.swapaxes(jac, 1, 2).copy()
+        stack, _ = self._linearise(x)
+        return stack[:, 6].copy(), np.swapaxes(stack[:, :6], 1, 2).copy()
 
     def normal(self, x, rows):
         """Cost (r,), J^T J (r, 6, 6) and J^T e (r, 6); with ``newton`` the first matrix
@@ -712,25 +733,31 @@ class _SpheroidalProblem:
         u = r / |r|; Gamma^T u is the Jacobian block, so the term is a fixed per-sample
         table Gamma^T Gamma weighted by e / |r|, minus the Jacobian's weighted outer
         products. Gauss-Newton alone converges linearly where the residuals stay large.
+        All products of the Jacobian come from one batched product of a stack of rows
+        (Jacobian, e, Jacobian blocks times e / |r|) with the Jacobian.
         """
-        e, jac, norms = self._linearise(x)  # jac (r, 6, N)
+        stack, inv = self._linearise(x, rows)
+        e = stack[:, 6]
         w = self._weights(rows)
-        wj = jac
-        if w is not None:
-            wj = self._buffers(x.shape[0])[1]
-            np.multiply(jac, w[:, None, :], out=wj)
         we = e if w is None else e * w
         cost = np.einsum("ij,ij->i", we, e, dtype=np.float64) / self._count(rows)
-        jtj = (wj @ np.swapaxes(jac, 1, 2)).astype(np.float64)
-        jte = (wj @ e[..., None])[..., 0].astype(np.float64)
+        used = 7
+        if self.newton:
+            used = 13
+            for k in (0, 1):  # c = w e / |r_k| times each Jacobian row of sensor k
+                np.multiply(inv[k], e, out=inv[k])
+                np.multiply(stack[:, 3 * k:3 * k + 3], inv[k][:, None, :],
+                            out=stack[:, 7 + 3 * k:10 + 3 * k])
+        prod = (stack[:, :used] @ np.swapaxes(stack[:, :6], 1, 2)).astype(np.float64)
+        jtj = prod[:, :6]
+        jte = prod[:, 6]
         if not self.newton:
             return cost, jtj, jte
         hess = jtj.copy()
         for k, sign in ((0, 1.0), (1, -1.0)):  # e = |r1| - |r2|
-            c = we / np.maximum(norms[k], 1e-12)
             blk = slice(3 * k, 3 * k + 3)
-            part = (c @ self.gtg[k]).astype(np.float64)[:, SYMMETRIC]
-            part -= ((jac[:, blk] * c[:, None, :]) @ np.swapaxes(jac[:, blk], 1, 2))
+            part = (inv[k] @ self.sensors[k][4]).astype(np.float64)[:, SYMMETRIC]
+            part -= prod[:, 7 + 3 * k:10 + 3 * k, blk]
             hess[:, blk, blk] += sign * part
         return cost, safe_newton(jtj, hess), jte
 
@@ -766,8 +793,16 @@ def _offset_profile(signals, rate):
 
 def _filtered(g, a, rate, cutoff):
     """Low-passed rates, their derivative and low-passed specific force (full rate)."""
-    gf = lowpass(g, rate, cutoff, JOINT_FILTER_ORDER)
-    return gf, derivative(gf, rate), lowpass(a, rate, cutoff, JOINT_FILTER_ORDER)
+    return _filtered_sensors([(g, a)], rate, cutoff)[0]
+
+
+def _filtered_sensors(sensors, rate, cutoff) -> list[tuple]:
+    """:func:`_filtered` of each (g, a) in ``sensors``, all channels in one filter call
+    (each channel is filtered on its own; the call's fixed cost is that of several)."""
+    parts = np.split(lowpass(np.concatenate([arr for pair in sensors for arr in pair], axis=1),
+                             rate, cutoff, JOINT_FILTER_ORDER), 2 * len(sensors), axis=1)
+    return [(gf, derivative(gf, rate), af) for gf, af in zip(parts[0::2], parts[1::2],
+                                                             strict=True)]
 
 
 def _block_jackknife(data, x, line, max_iterations) -> dict:

@@ -99,14 +99,18 @@ def decide_relative_sign(gyr1, gyr2, j1, j2, rate, acc1=None, acc2=None, *,
     ``gyr*`` rad/s, ``acc*`` m/s^2 (N, 3), full recording (the filter runs on the whole
     signal, then the window is cut); ``j1``, ``j2`` unit (3,).
     """
-    f1, f2 = lowpass(gyr1, rate, cutoff), lowpass(gyr2, rate, cutoff)
+    signals = [gyr1, gyr2] + ([acc1, acc2] if acc1 is not None and acc2 is not None else [])
+    # one filter call for all channels (each is filtered on its own): the call's fixed
+    # cost (the filter's initial conditions) is that of filtering several channels
+    f1, f2, *acc = np.split(lowpass(np.concatenate(signals, axis=1), rate, cutoff),
+                            len(signals), axis=1)
     tests = {
         "plane": plane_test(f1[window], f2[window], j1, j2, rate),
         "range": range_test(f1[window], f2[window], j1, j2, rate),
     }
-    if acc1 is not None and acc2 is not None:
-        parts = [(f[window], derivative(f, rate)[window], lowpass(a, rate, cutoff)[window])
-                 for f, a in ((f1, acc1), (f2, acc2))]
+    if acc:
+        parts = [(f[window], derivative(f, rate)[window], a[window])
+                 for f, a in ((f1, acc[0]), (f2, acc[1]))]
         tests["acc"] = acc_test(*parts[0], *parts[1], j1, j2)
     return combine(tests)
 
@@ -129,9 +133,12 @@ def plane_test(gyr1, gyr2, j1, j2, rate) -> SignTest:
     short projection is noise)."""
     dt = 1.0 / rate
     a1, len1 = _plane_angle(gyr1, j1)
+    # flipping j flips the plane's second basis vector (perpendicular(-j) = perpendicular(j)):
+    # the angle changes sign, the length stays
+    angle2, len2 = _plane_angle(gyr2, j2)
     errors = []
     for s in (1.0, -1.0):
-        a2, len2 = _plane_angle(gyr2, s * j2)
+        a2 = s * angle2
         rel = np.diff(a1 - a2)
         rel = (rel + np.pi) % (2 * np.pi) - np.pi
         thetadot = gyr2 @ (s * j2) - gyr1 @ j1
@@ -161,17 +168,18 @@ def acc_test(g1, gdot1, a1, g2, gdot2, a2, j1, j2) -> SignTest:
     pick = np.linspace(0, n - 1, min(n, ACC_MAX_SAMPLES)).astype(int)
     rows1 = _axis_row(g1[pick], gdot1[pick], j1)
     rows2 = _axis_row(g2[pick], gdot2[pick], j2)
-    errors = []
-    for s in (1.0, -1.0):
-        # j1.a1 - s j2.a2 = j1^T Gamma1 o1 - s j2^T Gamma2 o2, linear in (o1, o2)
-        y = a1[pick] @ j1 - s * (a2[pick] @ j2)
-        design = np.concatenate([rows1, -s * rows2], axis=1)
-        try:
-            o, *_ = np.linalg.lstsq(design, y, rcond=None)
-            e = y - design @ o
-            errors.append(float(np.sqrt(np.mean(e * e))))
-        except np.linalg.LinAlgError:
-            errors.append(float("nan"))
+    # j1.a1 - s j2.a2 = j1^T Gamma1 o1 - s j2^T Gamma2 o2, linear in (o1, o2); the sign s
+    # of the second block of columns leaves their span, so the residual, alike: both
+    # signs are one least-squares problem with two right-hand sides
+    y1, y2 = a1[pick] @ j1, a2[pick] @ j2
+    ys = np.stack([y1 - s * y2 for s in (1.0, -1.0)], axis=1)
+    design = np.concatenate([rows1, rows2], axis=1)
+    try:
+        o, *_ = np.linalg.lstsq(design, ys, rcond=None)
+        e = ys - design @ o
+        errors = [float(v) for v in np.sqrt(np.mean(e * e, axis=0))]
+    except np.linalg.LinAlgError:
+        errors = [float("nan")] * 2
     if not np.isfinite(errors).all():
         return SignTest(1.0, 1.0, {"rms_residual_m_s2": (None, None)})
     return _verdict(errors, {"rms_residual_m_s2": tuple(errors)})
@@ -195,9 +203,9 @@ def _largest_span_deg(thetadot, rate) -> float:
     count = max(1, int(round(n / (RANGE_BLOCK_S * rate))))
     spans = []
     for part in np.array_split(theta, count):
-        if part.size > 2:
-            t = np.arange(part.size)
-            part = part - np.polyval(np.polyfit(t, part, 1), t)
+        if part.size > 2:  # remove the least-squares line (closed form)
+            t = np.arange(part.size) - (part.size - 1) / 2
+            part = part - part.mean() - t * (t @ part) / (t @ t)
         spans.append(float(np.degrees(np.ptp(part))))
     return max(spans)
 

@@ -150,3 +150,76 @@ def test_spheroidal_newton_matrix_is_the_exact_hessian():
     assert np.abs(hess[0] - hess_fd).max() < 1e-5 * scale
     assert np.abs(jtj[0] - hess_fd).max() > 0.1 * scale  # the test can tell them apart
     assert np.abs(jte[0] - grad_fd).max() < 1e-5 * np.abs(grad_fd).max()
+
+
+def test_last_steps_cost_only_change_nothing(monkeypatch):
+    """Restarts that stop after a step get only its cost, not normal equations: the
+    iteration counts are those of the solver that always computed them, the states and
+    cost traces agree to single-precision rounding (a product over fewer restarts may
+    round differently), and fewer restarts go through the normal equations."""
+    import imucal.gauss_newton as gn
+
+    rec, _ = simulated(2)
+    g1, g2 = rec.sensor("thigh").gyr[::5], rec.sensor("shank").gyr[::5]
+    rng = np.random.default_rng(5)
+    x0 = np.concatenate([_random_unit(rng, 20), _random_unit(rng, 20)], axis=1)
+
+    def run():
+        problem = _HingeProblem(g1, g2, None, np.float32, True)
+        rows = [0]
+
+        def normal(x, r):
+            rows[0] += x.shape[0]
+            return problem.normal(x, r)
+        out = gauss_newton(normal, problem.cost, _retract, x0, max_iterations=30,
+                           step_tolerance=1e-3, cost_tolerance=1e-12, max_step=0.5,
+                           contraction=True)
+        return out, rows[0]
+
+    lean, lean_rows = run()
+    monkeypatch.setattr(gn, "_last_step", lambda norm, *a: np.zeros(norm.shape, bool))
+    full, full_rows = run()
+    np.testing.assert_array_equal(lean.iterations, full.iterations)
+    np.testing.assert_allclose(lean.x, full.x, rtol=0, atol=1e-5)
+    np.testing.assert_allclose(lean.cost, full.cost, rtol=1e-4)
+    assert lean_rows <= full_rows - 20  # every restart's last step saved its equations
+
+
+def test_cholesky_hessian_test_matches_eigenvalues():
+    """safe_newton keeps the Hessian exactly where its lowest eigenvalue exceeds the
+    bound, whether the whole batch passes the Cholesky test or not."""
+    from imucal.multistart import MIN_HESSIAN_EIGENVALUE, safe_newton
+
+    rng = np.random.default_rng(2)
+    a = rng.standard_normal((50, 4, 4))
+    jtj = a @ np.swapaxes(a, 1, 2) + 0.1 * np.eye(4)
+    shift = rng.uniform(-1.0, 1.0, 50)
+    hess = jtj + shift[:, None, None] * np.eye(4)
+    expect = (np.linalg.eigvalsh(hess)[:, 0]
+              > MIN_HESSIAN_EIGENVALUE * np.trace(jtj, axis1=1, axis2=2))
+    assert 5 < expect.sum() < 45  # both kinds in the batch
+    got = safe_newton(jtj, hess)
+    np.testing.assert_array_equal(got[expect], hess[expect])
+    np.testing.assert_array_equal(got[~expect], jtj[~expect])
+    ok = np.flatnonzero(expect)  # a batch that passes as a whole keeps every Hessian
+    np.testing.assert_array_equal(safe_newton(jtj[ok], hess[ok]), hess[ok])
+
+
+def test_refine_problem_shares_tables_and_matches_a_fresh_one():
+    """with_mask(None) gives the same normal equations as a problem built without a
+    subset, for both estimators' problems."""
+    from imucal.position import _SpheroidalProblem
+    from imucal.restarts import subset_mask
+
+    rng = np.random.default_rng(4)
+    n, r = 300, 6
+    data = tuple(rng.standard_normal((n, 3)) for _ in range(6))
+    mask = subset_mask(n, r, 0.5, rng)
+    rows = np.arange(r)
+    x = np.concatenate([_random_unit(rng, r), _random_unit(rng, r)], axis=1)
+    for build, state in ((lambda m: _HingeProblem(data[0], data[1], m, np.float32, True), x),
+                         (lambda m: _SpheroidalProblem(*data, m, np.float32, True),
+                          0.1 * rng.standard_normal((r, 6)))):
+        shared, fresh = build(mask).with_mask(None), build(None)
+        for a, b in zip(shared.normal(state, rows), fresh.normal(state, rows), strict=True):
+            np.testing.assert_array_equal(a, b)
