@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import re
+import threading
 from collections.abc import Callable, Iterator, Sequence
 
 from .errors import InputError
@@ -27,6 +28,8 @@ __all__ = ["Cluster", "connect", "INSTALL_HINT"]
 INSTALL_HINT = "pip install 'imucal-joints[dask]'"
 #: Seconds to wait for the scheduler to answer and for its first worker.
 CONNECT_TIMEOUT_S = 10.0
+#: Extra time for the handshake after Dask's own connect timeout, s.
+HANDSHAKE_GRACE_S = 5.0
 
 
 class Cluster:
@@ -125,7 +128,7 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
         raise InputError(f"--scheduler needs Dask, which is not installed: "
                          f"{INSTALL_HINT}") from None
     try:
-        client = distributed.Client(address, timeout=timeout, set_as_default=False)
+        client = _client(distributed, address, timeout)
     except (OSError, TimeoutError, ValueError) as err:
         raise InputError(f"--scheduler {address}: cannot reach the Dask scheduler "
                          f"({type(err).__name__}: {err})") from None
@@ -136,6 +139,34 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
         raise InputError(f"--scheduler {address}: the scheduler has no workers (start "
                          f"some with 'dask worker {address}')") from None
     return Cluster(client)
+
+
+def _client(distributed, address: str, timeout: float):
+    """``distributed.Client(address)`` within ``timeout`` s plus a grace period.
+
+    Dask's own timeout covers reaching the port, not the handshake after it: a port
+    that accepts and never answers as a scheduler (the dashboard's, 8787, next to the
+    scheduler's 8786; any other service) would hang the study forever.
+    """
+    made: dict = {}
+
+    def make():
+        try:
+            made["client"] = distributed.Client(address, timeout=timeout,
+                                                set_as_default=False)
+        except Exception as err:  # handed to the caller's thread
+            made["error"] = err
+
+    thread = threading.Thread(target=make, daemon=True)
+    thread.start()
+    thread.join(timeout + HANDSHAKE_GRACE_S)
+    if thread.is_alive():
+        raise TimeoutError(f"something answers at {address} but not as a Dask scheduler "
+                           f"within {timeout + HANDSHAKE_GRACE_S:g} s (the dashboard's "
+                           "port? the scheduler's is usually 8786)")
+    if "error" in made:
+        raise made["error"]
+    return made["client"]
 
 
 def _work(task, cwd: str):

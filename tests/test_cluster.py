@@ -77,3 +77,25 @@ def test_a_bad_scheduler_address_is_refused_before_anything_runs(files):
     assert run.stderr.decode() == ("imucal: error: --scheduler head-node: not a scheduler "
                                    "address; expected tcp://HOST:PORT (dask scheduler prints "
                                    "it)\n")
+
+
+def test_a_port_that_is_no_scheduler_fails_instead_of_hanging(monkeypatch):
+    # something accepts connections but never speaks Dask (a dashboard, a web server)
+    import socket
+    import threading
+    import time
+
+    from imucal import cluster
+    from imucal.errors import InputError
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    accepted = []
+    threading.Thread(target=lambda: accepted.append(server.accept()), daemon=True).start()
+    monkeypatch.setattr(cluster, "HANDSHAKE_GRACE_S", 1.0)
+    started = time.perf_counter()
+    with pytest.raises(InputError, match="not as a Dask scheduler"):
+        cluster.connect(f"tcp://127.0.0.1:{server.getsockname()[1]}", timeout=1.0)
+    assert time.perf_counter() - started < 10
+    server.close()
