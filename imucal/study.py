@@ -50,7 +50,7 @@ THREAD_VARIABLES = (
 #: Modules every worker needs; imported once before the workers start (fork) or in the
 #: fork server, so that no worker pays their import time (about a second) again.
 WORKER_MODULES = ("imucal.runner", "imucal.axis", "imucal.position", "imucal.report",
-                  "imucal.loaders")
+                  "imucal.loaders", "imucal.calibration")
 #: The progress bar redraws at least this often, s (its clock and estimate keep moving).
 PROGRESS_REFRESH_S = 0.5
 WARNING_PREFIX = "imucal: warning: "
