@@ -61,7 +61,7 @@ class Cluster:
         """
         from distributed import as_completed
 
-        from .study import entry
+        from .study import InOrder, entry
 
         # Relative paths mean the same as here: the workers resolve them against this
         # process's working directory (which they must see under the same path).
@@ -69,8 +69,7 @@ class Cluster:
         futures = self.client.map(_work, [(i, job, f) for i, f in enumerate(files)],
                                   cwd=cwd, pure=False)
         index = {future.key: i for i, future in enumerate(futures)}
-        ready: dict[int, object] = {}
-        next_index = done = failed = 0
+        order = InOrder(on_done)
         try:
             for future in as_completed(futures, loop=self.client.loop):
                 i = index[future.key]
@@ -82,14 +81,9 @@ class Cluster:
                     result = entry(i, files[i], INTERNAL_ERROR,
                                    f"{files[i]}: the Dask task failed: {type(err).__name__}: "
                                    f"{first}", None, [])
-                ready[i] = result
-                done += 1
-                failed += result.exit_code != 0
-                if on_done is not None:
-                    on_done(done, failed)
-                while next_index in ready:
-                    yield ready.pop(next_index)
-                    next_index += 1
+                order.add(result)
+                order.report()
+                yield from order.release()
         finally:
             self.client.cancel(futures)
 

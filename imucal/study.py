@@ -262,9 +262,7 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
     from concurrent.futures.process import BrokenProcessPool
 
     context = _context(start_method)
-    ready: dict[int, Entry] = {}
-    next_index = 0
-    done = failed = 0
+    order = InOrder(on_done)
     pending = list(tasks)
     workers = jobs
     while pending:
@@ -284,21 +282,14 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
                                          return_when=FIRST_COMPLETED)
                 for future in finished:
                     try:
-                        outcome = future.result()
+                        order.add(future.result())
                     except BrokenProcessPool:
                         broken = True
-                        continue
-                    ready[outcome.index] = outcome
-                    done += 1
-                    failed += outcome.exit_code != 0
-                if on_done is not None:
-                    on_done(done, failed)
-                while next_index in ready:
-                    yield ready.pop(next_index)
-                    next_index += 1
+                order.report()
+                yield from order.release()
         finally:
             executor.shutdown(wait=True, cancel_futures=True)
-        pending = [t for t in pending if t[0] not in ready and t[0] >= next_index]
+        pending = [t for t in pending if t[0] not in order.ready and t[0] >= order.next_index]
         if not broken or not pending:
             break
         # A worker died (a crash in a library, or the out-of-memory killer) and took the
@@ -309,21 +300,41 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
             workers = 1
             continue
         culprit = pending.pop(0)
-        ready[culprit[0]] = entry(
+        order.add(entry(
             culprit[0], culprit[2], INTERNAL_ERROR,
             f"{culprit[2]}: the worker process died while processing this recording (a "
-            "crash, or killed for lack of memory)", None, [])
-        done += 1
-        failed += 1
-        if on_done is not None:
-            on_done(done, failed)
-        while next_index in ready:
-            yield ready.pop(next_index)
-            next_index += 1
+            "crash, or killed for lack of memory)", None, []))
+        order.report()
+        yield from order.release()
         workers = jobs
-    while next_index in ready:
-        yield ready.pop(next_index)
-        next_index += 1
+    yield from order.release()
+
+
+class InOrder:
+    """Entries that finish in any order (worker processes, Dask), handed on in input
+    order, with the running counts the progress bar shows (``on_done(done, failed)``)."""
+
+    def __init__(self, on_done: Callable[[int, int], None] | None):
+        self.ready: dict[int, Entry] = {}
+        self.next_index = self.done = self.failed = 0
+        self._on_done = on_done
+
+    def add(self, finished: Entry) -> None:
+        """One more recording done."""
+        self.ready[finished.index] = finished
+        self.done += 1
+        self.failed += finished.exit_code != 0
+
+    def report(self) -> None:
+        """Tell the progress bar."""
+        if self._on_done is not None:
+            self._on_done(self.done, self.failed)
+
+    def release(self) -> Iterator[Entry]:
+        """The entries that are next in input order, as far as they are done."""
+        while self.next_index in self.ready:
+            yield self.ready.pop(self.next_index)
+            self.next_index += 1
 
 
 def _context(start_method):
