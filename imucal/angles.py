@@ -601,9 +601,34 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
     smoothing_s
         Fusion kernel, s (default: the calibration's).
 
-    Raises InputError when the calibration has no usable hinge or a sensor it needs is
-    missing. A calibration that does not fit gives ``fits=False`` and a warning with the
-    evidence, never silently wrong angles.
+    Returns
+    -------
+    JointAngles
+        ``time`` (s) and, per hinge, the flexion and its 1-sigma (deg), the pure gyro
+        integration, the sign and zero used, the "still fits" check and the gait cycles;
+        ``to_frame()`` / ``write(path)`` give the table (``time``,
+        ``<joint>_flexion_deg``, ``<joint>_flexion_sigma_deg``).
+
+    Raises
+    ------
+    InputError
+        The calibration has no usable hinge, a sensor it needs is missing, or
+        ``reference`` / ``flexion_sign`` are invalid. A calibration that does not fit gives
+        ``fits=False`` and a warning with the evidence, never silently wrong angles.
+
+    References
+    ----------
+    Seel, Raisch, Schauer (2014), "IMU-based joint angle measurement for gait analysis",
+    Sensors 14:6891 (gyroscope angle, accelerometer angle, their fusion).
+
+    Examples
+    --------
+    >>> import imucal
+    >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"),
+    ...                        restarts=20, seed=1)
+    >>> walk = imucal.joint_angles(imucal.load_recording("sample_data/walking.h5"), cal)
+    >>> walk.fits, list(walk.to_frame().columns)
+    (True, ['time', 'knee_flexion_deg', 'knee_flexion_sigma_deg'])
     """
     pinned = _check_sign(flexion_sign)
     hinges = [j for j in calibration.hinges if j.usable and j.angle]

@@ -268,8 +268,35 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
         The angle fusion's kernel (:data:`imucal.angles.SMOOTHING_S`), stored for
         :func:`imucal.joint_angles`.
 
-    A joint whose estimate stops (not identifiable, a sensor gap in the window) is kept
-    with verdict ``failed`` and the reason in its warnings; the others are unaffected.
+    Returns
+    -------
+    Calibration
+        Per joint (``joints``, keyed ``knee``, ``left_knee``, ``ankle``, ``hip`` ...): the
+        sensors, verdict, warnings, ``j1``/``j2`` (hinges), ``o1``/``o2`` (m), the full
+        quality documents and, for hinges, the angle's reference statistics; plus the
+        recording, imucal's version and the settings. ``write(path)`` saves it
+        (docs/json.md, "Calibration file").
+
+    Raises
+    ------
+    InputError
+        A joint spec that cannot be parsed or names a missing sensor, no joint the
+        sensors allow, invalid settings. A joint whose estimate stops (not identifiable,
+        a sensor gap in the window) is kept with verdict ``failed`` and the reason in its
+        warnings; the others are unaffected.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), IEEE CCA (the axes and positions); Seel, Raisch,
+    Schauer (2014), Sensors 14:6891 (the knee centre on the axis, the flexion angle).
+
+    Examples
+    --------
+    >>> import imucal
+    >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"),
+    ...                        restarts=20, seed=1)
+    >>> sorted(cal.joints), cal.joints["knee"].verdict
+    (['ankle', 'knee'], 'good')
     """
     from .angles import SMOOTHING_S
 

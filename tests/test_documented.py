@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from conftest import simulated
 
+import imucal
 from imucal import report
 from imucal.axis import AxisResult, estimate_axis
 from imucal.gauss_newton import BatchResult
@@ -100,8 +101,23 @@ def test_every_json_key_is_in_docs_json(reports, block):
     assert not missing, f"docs/json.md does not mention {sorted(missing)}"
 
 
-@pytest.mark.parametrize("func", [estimate_axis, estimate_position])
+@pytest.mark.parametrize("func", [estimate_axis, estimate_position, imucal.calibrate,
+                                  imucal.joint_angles])
 def test_public_estimators_have_numpydoc_sections(func):
     for section in ("Parameters", "Returns", "Raises", "References", "Examples"):
         assert re.search(rf"^\s*{section}\n\s*-+\n", func.__doc__, re.M), \
             f"{func.__name__}: no {section} section"
+
+
+@pytest.mark.parametrize("func", [estimate_axis, estimate_position, imucal.calibrate,
+                                  imucal.joint_angles])
+def test_the_examples_run(func, monkeypatch):
+    # the docstrings' examples use sample_data/ from the repository root
+    import doctest
+
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    runner = doctest.DocTestRunner(optionflags=doctest.NORMALIZE_WHITESPACE)
+    for test in doctest.DocTestFinder().find(func, func.__name__, globs={}):
+        runner.run(test)
+    assert runner.summarize(verbose=False).failed == 0
+    assert runner.summarize(verbose=False).attempted >= 2
