@@ -71,7 +71,7 @@ from .restarts import (
     settled,
     subset_mask,
 )
-from .result import EstimateResult
+from .result import EstimateResult, shared_fields
 from .selection import MAX_SAMPLES
 from .settings import MAX_ITERATIONS, SUBSET_FRACTION, AxisSettings
 from .settings import resolve as resolve_settings
@@ -83,6 +83,7 @@ from .sign import (
     plane_test,
 )
 from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, fit_with_offset, reader
+from .vectors import joint_plane_rate, tangent_basis, unit
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
 AGREEMENT_DEG = 2.0
@@ -462,46 +463,19 @@ def _excitation(d1, d2, x) -> dict:
     }
 
 
-def joint_plane_rate(g: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """|g x j| per sample: the rate's part in the joint plane of the unit axis ``j``
-    (eq. 1), via |g|^2 - (g.j)^2 (no cross product)."""
-    return np.sqrt(np.maximum(np.sum(g * g, axis=1) - (g @ j) ** 2, 0.0))
-
-
 def _result(p: Prepared, s: AxisSettings, fit: Multistart, j1, j2, decision, applied,
             q: dict, warnings: list[str], blocking: list[str]) -> AxisResult:
-    minima = q["minima"]
     return AxisResult(
+        **shared_fields(p, fit, q, unit="deg", settings=_settings_record(p, s, decision),
+                        time_offset=s.time_offset, warnings=warnings, blocking=blocking),
         j1=j1,
         j2=j2,
-        rms_residual=q["rms"],
-        relative_residual=q["relative"],
         sign_evidence=decision.evidence,
         sign_tests={name: t.report(applied) for name, t in decision.tests.items()},
-        singular_ratio=q["singular_ratio"],
-        singular_values=q["singular_values"],
         uncertainty_deg=q["uncertainty"],
-        uncertainty_components=q["components"],
-        excitation=q["excitation"],
-        sensitivity=q["sensitivity"],
-        convergence_fraction=q["fraction"],
-        competing_agreement=q["agreement"],
-        equal_minima={"count": minima[0], "max_distance_deg": minima[1],
-                      "max_rms_ratio": minima[2]},
-        reached=fit.reached,
         spread_deg=q["spread"],
-        batch=fit.batch,
-        refined=fit.refined,
-        settings=_settings_record(p, s, decision),
-        samples_used=p.samples,
-        window=p.span_s,
-        time_ranges=p.time_ranges,
         gyr1=p.data[0],
         gyr2=p.data[1],
-        sample_index=p.sample_index,
-        warnings=warnings,
-        blocking=blocking,
-        time_offset={"mode": "given", "time_offset_s": s.time_offset},
     )
 
 
@@ -875,7 +849,7 @@ class _HingeProblem:
         m[0, :, :3, 3:] = -cross.reshape(r, 3, 3)
         m[0, :, 3:, :3] = np.swapaxes(m[0, :, :3, 3:], 1, 2)
         basis = np.zeros((r, 6, 4))
-        both = _tangent_basis(x.reshape(2 * r, 3))  # rows j1, j2, j1, j2, ...
+        both = tangent_basis(x.reshape(2 * r, 3))  # rows j1, j2, j1, j2, ...
         basis[:, :3, :2], basis[:, 3:, 2:] = both[0::2], both[1::2]
         bt = np.swapaxes(basis, 1, 2)
         grad = np.concatenate([-pj[0], pj[1]], axis=1)
@@ -909,7 +883,7 @@ def _residuals_and_jacobians(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
     """e (D, N) and J (D, N, 4) of eq. (1) for D states ``x`` (D, 6), each with its own
     second sensor's rates ``g2`` (D, N, 3) and the first sensor's ``g1`` (N, 3)."""
     j = x.reshape(-1, 3)  # rows j1, j2, j1, j2, ...
-    u = _tangent_basis(j)
+    u = tangent_basis(j)
     b = np.concatenate([j[:, :, None], u], axis=2)  # (2D, 3, 3): columns j, u, v
     d1, d2 = g1 @ b[0::2], g2 @ b[1::2]  # (D, N, 3): g.j, g.u, g.v
     n1 = np.sqrt(np.maximum(np.sum(g1 * g1, axis=-1) - d1[..., 0] ** 2, 0.0))
@@ -922,32 +896,10 @@ def _residuals_and_jacobians(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
 def _retract(x: np.ndarray, step: np.ndarray) -> np.ndarray:
     r = x.shape[0]
     j = x.reshape(2 * r, 3)  # rows j1, j2, j1, j2, ...
-    basis = _tangent_basis(j)
+    basis = tangent_basis(j)
     moved = j + (basis @ step.reshape(2 * r, 2, 1))[..., 0]
     moved /= np.sqrt(np.sum(moved * moved, axis=1, keepdims=True))
     return moved.reshape(r, 6)
-
-
-def _tangent_basis(j: np.ndarray) -> np.ndarray:
-    """(m, 3, 2) columns u, v: orthonormal and perpendicular to each unit row of ``j``.
-
-    The branch-free construction of Duff et al. (2017, "Building an orthonormal basis,
-    revisited"): a few element-wise operations, because this runs twice per Gauss-Newton
-    iteration. It jumps where j's z component changes sign; the solver does not mind, as
-    every step is applied in the basis it was computed in.
-    """
-    x, y, z = j[:, 0], j[:, 1], j[:, 2]
-    sign = np.copysign(1.0, z)
-    a = -1.0 / (sign + z)
-    b = x * y * a
-    basis = np.empty((j.shape[0], 3, 2))
-    basis[:, 0, 0] = 1.0 + sign * x * x * a
-    basis[:, 1, 0] = sign * b
-    basis[:, 2, 0] = -sign * x
-    basis[:, 0, 1] = b
-    basis[:, 1, 1] = sign + y * y * a
-    basis[:, 2, 1] = -y
-    return basis
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -964,12 +916,6 @@ def _axis_distance(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 def _random_unit(rng: np.random.Generator, n: int) -> np.ndarray:
     v = rng.standard_normal((n, 3))
     return v / np.linalg.norm(v, axis=1, keepdims=True)
-
-
-def unit(v) -> np.ndarray:
-    """``v`` scaled to length 1, as float64."""
-    v = np.asarray(v, dtype=np.float64)
-    return v / np.linalg.norm(v)
 
 
 def _hinge_problem(data, mask, dtype, newton) -> _HingeProblem:

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .vectors import joint_plane_rate, tangent_basis, unit
+
 #: Prior standard deviation of each bias component, rad/s (MEMS gyroscopes after warm-up:
 #: 0.005-0.05 rad/s).
 PRIOR_RAD_S = 0.02
@@ -121,14 +123,14 @@ def _fit(gyr1, gyr2, j1, j2) -> GyrBias:
     weight = np.sqrt(cost0) / PRIOR_RAD_S
 
     def rows(p):
-        e = _residual(g1, g2, _unit(p[:3]), _unit(p[3:6]), p[6:9], p[9:12])
+        e = _residual(g1, g2, unit(p[:3]), unit(p[3:6]), p[6:9], p[9:12])
         return np.concatenate([e, weight * p[6:12]])
 
     def jacobian(p):
         jac = np.zeros((g1.shape[0] + 6, 12))
         for k, (g, sign) in enumerate(((g1, 1.0), (g2, -1.0))):
             q = p[3 * k:3 * k + 3]
-            j = _unit(q)
+            j = unit(q)
             h = g - p[6 + 3 * k:9 + 3 * k]
             u = np.cross(h, j)
             n = np.maximum(np.linalg.norm(u, axis=1), 1e-12)[:, None]
@@ -140,7 +142,7 @@ def _fit(gyr1, gyr2, j1, j2) -> GyrBias:
         return jac
 
     p = _levenberg_marquardt(rows, jacobian, np.concatenate([j1, j2, np.zeros(6)]))
-    k1, k2 = _unit(p[:3]), _unit(p[3:6])
+    k1, k2 = unit(p[:3]), unit(p[3:6])
     b1, b2 = _across(p[6:9], k1), _across(p[9:12], k2)
     cost = float(np.mean(_residual(g1, g2, k1, k2, b1, b2) ** 2))
     ratio = cost0 / cost if cost > 0 else float("inf")
@@ -185,7 +187,7 @@ def _inflation(jac: np.ndarray, j1: np.ndarray, j2: np.ndarray,
                weight: float) -> tuple[float, float]:
     """Each axis's covariance with the biases free over that with them known (sqrt of
     the traces' ratio), from the data rows' Jacobian ``jac`` (M, 12) at the joint fit."""
-    t = [_tangent(j1), _tangent(j2)]
+    t = [tangent_basis(j1[None, :])[0], tangent_basis(j2[None, :])[0]]
     jt = np.concatenate([jac[:, :3] @ t[0], jac[:, 3:6] @ t[1], jac[:, 6:]], axis=1)
     info = jt.T @ jt
     info[4:, 4:] += weight**2 * np.eye(6)  # the prior's information on the biases
@@ -201,21 +203,9 @@ def _inflation(jac: np.ndarray, j1: np.ndarray, j2: np.ndarray,
     return out[0], out[1]
 
 
-def _tangent(j: np.ndarray) -> np.ndarray:
-    """(3, 2) orthonormal basis of the plane orthogonal to the unit vector ``j``."""
-    a = np.eye(3)[int(np.argmin(np.abs(j)))]
-    u = _unit(np.cross(j, a))
-    return np.stack([u, np.cross(j, u)], axis=1)
-
-
 def _residual(g1, g2, j1, j2, b1, b2) -> np.ndarray:
-    return (np.linalg.norm(np.cross(g1 - b1, j1), axis=1)
-            - np.linalg.norm(np.cross(g2 - b2, j2), axis=1))
+    return joint_plane_rate(g1 - b1, j1) - joint_plane_rate(g2 - b2, j2)
 
 
 def _across(b: np.ndarray, j: np.ndarray) -> np.ndarray:
     return b - (b @ j) * j
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)

@@ -25,7 +25,7 @@ from functools import partial
 
 import numpy as np
 
-from .axis import AxisResult, estimate_axis, unit
+from .axis import AxisResult, estimate_axis
 from .errors import InputError
 from .multistart import (
     SENSITIVITY_ITERATIONS,
@@ -71,11 +71,12 @@ from .restarts import (
     settled,
     subset_mask,
 )
-from .result import EstimateResult
+from .result import EstimateResult, shared_fields
 from .selection import MAX_SAMPLES
 from .settings import JOINTS, MAX_ITERATIONS, SUBSET_FRACTION, PositionSettings  # noqa: F401 (JOINTS: imported from here)
 from .settings import resolve as resolve_settings
 from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, fit_with_offset, reader
+from .vectors import unit
 
 #: Two estimates agree when both o1 and o2 are within this distance, m.
 AGREEMENT_M = 0.01
@@ -482,37 +483,18 @@ def _blocking(p: Prepared, x: np.ndarray, q: dict, weak: int) -> list[str]:
 def _result(p: Prepared, s: PositionSettings, fit: Multistart, q: dict, axis_result, line,
             warnings: list[str], blocking: list[str]) -> PositionResult:
     x = fit.estimate
-    count, apart, ratio = q["minima"]
+    # distances in q["minima"] are in mm already
     return PositionResult(
+        **shared_fields(p, fit, q, unit="mm", settings=_settings_record(p, s),
+                        time_offset=s.time_offset, warnings=warnings, blocking=blocking),
         o1=x[:3].copy(),
         o2=x[3:].copy(),
         joint=s.joint,
-        rms_residual=q["rms"],
-        relative_residual=q["relative"],
-        singular_ratio=q["singular_ratio"],
-        singular_values=q["singular_values"],
         uncertainty_mm=q["uncertainty"],
-        uncertainty_components=q["components"],
-        excitation=q["excitation"],
-        sensitivity=q["sensitivity"],
-        convergence_fraction=q["fraction"],
-        competing_agreement=q["agreement"],
-        equal_minima={"count": count, "max_distance_mm": apart, "max_rms_ratio": ratio},
-        reached=fit.reached,
         spread_mm=q["spread"],
-        batch=fit.batch,
-        refined=fit.refined,
-        settings=_settings_record(p, s),
-        samples_used=p.samples,
-        window=p.span_s,
-        time_ranges=p.time_ranges,
-        sample_index=p.sample_index,
-        time_offset={"mode": "given", "time_offset_s": s.time_offset},
         axis=axis_result,
         line=line,
         weak_direction=q["weak_direction"],
-        warnings=warnings,
-        blocking=blocking,
     )
 
 

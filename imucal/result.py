@@ -8,11 +8,16 @@ spreads in their own units to these fields.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .gauss_newton import BatchResult
 from .quality import Verdict
+
+if TYPE_CHECKING:
+    from .multistart import Multistart
+    from .preprocess import Prepared
 
 
 @dataclass(kw_only=True)
@@ -93,3 +98,37 @@ class EstimateResult(Verdict):
     def iterations(self) -> np.ndarray:
         """(R,) iterations of each restart on its subset (coarse stage included)."""
         return self.batch.iterations
+
+
+def shared_fields(p: Prepared, fit: Multistart, q: dict, *, unit: str, settings: dict,
+                  time_offset: float, warnings: list[str], blocking: list[str]) -> dict:
+    """The :class:`EstimateResult` fields of an estimate made by the shared stages:
+    ``p`` the prepared data, ``fit`` the multistart, ``q`` the estimator's quality
+    block (keys "rms", "relative", "singular_ratio", "singular_values", "components",
+    "excitation", "sensitivity", "fraction", "agreement", "minima"), ``unit`` of the
+    equal minima's distance ("deg" or "mm") and ``time_offset`` the offset applied, s."""
+    count, apart, ratio = q["minima"]
+    return {
+        "rms_residual": q["rms"],
+        "relative_residual": q["relative"],
+        "singular_ratio": q["singular_ratio"],
+        "singular_values": q["singular_values"],
+        "uncertainty_components": q["components"],
+        "excitation": q["excitation"],
+        "sensitivity": q["sensitivity"],
+        "convergence_fraction": q["fraction"],
+        "competing_agreement": q["agreement"],
+        "equal_minima": {"count": count, f"max_distance_{unit}": apart,
+                         "max_rms_ratio": ratio},
+        "reached": fit.reached,
+        "batch": fit.batch,
+        "refined": fit.refined,
+        "settings": settings,
+        "samples_used": p.samples,
+        "window": p.span_s,
+        "time_ranges": p.time_ranges,
+        "sample_index": p.sample_index,
+        "warnings": warnings,
+        "blocking": blocking,
+        "time_offset": {"mode": "given", "time_offset_s": time_offset},
+    }
