@@ -1,22 +1,29 @@
 """The staged multistart every estimator runs (Sec. IV of the paper), for any problem.
 
 Sec. IV runs 100 restarts, each from random initial values on a different subset of the
-data. imucal runs them as one batch through four stages:
+data. imucal runs them as one batch through three stages:
 
-1. **coarse**: every restart on its subset of a shared random sample of a few hundred
-   samples, for a few steps: the first, large steps from a random start only have to
-   find the basin, and there they cost a fraction of a step on all the data;
-2. **restarts**: every restart on its own random subset, in single precision, with
-   Newton steps near the minimum, to a tolerance far finer than anything reported about
-   the restarts (their agreement and spread);
-3. **refine**: every restart continued on all samples (comparable costs: the lowest is
-   the least-squares answer, and the share of restarts reaching it measures independence
-   from the start), still in single precision;
-4. **polish**: the best restart alone, in double precision, to the final tolerance.
+1. **restarts**: every restart on its own random subset of the samples, on the
+   squared-norm form of the constraint (:mod:`imucal.moments`): its cost and normal
+   equations come from moment matrices summed once per subset, so a step of a restart
+   costs the same however long the recording is;
+2. **refine**: every restart continued on all samples, on the same squared form (one
+   moment matrix): comparable costs, so the lowest is that form's least-squares answer
+   and the restarts that reach it measure independence from the start;
+3. **polish**: every distinct minimum the restarts reached (restarts within
+   ``Stages.agreement`` of each other are one), at most ``MAX_POLISHED`` of them, fitted
+   in double precision on all samples to the paper's own residual (differences of the
+   norms), to the final tolerance. The estimate is the polished minimum with the lowest
+   cost; each restart ends at the polished minimum of its basin.
+
+The squared form and the norms have the same zero-residual solutions; with residuals
+left, the squared form weighs samples by the size of their norms, so its minima sit
+near but not exactly on the norms' minima: the polish moves them there, in one or two
+steps.
 
 A problem plugs in as a :class:`Stages`: how to build its batched residual ("problem":
-``normal`` and ``cost`` over many restarts, :func:`imucal.gauss_newton.gauss_newton`),
-how a local step moves a state, and how far two states are apart.
+``normal`` and ``cost`` over many restarts, :func:`imucal.gauss_newton.gauss_newton`)
+and its moments, how a local step moves a state, and how far two states are apart.
 """
 
 from __future__ import annotations
@@ -28,7 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from .gauss_newton import BatchResult, chain, gauss_newton
+from .errors import InputError
+from .gauss_newton import BatchResult, gauss_newton
 from .restarts import agreeing, best_restart
 
 #: Precision of the restarts' arithmetic: single precision halves the time of the
@@ -73,24 +81,27 @@ def safe_newton(jtj: np.ndarray, hess: np.ndarray) -> np.ndarray:
     Gauss-Newton alone converges only linearly when the residuals stay large; Newton
     steps converge quadratically near a minimum. Far from one the Hessian can be
     indefinite: there J^T J (always positive semi-definite) gives a descent direction.
+    "Safely" means the lowest eigenvalue exceeds ``MIN_HESSIAN_EIGENVALUE`` times the
+    trace of J^T J, i.e. ``hess - bound I`` is positive definite: tested for the whole
+    batch by one Cholesky factorisation, and where that fails row by row by Sylvester's
+    criterion (every leading principal minor positive: k small determinants per batch,
+    a fraction of the cost of eigenvalues).
     """
-    scale = np.trace(jtj, axis1=1, axis2=2)
-    finite = np.isfinite(hess).all(axis=(1, 2))
+    k = hess.shape[-1]
+    bound = MIN_HESSIAN_EIGENVALUE * np.trace(jtj, axis1=1, axis2=2)
+    shifted = hess - bound[:, None, None] * np.eye(k)
+    finite = np.isfinite(shifted).all(axis=(1, 2))
     if finite.all():
-        # The usual case near a minimum, tested at a fifth of the cost of eigenvalues:
-        # every lowest eigenvalue exceeds the bound iff every hess - bound I has a
-        # Cholesky factor.
-        bound = MIN_HESSIAN_EIGENVALUE * scale
-        try:
-            np.linalg.cholesky(hess - bound[:, None, None] * np.eye(hess.shape[-1]))
+        try:  # the usual case near a minimum: one factorisation of the whole batch
+            np.linalg.cholesky(shifted)
             return hess
         except np.linalg.LinAlgError:
             pass
-    # eigvalsh fails for the whole batch on one non-finite matrix; such a row keeps
-    # Gauss-Newton (the solver drops it if J^T J is not finite either).
-    eye = np.eye(hess.shape[-1])
-    lowest = np.linalg.eigvalsh(np.where(finite[:, None, None], hess, eye))[:, 0]
-    safe = finite & (lowest > MIN_HESSIAN_EIGENVALUE * scale)
+    shifted = np.where(finite[:, None, None], shifted, -np.eye(k))
+    safe = finite.copy()
+    for m in range(1, k + 1):
+        safe &= np.linalg.det(shifted[:, :m, :m]) > 0
+    # a row whose J^T J is not finite either is dropped by the solver
     return np.where(safe[:, None, None], hess, jtj)
 
 
@@ -101,20 +112,18 @@ class Stages:
     Attributes
     ----------
     problem : ``(data, mask, dtype, newton) -> problem`` with ``normal(x, rows)`` and
-        ``cost(x, rows)`` for many restarts; ``data`` is a tuple of per-sample arrays
-        (first axis: samples), ``mask`` (R, N) 0/1 subset weights or None (all samples),
-        ``newton`` True for exact-Hessian steps where safe; it may offer
-        ``with_mask(mask)``, the same problem with other subset weights (no rebuilt
-        tables).
+        ``cost(x, rows)`` for many restarts, the paper's residual; ``data`` is a tuple of
+        per-sample arrays (first axis: samples), ``mask`` (R, N) 0/1 subset weights or
+        None (all samples), ``newton`` True for exact-Hessian steps where safe.
+    moments : ``data -> problem``: the squared-norm form of the same residual from
+        moment matrices (:class:`imucal.moments.QuadraticResidual`), with
+        ``with_mask(mask)`` for the restarts' subsets.
     retract : ``(x, step) -> x``: apply local steps (R, k) to states (R, s).
     distance : ``(x, y) -> d``: distance between states (units of ``agreement``).
     agreement : two restarts within this distance found the same estimate.
     step_tolerance : the polished estimate's tolerance (local-coordinate units).
-    restart_step_tolerance : the restarts' tolerance (subset and refine stages).
-    coarse_step_tolerance : the coarse stage's tolerance (finding the basin).
-    coarse_samples : samples shared by all restarts in the coarse stage; the stage runs
-        when there are at least twice as many samples.
-    coarse_iterations : the coarse stage's step limit.
+    restart_step_tolerance : the restarts' tolerance (subset and refine stages, and the
+        quality refits).
     cost_tolerance : stop when a step lowers the cost by less than this fraction.
     max_step : largest local step per iteration.
     contraction : apply the tolerances to the estimated distance to the minimum
@@ -124,14 +133,12 @@ class Stages:
     """
 
     problem: Callable
+    moments: Callable
     retract: Callable[[np.ndarray, np.ndarray], np.ndarray]
     distance: Callable[[np.ndarray, np.ndarray], np.ndarray]
     agreement: float
     step_tolerance: float
     restart_step_tolerance: float
-    coarse_step_tolerance: float
-    coarse_samples: int
-    coarse_iterations: int
     cost_tolerance: float
     max_step: float
     contraction: bool = False
@@ -174,57 +181,87 @@ class Multistart:
 
     Attributes
     ----------
-    batch : the restarts on their subsets (the coarse stage's steps first).
-    refined : each restart refined on all samples; the best one polished.
-    finals : the refined states as compared (after ``Stages.project``), (R, s).
-    best : index of the estimate, the refined restart with the lowest cost.
+    batch : the restarts on their subsets (squared-norm form).
+    refined : each restart refined on all samples (squared-norm form).
+    polished : the distinct minima of ``refined``, polished on all samples with the
+        paper's residual; row k started from restart ``representatives[k]``.
+    representatives : (P,) restart each polished row started from (the lowest-cost
+        restart of its basin).
+    basin : (R,) row of ``polished`` each restart's basin was polished in; -1 for a
+        restart that ended nowhere finite or beyond the ``MAX_POLISHED`` lowest basins.
+    finals : (R, s) each restart's polished minimum as compared (after
+        ``Stages.project``); its own refined state where ``basin`` is -1.
+    final_cost : (R,) the paper's cost (mean square) at ``finals``; NaN where ``basin``
+        is -1.
+    best : index of the restart the estimate came from (the lowest ``final_cost``).
     reached : (R,) restarts whose final state lies within ``Stages.agreement`` of it.
     """
 
     batch: BatchResult
     refined: BatchResult
+    polished: BatchResult
+    representatives: np.ndarray
+    basin: np.ndarray
     finals: np.ndarray
+    final_cost: np.ndarray
     best: int
     reached: np.ndarray
 
     @property
     def estimate(self) -> np.ndarray:
-        """The best refined (polished, projected) state (s,)."""
+        """The best polished (projected) state (s,)."""
         return self.finals[self.best]
 
 
+#: At most this many distinct minima of the restarts are polished (lowest costs first):
+#: restarts scatter over a handful of basins, and a minimum found by none of the lowest
+#: ones does not compete for the estimate.
+MAX_POLISHED = 12
+
+
 def multistart(stages: Stages, data: tuple, mask: np.ndarray | None, x0: np.ndarray,
-               max_iterations: int, rng: np.random.Generator) -> Multistart:
-    """Every restart of ``x0`` (R, s) through the four stages (module docstring).
+               max_iterations: int) -> Multistart:
+    """Every restart of ``x0`` (R, s) through the three stages (module docstring).
 
-    ``data`` is the tuple of per-sample arrays ``stages.problem`` takes, ``mask`` the
-    (R, N) subset weights (None: every restart sees all samples), ``rng`` draws the
-    coarse stage's shared samples.
+    ``data`` is the tuple of per-sample arrays ``stages.problem`` and ``stages.moments``
+    take, ``mask`` the (R, N) subset weights (None: every restart sees all samples).
     """
-    n = data[0].shape[0]
-    batch = None
-    if n >= 2 * stages.coarse_samples:
-        cols = np.sort(rng.choice(n, stages.coarse_samples, replace=False))
-        coarse = stages.problem(tuple(d[cols] for d in data),
-                                None if mask is None else mask[:, cols], RESTART_DTYPE, False)
-        batch = stages.solve(coarse, x0, min(max_iterations, stages.coarse_iterations),
-                             stages.coarse_step_tolerance)
-    subset = stages.problem(data, mask, RESTART_DTYPE, True)
-    fitted = stages.solve(subset, x0 if batch is None else batch.x, max_iterations,
-                          stages.restart_step_tolerance)
-    batch = fitted if batch is None else chain(batch, fitted)
-
-    # the same data without subsets: share the subset problem's tables where it can
-    everything = (subset.with_mask(None) if hasattr(subset, "with_mask")
-                  else stages.problem(data, None, RESTART_DTYPE, True))
-    refined = stages.solve(everything, batch.x, max_iterations, stages.restart_step_tolerance)
+    moments = stages.moments(data)
+    batch = stages.solve(moments.with_mask(mask), x0, max_iterations,
+                         stages.restart_step_tolerance)
+    refined = stages.solve(moments.with_mask(None), batch.x, max_iterations,
+                           stages.restart_step_tolerance)
     project = stages.project or (lambda x: x)
-    best, _ = best_restart(project(refined.x), refined.final_cost, stages.distance,
-                           stages.agreement)
+    representatives, basin = distinct_minima(project(refined.x), refined.final_cost,
+                                             stages.distance, stages.agreement)
     polished = stages.solve(stages.problem(data, None, np.float64, True),
-                            refined.x[best][None, :], max_iterations, stages.step_tolerance)
-    refined = chain(refined, polished, np.array([best]))
-    # best is not chosen again: the other restarts' costs are single precision
-    finals = project(refined.x)
-    return Multistart(batch, refined, finals, best,
-                      agreeing(finals, best, stages.distance, stages.agreement))
+                            refined.x[representatives], max_iterations, stages.step_tolerance)
+    finals = project(refined.x).copy()
+    final_cost = np.full(finals.shape[0], np.nan)
+    inside = basin >= 0
+    finals[inside] = project(polished.x)[basin[inside]]
+    final_cost[inside] = polished.final_cost[basin[inside]]
+    best, _ = best_restart(finals[representatives], final_cost[representatives],
+                           stages.distance, stages.agreement)
+    best = int(representatives[best])
+    return Multistart(batch, refined, polished, representatives, basin, finals, final_cost,
+                      best, agreeing(finals, best, stages.distance, stages.agreement))
+
+
+def distinct_minima(finals: np.ndarray, costs: np.ndarray, distance: Callable,
+                    agreement: float) -> tuple[np.ndarray, np.ndarray]:
+    """(representatives, basin): the lowest-cost restart of each group of ``finals``
+    (R, s) within ``agreement`` of it, lowest costs first, at most ``MAX_POLISHED``; and
+    each restart's group (-1: none). One pass per group, not per restart."""
+    basin = np.full(finals.shape[0], -1)
+    left = np.isfinite(costs) & np.isfinite(finals).all(axis=1)
+    representatives = []
+    while left.any() and len(representatives) < MAX_POLISHED:
+        rep = int(np.flatnonzero(left)[np.argmin(costs[left])])
+        near = left & (distance(finals, finals[rep]) <= agreement)
+        basin[near] = len(representatives)
+        representatives.append(rep)
+        left &= ~near
+    if not representatives:
+        raise InputError("no restart produced a finite result")
+    return np.array(representatives), basin

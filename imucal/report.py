@@ -60,7 +60,10 @@ def axis_report(result: AxisResult, *, input_info: dict, trace: bool = False) ->
         "settings": result.settings,
         "convention": _axis_convention(result.settings["sign_convention"]),
         "units": {"j1": "unit vector", "j2": "unit vector", "rms_residual": "rad/s",
-                  "cost": "rad/s (RMS residual)", "uncertainty": "deg", "spread": "deg",
+                  "cost": "rad/s (RMS residual: polished_cost)",
+                  "restart_cost": "(rad/s)^2 (RMS squared-norm residual: final_cost, "
+                                  "refined_cost, traces)",
+                  "uncertainty": "deg", "spread": "deg",
                   "time_offset": "s (positive: the second sensor's clock is late)",
                   "gyr_bias": "rad/s"},
         "j1": result.j1,
@@ -83,7 +86,10 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
         "settings": result.settings,
         "convention": POSITION_CONVENTION,
         "units": {"o1": "m", "o2": "m", "rms_residual": "m/s^2",
-                  "cost": "m/s^2 (RMS residual)", "uncertainty": "mm", "spread": "mm",
+                  "cost": "m/s^2 (RMS residual: polished_cost)",
+                  "restart_cost": "(m/s^2)^2 (RMS squared-norm residual: final_cost, "
+                                  "refined_cost, traces)",
+                  "uncertainty": "mm", "spread": "mm",
                   "time_offset": "s (positive: the second sensor's clock is late)"},
         "joint": result.joint,
         "o1": result.o1,
@@ -115,8 +121,9 @@ UNCERTAINTY_METHOD = (
     "widening by a removed gyroscope bias (see uncertainty_components and docs/quality.md)"
 )
 SPREAD_METHOD = (
-    "RMS distance between the estimate and the results of the restarts that reached it, "
-    "each fitted on a random half of the samples (leaving out subset fits stuck in a local "
+    "RMS distance between the best restart's fit on all samples and the results of the "
+    "restarts that reached the estimate, each fitted on a random half of the samples (both "
+    "on the restarts' squared-norm residual; leaving out subset fits stuck in a local "
     "minimum: RMS residual above 1.25 x the median)"
 )
 
@@ -212,7 +219,10 @@ def _restart_entries(result, first: str, second: str, trace: bool = False) -> li
     """One JSON entry per restart; ``first``/``second`` name the two state vectors.
 
     Costs are RMS residuals: ``final_cost`` on the restart's subset (as ``final``),
-    ``refined_cost`` on all samples; ``trace`` adds each stage's cost per iteration.
+    ``refined_cost`` on all samples, both of the squared-norm form the restarts fit;
+    ``polished_cost`` of the paper's residual at the minimum of the restart's basin
+    (polished from its lowest-cost restart, shared by the basin); ``trace`` adds each
+    stage's cost per iteration.
     """
     batch, refined = result.batch, result.refined
 
@@ -230,6 +240,7 @@ def _restart_entries(result, first: str, second: str, trace: bool = False) -> li
             "reached_estimate": bool(result.reached[r]),
             "final_cost": _rounded(_rms(batch.cost[r, batch.iterations[r]])),
             "refined_cost": _rounded(_rms(refined.cost[r, refined.iterations[r]])),
+            "polished_cost": _rounded(_rms(result.final_cost[r])),
         }
         if trace:
             entry["cost_trace"] = _cost_trace(batch.cost[r])

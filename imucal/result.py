@@ -43,9 +43,9 @@ class EstimateResult(Verdict):
     excitation : how much the joint moved over the samples used (per estimator).
     sensitivity : cut-offs of the two refits from the estimate, "cutoffs_hz", and how far
         each vector moved (":math:`v`\\_shift_deg" or "..._shift_mm", and the maximum).
-    convergence_fraction : fraction of restarts that reached the estimate: whose final
-        value, refined on all samples, lies within the agreement distance of it. The
-        estimate is the refined result with the lowest cost.
+    convergence_fraction : fraction of restarts that reached the estimate: whose minimum
+        (found on all samples, then polished, ``finals``) lies within the agreement
+        distance of it. The estimate is the polished minimum with the lowest cost.
     competing_agreement : the same fraction among restarts whose RMS residual is within
         1.25 x the best (clearly worse local minima do not count).
     equal_minima : restarts that ended elsewhere at an RMS residual within
@@ -55,9 +55,15 @@ class EstimateResult(Verdict):
         estimate).
     reached : (R,) which restarts reached the estimate.
     batch : the restarts on their subsets (initial states ``batch.path[0]``, costs,
-        iterations), the coarse stage's steps first (:mod:`imucal.multistart`).
-    refined : each restart's result refined on all samples; the estimate is the one with
-        the lowest cost, polished in double precision.
+        iterations), on the squared-norm form of the residual (:mod:`imucal.multistart`,
+        :mod:`imucal.moments`; costs are mean squares of that form).
+    refined : each restart's result refined on all samples, on the same form.
+    finals : (R, s) each restart's minimum polished with the paper's residual (all
+        restarts of one basin share it; a restart in none of the polished basins keeps
+        its refined state).
+    final_cost : (R,) the paper's mean squared residual at ``finals`` (NaN where not
+        polished); the estimate's is the lowest.
+    best : index of the restart the estimate came from.
     settings : every setting used, including the seed.
     samples_used : samples after window, subsampling and informative-sample selection.
     window : (start, end) in seconds from the first sample.
@@ -85,6 +91,9 @@ class EstimateResult(Verdict):
     reached: np.ndarray
     batch: BatchResult
     refined: BatchResult
+    finals: np.ndarray
+    final_cost: np.ndarray
+    best: int
     settings: dict
     samples_used: int
     window: tuple[float, float]
@@ -96,7 +105,7 @@ class EstimateResult(Verdict):
 
     @property
     def iterations(self) -> np.ndarray:
-        """(R,) iterations of each restart on its subset (coarse stage included)."""
+        """(R,) iterations of each restart on its subset."""
         return self.batch.iterations
 
 
@@ -123,6 +132,9 @@ def shared_fields(p: Prepared, fit: Multistart, q: dict, *, unit: str, settings:
         "reached": fit.reached,
         "batch": fit.batch,
         "refined": fit.refined,
+        "finals": fit.finals,
+        "final_cost": fit.final_cost,
+        "best": fit.best,
         "settings": settings,
         "samples_used": p.samples,
         "window": p.span_s,
