@@ -428,7 +428,6 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
         "gyr_bias": {"j1": 0.0, "j2": 0.0},
     }
     keep = settled(fit.batch.final_cost, fit.reached)
-    centre = fit.refined.x[fit.best]
     return {
         "rms": rms_e,
         "relative": rms_e / scale if scale > 0 else float("inf"),
@@ -439,12 +438,12 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
         "components": components,
         "uncertainty": uncertainty_totals(components),
         "fraction": float(fit.reached.mean()),
-        "agreement": competing_agreement(fit.final_cost, fit.reached),
+        "agreement": competing_agreement(fit.refined.final_cost, fit.reached),
         # around the subsets' own (squared-form) minimum on all samples: the spread
         # measures the subsets, not the two forms' difference
-        "spread": {k: rms(_angle_deg(fit.batch.x[keep, sl], centre[sl]))
+        "spread": {k: rms(_angle_deg(fit.batch.x[keep, sl], fit.centre[sl]))
                    for k, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6)))},
-        "minima": equal_minima(fit.finals, fit.final_cost, fit.best, fit.reached,
+        "minima": equal_minima(fit.refined.x, fit.refined.final_cost, fit.best, fit.reached,
                                _axis_distance),
     }
 

@@ -16,9 +16,10 @@ later step independent of the number of samples.
 
 The squared form has the same zero-residual solutions as the norms themselves, and
 near them the same minimum; with residuals left (noise, soft tissue) it weighs each
-sample's misfit by the sum of the two norms. The restarts therefore use it only to find
-the basins and measure how the answer depends on the start and on the data subset; the
-estimate is then polished in the norms of the paper (:mod:`imucal.multistart`).
+sample's misfit by the sum of the two norms, and two nearly equal minima of the paper's
+cost may be one of its. The restarts therefore use it only for their first, large steps
+from random starts on their subsets (and the subset spread); they are then refined with
+the paper's residual on all samples (:mod:`imucal.multistart`).
 
 The moments are summed in double precision: the cost at a minimum is a small difference
 of large moments.

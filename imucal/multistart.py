@@ -3,23 +3,23 @@
 Sec. IV runs 100 restarts, each from random initial values on a different subset of the
 data. imucal runs them as one batch through three stages:
 
-1. **restarts**: every restart on its own random subset of the samples, on the
-   squared-norm form of the constraint (:mod:`imucal.moments`): its cost and normal
-   equations come from moment matrices summed once per subset, so a step of a restart
-   costs the same however long the recording is;
-2. **refine**: every restart continued on all samples, on the same squared form (one
-   moment matrix): comparable costs, so the lowest is that form's least-squares answer
-   and the restarts that reach it measure independence from the start;
-3. **polish**: every distinct minimum the restarts reached (restarts within
-   ``Stages.agreement`` of each other are one), at most ``MAX_POLISHED`` of them, fitted
-   in double precision on all samples to the paper's own residual (differences of the
-   norms), to the final tolerance. The estimate is the polished minimum with the lowest
-   cost; each restart ends at the polished minimum of its basin.
+1. **restarts**: every restart from its random start on its own random subset of the
+   samples, on the squared-norm form of the constraint (:mod:`imucal.moments`): its cost
+   and normal equations come from moment matrices summed once per subset, so a step
+   costs the same however long the recording is. The large first steps from a random
+   start only have to find the basin;
+2. **refine**: every restart continued on all samples with the paper's own residual
+   (differences of the norms), in single precision, with Newton steps near the minimum:
+   the costs are comparable, so the lowest is the least-squares answer, and the share of
+   restarts reaching it measures independence from the start;
+3. **polish**: the best restart alone, in double precision, to the final tolerance.
 
-The squared form and the norms have the same zero-residual solutions; with residuals
-left, the squared form weighs samples by the size of their norms, so its minima sit
-near but not exactly on the norms' minima: the polish moves them there, in one or two
-steps.
+The squared form has the same zero-residual solutions as the norms; where residuals
+remain it weighs each sample's misfit by the size of its norms, so its minima lie near
+but not on the paper's, and where the paper's cost has two nearly equal minima its
+squared form may have one. That is why the restarts are refined with the paper's
+residual: the basins the refinement finds, their costs and the restarts that reach the
+estimate are those of the paper's cost.
 
 A problem plugs in as a :class:`Stages`: how to build its batched residual ("problem":
 ``normal`` and ``cost`` over many restarts, :func:`imucal.gauss_newton.gauss_newton`)
@@ -35,8 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from .errors import InputError
-from .gauss_newton import BatchResult, gauss_newton
+from .gauss_newton import BatchResult, chain, gauss_newton
 from .restarts import agreeing, best_restart
 
 #: Precision of the restarts' arithmetic: single precision halves the time of the
@@ -83,9 +82,8 @@ def safe_newton(jtj: np.ndarray, hess: np.ndarray) -> np.ndarray:
     indefinite: there J^T J (always positive semi-definite) gives a descent direction.
     "Safely" means the lowest eigenvalue exceeds ``MIN_HESSIAN_EIGENVALUE`` times the
     trace of J^T J, i.e. ``hess - bound I`` is positive definite: tested for the whole
-    batch by one Cholesky factorisation, and where that fails row by row by Sylvester's
-    criterion (every leading principal minor positive: k small determinants per batch,
-    a fraction of the cost of eigenvalues).
+    batch by one Cholesky factorisation, and where that fails row by row
+    (:func:`_positive_definite`).
     """
     k = hess.shape[-1]
     bound = MIN_HESSIAN_EIGENVALUE * np.trace(jtj, axis1=1, axis2=2)
@@ -97,12 +95,28 @@ def safe_newton(jtj: np.ndarray, hess: np.ndarray) -> np.ndarray:
             return hess
         except np.linalg.LinAlgError:
             pass
-    shifted = np.where(finite[:, None, None], shifted, -np.eye(k))
-    safe = finite.copy()
-    for m in range(1, k + 1):
-        safe &= np.linalg.det(shifted[:, :m, :m]) > 0
+    safe = finite & _positive_definite(np.where(finite[:, None, None], shifted, -np.eye(k)))
     # a row whose J^T J is not finite either is dropped by the solver
     return np.where(safe[:, None, None], hess, jtj)
+
+
+def _positive_definite(a: np.ndarray) -> np.ndarray:
+    """(r,) whether each symmetric (r, k, k) matrix is positive definite: Gaussian
+    elimination without pivoting, all rows at once; every pivot is positive exactly when
+    every leading principal minor is (Sylvester's criterion). A few element-wise
+    operations per column, a fraction of the cost of eigenvalues or k determinants."""
+    a = a.copy()
+    ok = np.ones(a.shape[0], dtype=bool)
+    # huge entries (impacts on real data) may overflow: inf or NaN pivots read as "not
+    # positive definite", which is the safe answer
+    with np.errstate(over="ignore", invalid="ignore"):
+        for m in range(a.shape[-1]):
+            pivot = a[:, m, m]
+            ok &= pivot > 0
+            pivot = np.where(ok, pivot, 1.0)  # a failed row's later pivots do not matter
+            below = a[:, m + 1:, m] / pivot[:, None]
+            a[:, m + 1:, m + 1:] -= below[:, :, None] * a[:, m, None, m + 1:]
+    return ok
 
 
 @dataclass(frozen=True)
@@ -181,42 +195,28 @@ class Multistart:
 
     Attributes
     ----------
-    batch : the restarts on their subsets (squared-norm form).
-    refined : each restart refined on all samples (squared-norm form).
-    polished : the distinct minima of ``refined``, polished on all samples with the
-        paper's residual; row k started from restart ``representatives[k]``.
-    representatives : (P,) restart each polished row started from (the lowest-cost
-        restart of its basin).
-    basin : (R,) row of ``polished`` each restart's basin was polished in; -1 for a
-        restart that ended nowhere finite or beyond the ``MAX_POLISHED`` lowest basins.
-    finals : (R, s) each restart's polished minimum as compared (after
-        ``Stages.project``); its own refined state where ``basin`` is -1.
-    final_cost : (R,) the paper's cost (mean square) at ``finals``; NaN where ``basin``
-        is -1.
-    best : index of the restart the estimate came from (the lowest ``final_cost``).
+    batch : the restarts on their subsets (squared-norm form, :mod:`imucal.moments`).
+    refined : each restart refined on all samples with the paper's residual; the best
+        one polished.
+    finals : the refined states as compared (after ``Stages.project``), (R, s).
+    best : index of the estimate, the refined restart with the lowest cost.
     reached : (R,) restarts whose final state lies within ``Stages.agreement`` of it.
+    centre : (s,) the squared-norm form's minimum on all samples next to the estimate
+        (as compared): the subset results scatter around it, not around the estimate,
+        where residuals remain.
     """
 
     batch: BatchResult
     refined: BatchResult
-    polished: BatchResult
-    representatives: np.ndarray
-    basin: np.ndarray
     finals: np.ndarray
-    final_cost: np.ndarray
     best: int
     reached: np.ndarray
+    centre: np.ndarray
 
     @property
     def estimate(self) -> np.ndarray:
-        """The best polished (projected) state (s,)."""
+        """The best refined (polished, projected) state (s,)."""
         return self.finals[self.best]
-
-
-#: At most this many distinct minima of the restarts are polished (lowest costs first):
-#: restarts scatter over a handful of basins, and a minimum found by none of the lowest
-#: ones does not compete for the estimate.
-MAX_POLISHED = 12
 
 
 def multistart(stages: Stages, data: tuple, mask: np.ndarray | None, x0: np.ndarray,
@@ -229,39 +229,18 @@ def multistart(stages: Stages, data: tuple, mask: np.ndarray | None, x0: np.ndar
     moments = stages.moments(data)
     batch = stages.solve(moments.with_mask(mask), x0, max_iterations,
                          stages.restart_step_tolerance)
-    refined = stages.solve(moments.with_mask(None), batch.x, max_iterations,
-                           stages.restart_step_tolerance)
+    refined = stages.solve(stages.problem(data, None, RESTART_DTYPE, True), batch.x,
+                           max_iterations, stages.restart_step_tolerance)
     project = stages.project or (lambda x: x)
-    representatives, basin = distinct_minima(project(refined.x), refined.final_cost,
-                                             stages.distance, stages.agreement)
+    best, _ = best_restart(project(refined.x), refined.final_cost, stages.distance,
+                           stages.agreement)
     polished = stages.solve(stages.problem(data, None, np.float64, True),
-                            refined.x[representatives], max_iterations, stages.step_tolerance)
-    finals = project(refined.x).copy()
-    final_cost = np.full(finals.shape[0], np.nan)
-    inside = basin >= 0
-    finals[inside] = project(polished.x)[basin[inside]]
-    final_cost[inside] = polished.final_cost[basin[inside]]
-    best, _ = best_restart(finals[representatives], final_cost[representatives],
-                           stages.distance, stages.agreement)
-    best = int(representatives[best])
-    return Multistart(batch, refined, polished, representatives, basin, finals, final_cost,
-                      best, agreeing(finals, best, stages.distance, stages.agreement))
-
-
-def distinct_minima(finals: np.ndarray, costs: np.ndarray, distance: Callable,
-                    agreement: float) -> tuple[np.ndarray, np.ndarray]:
-    """(representatives, basin): the lowest-cost restart of each group of ``finals``
-    (R, s) within ``agreement`` of it, lowest costs first, at most ``MAX_POLISHED``; and
-    each restart's group (-1: none). One pass per group, not per restart."""
-    basin = np.full(finals.shape[0], -1)
-    left = np.isfinite(costs) & np.isfinite(finals).all(axis=1)
-    representatives = []
-    while left.any() and len(representatives) < MAX_POLISHED:
-        rep = int(np.flatnonzero(left)[np.argmin(costs[left])])
-        near = left & (distance(finals, finals[rep]) <= agreement)
-        basin[near] = len(representatives)
-        representatives.append(rep)
-        left &= ~near
-    if not representatives:
-        raise InputError("no restart produced a finite result")
-    return np.array(representatives), basin
+                            refined.x[best][None, :], max_iterations, stages.step_tolerance)
+    refined = chain(refined, polished, np.array([best]))
+    # best is not chosen again: the other restarts' costs are single precision
+    finals = project(refined.x)
+    centre = stages.solve(moments.with_mask(None), refined.x[best][None, :], max_iterations,
+                          stages.restart_step_tolerance).x
+    return Multistart(batch, refined, finals, best,
+                      agreeing(finals, best, stages.distance, stages.agreement),
+                      project(centre)[0])

@@ -8,18 +8,17 @@ vector segments would make files of megabytes that viewers draw slowly), axes an
 stay vector.
 
 Every restart is drawn through both its stages, shaded and named in each per-iteration
-panel: the fit on the restart's random data subset, then the refinement on all samples,
-both on the squared-norm form of the residual (:mod:`imucal.multistart`); costs are RMS
-values of that form on the samples a stage fits, so a curve steps where its restart
-changes stage; that step is expected. The estimate (dashed) is the best basin's minimum
-polished with the paper's residual, a little off the restarts' ends where residuals
-remain. Blue: restarts that reached the estimate; grey: the others; black: the best
-restart.
+panel: the fit on the restart's random data subset, on the squared-norm form of the
+residual (:mod:`imucal.multistart`; its cost on the left axis), then the refinement on
+all samples with the paper's residual (its cost on the right axis), where the best
+restart is polished further; a curve steps where its restart changes stage, which is
+expected. Blue: restarts that reached the estimate; grey: the others; black: the best
+restart, the estimate.
 
 The restart-spread panel shows where the reported spread (``quality.*_spread_*``) comes
-from: each restart's result on its data subset, relative to the best restart's refined
-result on all samples (the same residual form), in deg (axis) or mm (position). Its
-Axes carries the gid :data:`SPREAD_GID`.
+from: each restart's result on its data subset, relative to the squared-norm form's fit
+on all samples next to the estimate (what the subset fits scatter around), in deg (axis)
+or mm (position). Its Axes carries the gid :data:`SPREAD_GID`.
 """
 
 from __future__ import annotations
@@ -67,8 +66,9 @@ class _Stage:
 def axis_figure(result: AxisResult, sensors: str = "") -> Figure:
     """The axis estimate's convergence (Fig. 4 of the paper) and its data dependence.
 
-    Panels: cost per iteration by stage ((rad/s)^2); j1, j2 components per iteration;
-    each restart's subset fit as an angle from the best restart's refined result (deg);
+    Panels: cost per iteration by stage ((rad/s)^2 on the subsets, rad/s on all
+    samples); j1, j2 components per iteration; each restart's subset fit as an angle
+    from the fit on all samples it scatters around (deg);
     eq. (1) at the estimate; both sensors' rates in their joint planes (rad/s, drawn as
     points).
     """
@@ -78,7 +78,7 @@ def axis_figure(result: AxisResult, sensors: str = "") -> Figure:
     best = _best_axis_restart(result)
     stages = _subset_and_refined(result)
     path = _aligned_axis_path(result)
-    _cost_panel(ax["cost"], result, "(rad/s)^2", stages, best)
+    _cost_panel(ax["cost"], result, ("(rad/s)^2", "rad/s"), stages, best)
     _component_panel(ax["j1"], path[:, :, :3], result, result.j1, stages, best,
                      "j1 (first sensor's frame) per iteration", "component (unit vector)")
     _component_panel(ax["j2"], path[:, :, 3:], result, result.j2, stages, best,
@@ -95,9 +95,9 @@ def axis_figure(result: AxisResult, sensors: str = "") -> Figure:
 def position_figure(result: PositionResult, sensors: str = "") -> Figure:
     """The joint-position estimate's convergence (Fig. 5 of the paper), in mm.
 
-    Panels: cost per iteration by stage ((m/s^2)^2); o1, o2 components per iteration
-    (mm); each restart's subset fit relative to the best restart's refined result, per
-    component (mm). For a hinge
+    Panels: cost per iteration by stage ((m/s^2)^2 on the subsets, m/s^2 on all
+    samples); o1, o2 components per iteration (mm); each restart's subset fit relative
+    to the fit on all samples it scatters around, per component (mm). For a hinge
     every point is first moved along the axis to the point closest to both sensors, as
     the estimate is.
     """
@@ -109,7 +109,7 @@ def position_figure(result: PositionResult, sensors: str = "") -> Figure:
         path = closest_point_on_axis(path, line)
     best = _best_position_restart(result, line)
     stages = _subset_and_refined(result)
-    _cost_panel(ax["cost"], result, "(m/s^2)^2", stages, best)
+    _cost_panel(ax["cost"], result, ("(m/s^2)^2", "m/s^2"), stages, best)
     for key, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6))):
         which = "first" if key == "o1" else "second"
         _component_panel(ax[key], 1000 * path[:, :, sl], result,
@@ -202,7 +202,8 @@ def _best_position_restart(result: PositionResult, line) -> int:
 def _subset_and_refined(result) -> list[_Stage]:
     k1 = result.batch.cost.shape[1] - 1
     end = k1 + result.refined.cost.shape[1] - 1
-    return [_Stage("subset: each restart on its random half of the samples", 0, k1, "white"),
+    return [_Stage("subset: each restart on its random half of the samples (squared-norm "
+                   "form)", 0, k1, "white"),
             _Stage("refined on all samples", k1, end, "#dbe9f6")]
 
 
@@ -223,43 +224,48 @@ def _filled(cost: np.ndarray) -> np.ndarray:
     return out
 
 
-def _cost_panel(ax, result, unit: str, stages: list[_Stage], best: int) -> None:
-    subset = _filled(result.batch.cost)
-    refined = _filled(result.refined.cost)
-    with np.errstate(invalid="ignore"):
-        cost = np.sqrt(np.concatenate([subset, refined[:, 1:]], axis=1))  # mean square -> RMS
-    its = np.arange(cost.shape[1])
+def _cost_panel(ax, result, units: tuple[str, str], stages: list[_Stage], best: int) -> None:
+    """Cost per iteration: the subset stage's squared-norm form (``units[0]``, left axis),
+    then the refinement's paper residual (``units[1]``, right axis)."""
+    with np.errstate(invalid="ignore"):  # mean square -> RMS
+        subset = np.sqrt(_filled(result.batch.cost))
+        refined = np.sqrt(_filled(result.refined.cost))
+    k1 = subset.shape[1] - 1
     _shade(ax, stages)
     reached = np.asarray(result.reached, dtype=bool)
-    # the few restarts that did not reach the estimate go on top: where they end at the
-    # estimate's cost, a competing minimum, they must not hide behind the blue ones
-    for mask, colour in ((reached, _REACHED), (~reached, _OTHER)):
-        if mask.any():
-            ax.plot(its, cost[mask].T, color=colour, lw=0.7, alpha=0.5, rasterized=True)
-    ax.plot(its, cost[best], color=_BEST, lw=1.5)
-    finite = cost[np.isfinite(cost) & (cost > 0)]
-    if finite.size and finite.max() > 10 * finite.min():
-        ax.set_yscale("log")
-        _plain_log_ticks(ax.yaxis)
-    else:  # within a decade a log axis would carry one or two labels
-        ax.yaxis.get_major_formatter().set_useOffset(False)
+    right = ax.twinx()
+    for axes, cost, its in ((ax, subset, np.arange(k1 + 1)),
+                            (right, refined, k1 + np.arange(refined.shape[1]))):
+        # the few restarts that did not reach the estimate go on top: where they end at
+        # the estimate's cost, a competing minimum, they must not hide behind the blue ones
+        for mask, colour in ((reached, _REACHED), (~reached, _OTHER)):
+            if mask.any():
+                axes.plot(its, cost[mask].T, color=colour, lw=0.7, alpha=0.5,
+                          rasterized=True)
+        axes.plot(its, cost[best], color=_BEST, lw=1.5)
+        finite = cost[np.isfinite(cost) & (cost > 0)]
+        if finite.size and finite.max() > 10 * finite.min():
+            axes.set_yscale("log")
+            _plain_log_ticks(axes.yaxis)
+        else:  # within a decade a log axis would carry one or two labels
+            axes.yaxis.get_major_formatter().set_useOffset(False)
     _iteration_axis(ax)
     n = len(reached)
-    ax.set(ylabel=f"RMS squared-norm residual ({unit})",
+    ax.set(ylabel=f"subsets: RMS squared-norm residual ({units[0]})",
            title=f"Cost of {n} restarts per iteration ({int(reached.sum())} reached the "
                  "estimate)")
+    right.set_ylabel(f"all samples: RMS residual ({units[1]})")
     n_reached = int(reached.sum())
     handles = [
         Line2D([], [], color=_REACHED, lw=1.2, label=f"reached the estimate ({n_reached})"),
         Line2D([], [], color=_OTHER, lw=1.2, label=f"did not reach it ({n - n_reached})"),
         Line2D([], [], color=_BEST, lw=1.5,
-               label="best restart (its minimum, polished with\nthe paper's residual, is "
-                     "the estimate)"),
+               label="best restart = the estimate\n(polished further on all samples)"),
     ] + [Patch(facecolor=st.colour, edgecolor="0.5", lw=0.5, label=st.name) for st in stages]
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.09, 1.0), fontsize=8,
               title_fontsize=8, alignment="left",
-              title="Each stage fits other samples, so\na curve steps where its restart\n"
-                    "moves on: expected, not a failure")
+              title="Each stage fits other samples and\nits own residual (left and right\n"
+                    "axis), so a curve steps where its\nrestart moves on: expected")
 
 
 def _component_panel(ax, path, result, final, stages, best, title, ylabel,
@@ -297,32 +303,28 @@ def _plain_log_ticks(axis) -> None:
 def _axis_spread_panel(ax, result: AxisResult) -> None:
     """Each restart's subset fit: its angle from the best restart's refined result, deg,
     per axis."""
-    centre = result.refined.x[result.best]
-    angles = _axis_angles_deg(result.batch.x, result, centre)
+    angles = _axis_angles_deg(result.batch.x, result, result.centre)
     spread = getattr(result, "spread_deg", {}) or {}
     _strip(ax, ["j1", "j2"], angles, result, "angle (deg)", " deg", signed=False,
            rms={0: spread.get("j1"), 1: spread.get("j2")}, rms_groups={0: [0], 1: [1]})
-    ax.set_title("Each restart's fit on its data subset: angle from the best restart's "
-                 "fit on all samples\n(the spread is the RMS of the blue points)")
+    ax.set_title("Each restart's fit on its data subset: angle from the fit on all "
+                 "samples\n(the spread is the RMS of the blue points)")
 
 
 def _position_spread_panel(ax, result: PositionResult, line) -> None:
     """Each restart's subset fit minus the estimate, per component, mm."""
     x = result.batch.x if line is None else closest_point_on_axis(result.batch.x, line)
-    centre = result.refined.x[result.best]
-    if line is not None:
-        centre = closest_point_on_axis(centre, line)
-    d = 1000 * (x - centre)
+    d = 1000 * (x - result.centre)
     spread = getattr(result, "spread_mm", {}) or {}
     names = [f"{v} {c}" for v in ("o1", "o2") for c in "xyz"]
-    _strip(ax, names, d, result, "subset fit - best fit on all samples (mm)", " mm",
+    _strip(ax, names, d, result, "subset fit - fit on all samples (mm)", " mm",
            signed=True,
            rms={1: spread.get("o1"), 4: spread.get("o2")},
            rms_groups={1: [0, 1, 2], 4: [3, 4, 5]})
     hinge = " (moved along the axis to the point closest to both sensors)" if line is not None \
         else ""
-    ax.set_title(f"Each restart's fit on its data subset{hinge}, relative to the best "
-                 "restart's fit on all samples\n"
+    ax.set_title(f"Each restart's fit on its data subset{hinge}, relative to the fit on "
+                 "all samples\n"
                  "(the spread is the RMS distance of the blue points)")
 
 

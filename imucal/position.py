@@ -362,12 +362,7 @@ def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
     }
     subset_finals = fit.batch.x if line is None else closest_point_on_axis(fit.batch.x, line)
     keep = settled(fit.batch.final_cost, fit.reached)
-    # around the subsets' own (squared-form) minimum on all samples: the spread measures
-    # the subsets, not the two forms' difference
-    centre = fit.refined.x[fit.best]
-    if line is not None:
-        centre = closest_point_on_axis(centre, line)
-    count, apart, ratio = equal_minima(fit.finals, fit.final_cost, fit.best,
+    count, apart, ratio = equal_minima(fit.finals, fit.refined.final_cost, fit.best,
                                        fit.reached, _position_distance)
     return {
         "rms": rms_e,
@@ -381,8 +376,11 @@ def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
         "components": components,
         "uncertainty": uncertainty_totals(components),
         "fraction": float(fit.reached.mean()),
-        "agreement": competing_agreement(fit.final_cost, fit.reached),
-        "spread": {k: rms(np.linalg.norm(subset_finals[keep, sl] - centre[sl], axis=1) * 1000)
+        "agreement": competing_agreement(fit.refined.final_cost, fit.reached),
+        # around the subsets' own (squared-form) minimum on all samples: the spread
+        # measures the subsets, not the two forms' difference
+        "spread": {k: rms(np.linalg.norm(subset_finals[keep, sl] - fit.centre[sl], axis=1)
+                          * 1000)
                    for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))},
         "minima": (count, 1000 * apart, ratio),  # distance in mm
         "weak_direction": (_weak_direction(cov, float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,

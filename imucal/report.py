@@ -60,9 +60,9 @@ def axis_report(result: AxisResult, *, input_info: dict, trace: bool = False) ->
         "settings": result.settings,
         "convention": _axis_convention(result.settings["sign_convention"]),
         "units": {"j1": "unit vector", "j2": "unit vector", "rms_residual": "rad/s",
-                  "cost": "rad/s (RMS residual: polished_cost)",
+                  "cost": "rad/s (RMS residual: refined_cost, refined_cost_trace)",
                   "restart_cost": "(rad/s)^2 (RMS squared-norm residual: final_cost, "
-                                  "refined_cost, traces)",
+                                  "cost_trace)",
                   "uncertainty": "deg", "spread": "deg",
                   "time_offset": "s (positive: the second sensor's clock is late)",
                   "gyr_bias": "rad/s"},
@@ -86,9 +86,9 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
         "settings": result.settings,
         "convention": POSITION_CONVENTION,
         "units": {"o1": "m", "o2": "m", "rms_residual": "m/s^2",
-                  "cost": "m/s^2 (RMS residual: polished_cost)",
+                  "cost": "m/s^2 (RMS residual: refined_cost, refined_cost_trace)",
                   "restart_cost": "(m/s^2)^2 (RMS squared-norm residual: final_cost, "
-                                  "refined_cost, traces)",
+                                  "cost_trace)",
                   "uncertainty": "mm", "spread": "mm",
                   "time_offset": "s (positive: the second sensor's clock is late)"},
         "joint": result.joint,
@@ -121,10 +121,10 @@ UNCERTAINTY_METHOD = (
     "widening by a removed gyroscope bias (see uncertainty_components and docs/quality.md)"
 )
 SPREAD_METHOD = (
-    "RMS distance between the best restart's fit on all samples and the results of the "
-    "restarts that reached the estimate, each fitted on a random half of the samples (both "
-    "on the restarts' squared-norm residual; leaving out subset fits stuck in a local "
-    "minimum: RMS residual above 1.25 x the median)"
+    "RMS distance between the results of the restarts that reached the estimate, each "
+    "fitted on a random half of the samples, and the fit on all samples next to the "
+    "estimate (both of the subset stage's squared-norm residual; leaving out subset fits "
+    "stuck in a local minimum: RMS residual above 1.25 x the median)"
 )
 
 
@@ -218,11 +218,9 @@ RESTART_DIGITS = 7
 def _restart_entries(result, first: str, second: str, trace: bool = False) -> list[dict]:
     """One JSON entry per restart; ``first``/``second`` name the two state vectors.
 
-    Costs are RMS residuals: ``final_cost`` on the restart's subset (as ``final``),
-    ``refined_cost`` on all samples, both of the squared-norm form the restarts fit;
-    ``polished_cost`` of the paper's residual at the minimum of the restart's basin
-    (polished from its lowest-cost restart, shared by the basin); ``trace`` adds each
-    stage's cost per iteration.
+    Costs are RMS residuals: ``final_cost`` on the restart's subset (as ``final``), of
+    the squared-norm form the subset stage fits; ``refined_cost`` on all samples, of the
+    paper's residual; ``trace`` adds each stage's cost per iteration.
     """
     batch, refined = result.batch, result.refined
 
@@ -240,7 +238,6 @@ def _restart_entries(result, first: str, second: str, trace: bool = False) -> li
             "reached_estimate": bool(result.reached[r]),
             "final_cost": _rounded(_rms(batch.cost[r, batch.iterations[r]])),
             "refined_cost": _rounded(_rms(refined.cost[r, refined.iterations[r]])),
-            "polished_cost": _rounded(_rms(result.final_cost[r])),
         }
         if trace:
             entry["cost_trace"] = _cost_trace(batch.cost[r])

@@ -43,9 +43,9 @@ class EstimateResult(Verdict):
     excitation : how much the joint moved over the samples used (per estimator).
     sensitivity : cut-offs of the two refits from the estimate, "cutoffs_hz", and how far
         each vector moved (":math:`v`\\_shift_deg" or "..._shift_mm", and the maximum).
-    convergence_fraction : fraction of restarts that reached the estimate: whose minimum
-        (found on all samples, then polished, ``finals``) lies within the agreement
-        distance of it. The estimate is the polished minimum with the lowest cost.
+    convergence_fraction : fraction of restarts that reached the estimate: whose final
+        value, refined on all samples, lies within the agreement distance of it. The
+        estimate is the refined result with the lowest cost.
     competing_agreement : the same fraction among restarts whose RMS residual is within
         1.25 x the best (clearly worse local minima do not count).
     equal_minima : restarts that ended elsewhere at an RMS residual within
@@ -57,13 +57,11 @@ class EstimateResult(Verdict):
     batch : the restarts on their subsets (initial states ``batch.path[0]``, costs,
         iterations), on the squared-norm form of the residual (:mod:`imucal.multistart`,
         :mod:`imucal.moments`; costs are mean squares of that form).
-    refined : each restart's result refined on all samples, on the same form.
-    finals : (R, s) each restart's minimum polished with the paper's residual (all
-        restarts of one basin share it; a restart in none of the polished basins keeps
-        its refined state).
-    final_cost : (R,) the paper's mean squared residual at ``finals`` (NaN where not
-        polished); the estimate's is the lowest.
+    refined : each restart's result refined on all samples with the paper's residual;
+        the estimate is the one with the lowest cost, polished in double precision.
     best : index of the restart the estimate came from.
+    centre : the squared-norm form's minimum on all samples next to the estimate (as
+        compared): what the subset results (``batch``) scatter around.
     settings : every setting used, including the seed.
     samples_used : samples after window, subsampling and informative-sample selection.
     window : (start, end) in seconds from the first sample.
@@ -91,9 +89,8 @@ class EstimateResult(Verdict):
     reached: np.ndarray
     batch: BatchResult
     refined: BatchResult
-    finals: np.ndarray
-    final_cost: np.ndarray
     best: int
+    centre: np.ndarray
     settings: dict
     samples_used: int
     window: tuple[float, float]
@@ -132,9 +129,8 @@ def shared_fields(p: Prepared, fit: Multistart, q: dict, *, unit: str, settings:
         "reached": fit.reached,
         "batch": fit.batch,
         "refined": fit.refined,
-        "finals": fit.finals,
-        "final_cost": fit.final_cost,
         "best": fit.best,
+        "centre": fit.centre,
         "settings": settings,
         "samples_used": p.samples,
         "window": p.span_s,

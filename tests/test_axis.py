@@ -103,15 +103,14 @@ def test_mismatched_arrays_raise_input_error():
         estimate_axis(np.ones((100, 2)), np.ones((100, 2)), rate=100)
 
 
-def test_lowest_cost_wins_and_every_restart_of_its_basin_ends_there():
-    # Simulated walking: with the norms of eq. (1) most restarts ended in a local minimum
-    # ~10 deg off the truth; its squared form, which the restarts fit, has none there.
+def test_lowest_cost_wins_and_the_restarts_find_it_on_simulated_walking():
+    # Simulated walking: with the subset fits on the norms of eq. (1) most restarts ended
+    # in a local minimum ~10 deg off the truth; fitted on its squared form, every subset
+    # result lies in the global minimum's basin.
     rec, truth = simulated(2, 100.0, 100.0, "walking")
     r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate, seed=1)
     assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
-    # every restart that reached the estimate ends at its polished cost, the lowest
-    assert np.all(r.final_cost[r.reached] == r.final_cost[r.best])
-    assert r.final_cost[r.best] == np.nanmin(r.final_cost)
+    assert r.refined.final_cost[r.reached].max() <= r.refined.final_cost.min() * 1.001
     assert r.convergence_fraction == 1.0
     assert r.competing_agreement == 1.0 and r.warnings == []
 

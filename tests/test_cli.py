@@ -57,7 +57,7 @@ def test_axis_json_on_stdout_matches_truth(recordings):
     assert len(doc["restarts"]) == 100
     first = doc["restarts"][0]
     assert set(first) == {"initial", "final", "refined", "iterations", "converged",
-                          "reached_estimate", "final_cost", "refined_cost", "polished_cost"}
+                          "reached_estimate", "final_cost", "refined_cost"}
     assert doc["quality"]["warnings"] == [] and doc["quality"]["verdict"] == "good"
     assert b"restarts reached the estimate" in run.stderr
 

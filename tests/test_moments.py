@@ -104,32 +104,15 @@ def test_the_estimate_minimises_the_papers_residual_not_its_squared_form():
     again = HINGE.solve(_hinge_problem((g1, g2), None, np.float64, True),
                         fit.estimate[None], 50, 1e-8)
     assert _angle_deg(again.x[0], fit.estimate) < 1e-3
-    # ... while the squared form's own minimum, where the restarts ended, lies elsewhere
-    assert _angle_deg(fit.refined.x[fit.best], fit.estimate) > 1e-2
-    assert fit.final_cost[fit.best] == np.nanmin(fit.final_cost) and fit.reached[fit.best]
-    # every restart of the estimate's basin reports the estimate and its cost
-    same = fit.basin == fit.basin[fit.best]
-    np.testing.assert_array_equal(fit.finals[same], np.repeat(fit.estimate[None], same.sum(), 0))
+    # ... while the squared form's own minimum, around which the subset fits scatter,
+    # lies elsewhere
+    assert 1e-2 < _angle_deg(fit.centre, fit.estimate) < 2.0
+    # the lowest cost (the others' are single precision)
+    assert fit.refined.final_cost[fit.best] <= fit.refined.final_cost.min() * (1 + 1e-5)
+    assert fit.reached[fit.best] and fit.reached.mean() > 0.9
 
 
 def _angle_deg(x, y) -> float:
     """Larger sign-free angle of the j1 and j2 parts, deg."""
     return max(float(np.degrees(np.arccos(np.clip(abs(x[k:k + 3] @ y[k:k + 3]), 0, 1))))
                for k in (0, 3))
-
-
-def test_distinct_minima_groups_restarts_lowest_cost_first_and_caps_the_polish():
-    from imucal.multistart import MAX_POLISHED, distinct_minima
-
-    def distance(a, b):
-        return np.abs(a[..., 0] - b[0])
-
-    finals = np.array([[0.0], [0.5], [5.0], [5.2], [9.0], [np.nan]])
-    costs = np.array([2.0, 1.0, 3.0, 0.5, 4.0, 0.1])
-    reps, basin = distinct_minima(finals, costs, distance, 1.0)
-    # 5.2 (cost 0.5) first, then 0.5 (1.0), then 9.0; the NaN restart in none
-    np.testing.assert_array_equal(reps, [3, 1, 4])
-    np.testing.assert_array_equal(basin, [1, 1, 0, 0, 2, -1])
-    many = np.arange(3 * MAX_POLISHED, dtype=float)[:, None] * 10
-    reps, basin = distinct_minima(many, many[:, 0], distance, 1.0)
-    assert reps.size == MAX_POLISHED and (basin[MAX_POLISHED:] == -1).all()

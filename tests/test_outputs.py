@@ -62,14 +62,11 @@ def test_default_json_summarises_restarts(rec):
     assert len(doc["restarts"]) == 100
     for r in doc["restarts"]:
         assert set(r) == {"initial", "final", "refined", "iterations", "converged",
-                          "reached_estimate", "final_cost", "refined_cost", "polished_cost"}
+                          "reached_estimate", "final_cost", "refined_cost"}
         assert r["final_cost"] > 0 and r["refined_cost"] > 0
-    # the estimate is the polished minimum with the lowest cost on all samples, and every
-    # restart that reached it ends there
-    reached = [r["polished_cost"] for r in doc["restarts"] if r["reached_estimate"]]
-    polished = [r["polished_cost"] for r in doc["restarts"] if r["polished_cost"] is not None]
-    assert min(polished) == max(reached) == pytest.approx(doc["quality"]["rms_residual"],
-                                                          rel=1e-6)
+    # the estimate is the reached restart with the lowest cost on all samples
+    reached = [r["refined_cost"] for r in doc["restarts"] if r["reached_estimate"]]
+    assert min(reached) == pytest.approx(doc["quality"]["rms_residual"], rel=1e-3)
     # vectors stay on one line: the document is not one number per line
     assert len(run.stdout.splitlines()) < 20 * 100 + 200
 
@@ -130,7 +127,8 @@ def short_walk():
 
 
 @pytest.mark.parametrize("joint", ["spheroidal", "hinge"])
-def test_position_spread_panel_is_in_mm_relative_to_the_best_fit(short_walk, joint):
+def test_position_spread_panel_is_in_mm_relative_to_the_fit_on_all_samples(short_walk,
+                                                                           joint):
     names = ("shank", "foot") if joint == "spheroidal" else ("thigh", "shank")
     s1, s2 = (short_walk.sensor(n) for n in names)
     result = estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, rate=short_walk.rate,
@@ -140,12 +138,12 @@ def test_position_spread_panel_is_in_mm_relative_to_the_best_fit(short_walk, joi
     ax = _panel(fig, plots.SPREAD_GID)
     assert "mm" in ax.get_ylabel()
     assert ax.yaxis.get_offset_text().get_text() == ""  # no 1e-10+3.95e-2 style offsets
-    centre = result.refined.x[result.best]
-    subset = result.batch.x
-    if result.line is not None:
-        subset = closest_point_on_axis(subset, result.line)
-        centre = closest_point_on_axis(centre, result.line)
-    expected = 1000 * (subset - centre)
+    subset = result.batch.x if result.line is None else \
+        closest_point_on_axis(result.batch.x, result.line)
+    # the subset fits (squared-norm form) scatter around that form's fit on all samples,
+    # next to the estimate
+    expected = 1000 * (subset - result.centre)
+    assert np.linalg.norm(result.centre - np.concatenate([result.o1, result.o2])) < 0.05
     keep = settled(result.batch.final_cost, result.reached)
     assert keep.sum() >= 6
     drawn = _points(ax, plots._REACHED)
