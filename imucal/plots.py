@@ -202,7 +202,7 @@ def _best_position_restart(result: PositionResult, line) -> int:
 def _subset_and_refined(result) -> list[_Stage]:
     k1 = result.batch.cost.shape[1] - 1
     end = k1 + result.refined.cost.shape[1] - 1
-    return [_Stage("subset: each restart on its random half of the samples (squared-norm "
+    return [_Stage("subset: each restart on its random half\nof the samples (squared-norm "
                    "form)", 0, k1, "white"),
             _Stage("refined on all samples", k1, end, "#dbe9f6")]
 
@@ -262,7 +262,7 @@ def _cost_panel(ax, result, units: tuple[str, str], stages: list[_Stage], best: 
         Line2D([], [], color=_BEST, lw=1.5,
                label="best restart = the estimate\n(polished further on all samples)"),
     ] + [Patch(facecolor=st.colour, edgecolor="0.5", lw=0.5, label=st.name) for st in stages]
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.09, 1.0), fontsize=8,
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.17, 1.0), fontsize=8,
               title_fontsize=8, alignment="left",
               title="Each stage fits other samples and\nits own residual (left and right\n"
                     "axis), so a curve steps where its\nrestart moves on: expected")
