@@ -44,6 +44,10 @@ SCREEN_RATIO = 0.85
 #: Largest number of damped Gauss-Newton steps of a bias fit (it starts at the axis
 #: estimate; 3-6 steps reach the minimum).
 MAX_STEPS = 20
+#: A fit stops when a step lowers the cost by less than this fraction of it; the
+#: screening fit only decides, and its cost ratio is reported to three digits.
+TOLERANCE = 1e-6
+SCREEN_TOLERANCE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -104,13 +108,13 @@ def estimate_gyr_bias(gyr1: np.ndarray, gyr2: np.ndarray, j1: np.ndarray,
     """
     step = max(1, int(np.ceil(np.shape(gyr1)[0] / SCREEN_SAMPLES)))
     if step > 1:
-        screen = _fit(gyr1[::step], gyr2[::step], j1, j2)
+        screen = _fit(gyr1[::step], gyr2[::step], j1, j2, SCREEN_TOLERANCE)
         if screen.cost_ratio < SCREEN_RATIO * MIN_COST_RATIO:
             return screen
     return _fit(gyr1, gyr2, j1, j2)
 
 
-def _fit(gyr1, gyr2, j1, j2) -> GyrBias:
+def _fit(gyr1, gyr2, j1, j2, tolerance: float = TOLERANCE) -> GyrBias:
     g1 = np.asarray(gyr1, dtype=float)
     g2 = np.asarray(gyr2, dtype=float)
     e0 = _residual(g1, g2, j1, j2, np.zeros(3), np.zeros(3))
@@ -141,7 +145,8 @@ def _fit(gyr1, gyr2, j1, j2) -> GyrBias:
         jac[-6:, 6:] = weight * np.eye(6)
         return jac
 
-    p = _levenberg_marquardt(rows, jacobian, np.concatenate([j1, j2, np.zeros(6)]))
+    p = _levenberg_marquardt(rows, jacobian, np.concatenate([j1, j2, np.zeros(6)]),
+                             tolerance)
     k1, k2 = unit(p[:3]), unit(p[3:6])
     b1, b2 = _across(p[6:9], k1), _across(p[9:12], k2)
     cost = float(np.mean(_residual(g1, g2, k1, k2, b1, b2) ** 2))
@@ -150,7 +155,7 @@ def _fit(gyr1, gyr2, j1, j2) -> GyrBias:
     return GyrBias(b1, b2, k1, k2, float(ratio), inflation)
 
 
-def _levenberg_marquardt(rows, jacobian, p: np.ndarray) -> np.ndarray:
+def _levenberg_marquardt(rows, jacobian, p: np.ndarray, tolerance: float) -> np.ndarray:
     """A few damped Gauss-Newton steps from ``p``, which starts next to the minimum (the
     axis estimate, no bias): scipy's general solver spent 25 ms per axis on its
     bookkeeping for what takes a handful of 12 x 12 solves."""
@@ -172,7 +177,7 @@ def _levenberg_marquardt(rows, jacobian, p: np.ndarray) -> np.ndarray:
         r_trial = rows(trial)
         cost_trial = r_trial @ r_trial
         if np.isfinite(cost_trial) and cost_trial < cost:
-            converged = cost - cost_trial < 1e-6 * cost
+            converged = cost - cost_trial < tolerance * cost
             p, r, cost, damping = trial, r_trial, cost_trial, damping / 3
             if converged:
                 break
