@@ -82,7 +82,7 @@ from .sign import (
     perpendicular,
     plane_test,
 )
-from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, fit_with_offset, reader
+from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, delayed, fit_with_offset
 from .vectors import joint_plane_rate, tangent_basis, unit
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
@@ -350,7 +350,8 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
     def again(seconds):
         return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
                              settings=replace(s, time_offset=seconds))
-    return fit_with_offset(again, _offset_profile(g2, rate), rate, s.offset_search)
+    return fit_with_offset(again, _offset_profile(g2, rate), rate, s.offset_search,
+                           _offset_moved, "deg", MAX_UNCERTAINTY_DEG)
 
 
 def _gyr_bias(p: Prepared, fit: Multistart) -> GyrBias:
@@ -525,22 +526,29 @@ def _cutoff_sensitivity(p: Prepared, x: np.ndarray) -> dict:
 
 
 def _offset_profile(g2, rate):
-    """``first -> residuals(deltas)``: eq. (1) over candidate offsets, the axis refitted
-    from the first fit at each (:func:`imucal.time_offset.fit_with_offset`)."""
+    """``result -> refit(deltas)``: eq. (1) over candidate offsets, the axis refitted
+    from ``result`` at each: (D, M) residuals and (D, 6) axes
+    (:func:`imucal.time_offset.fit_with_offset`)."""
     def profile(first):
-        read2 = reader(lowpass(g2, rate, first.settings["cutoff_hz"]), rate)
+        read2 = delayed(lowpass(g2, rate, first.settings["cutoff_hz"]), rate)
         # every k-th sample used: the offset is one number, and each candidate costs a refit
         thin = slice(None, None, max(1, first.samples_used // OFFSET_SAMPLES))
-        d1, times = first.gyr1[thin], first.sample_index[thin] / rate
+        d1, index = first.gyr1[thin], first.sample_index[thin]
         x = np.concatenate([first.j1, first.j2])
-        return lambda deltas: _refit_residuals(d1, read2(times + deltas[:, None]), x)
+        return lambda deltas: _refit_residuals(d1, read2(index, deltas), x)
     return profile
 
 
-def _refit_residuals(d1, d2, x) -> np.ndarray:
-    """(D, M) residuals of eq. (1) after ``OFFSET_STEPS`` plain Gauss-Newton steps from
-    ``x`` (6,), for each of D offset candidates at once (``d2`` (D, M, 3)): the profile
-    cost of each, without the solver's restart machinery."""
+def _offset_moved(result, a, b) -> dict:
+    """{"j1", "j2"}: angles between two refitted axis pairs ``a``, ``b`` (6,), deg."""
+    return {k: float(_angle_deg(a[sl], b[sl])) for k, sl in (("j1", slice(0, 3)),
+                                                             ("j2", slice(3, 6)))}
+
+
+def _refit_residuals(d1, d2, x) -> tuple[np.ndarray, np.ndarray]:
+    """(D, M) residuals of eq. (1) and the (D, 6) axes after ``OFFSET_STEPS`` plain
+    Gauss-Newton steps from ``x`` (6,), for each of D offset candidates at once (``d2``
+    (D, M, 3)): the profile cost of each, without the solver's restart machinery."""
     x = np.repeat(x[None, :], d2.shape[0], axis=0)
     for _ in range(OFFSET_STEPS):
         e, jac = _residuals_and_jacobians(d1, d2, x)
@@ -551,7 +559,7 @@ def _refit_residuals(d1, d2, x) -> np.ndarray:
         damp = 1e-9 * np.trace(jtj, axis1=1, axis2=2)[:, None, None] + 1e-30
         step = -np.linalg.solve(jtj + damp * np.eye(jtj.shape[-1]), jt @ e[..., None])[..., 0]
         x = _retract(x, step)
-    return _residuals_and_jacobians(d1, d2, x)[0]
+    return _residuals_and_jacobians(d1, d2, x)[0], x
 
 
 def _diagnose(p: Prepared, q: dict, decision, gravity: dict) -> tuple[list[str], list[str]]:
