@@ -156,8 +156,9 @@ class AxisResult(EstimateResult):
     singular_values : singular values of the Jacobian of eq. (1) over sqrt(samples),
         rad/s per rad (a joint that did not move leaves one near 0).
     uncertainty_deg : {"j1", "j2"} 1-sigma angle uncertainty, deg: the larger of the
-        curvature's and the time blocks' with the cut-off shift and the model bound added
-        in quadrature (:func:`imucal.quality.total_sigma`); its parts, in deg, are
+        curvature's and the time blocks' with the cut-off shift, the model bound and
+        (where present) the gyroscope bias's and the clock offset's parts added in
+        quadrature (:func:`imucal.quality.uncertainty_totals`); its parts, in deg, are
         ``uncertainty_components``.
     excitation : RMS flexion rate j2.g2 - j1.g1 and RMS joint-plane rate |g_i x j_i| of
         each segment over the samples used, deg/s.
@@ -350,7 +351,7 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
     def again(seconds):
         return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
                              settings=replace(s, time_offset=seconds))
-    return fit_with_offset(again, _offset_profile(g2, rate), rate, s.offset_search,
+    return fit_with_offset(again, _offset_profile(g1, g2, rate), rate, s.offset_search,
                            _offset_moved, "deg", MAX_UNCERTAINTY_DEG)
 
 
@@ -525,15 +526,23 @@ def _cutoff_sensitivity(p: Prepared, x: np.ndarray) -> dict:
             "max_shift_deg": max(shifts["j1"] + shifts["j2"])}
 
 
-def _offset_profile(g2, rate):
+def _offset_profile(g1, g2, rate):
     """``result -> refit(deltas)``: eq. (1) over candidate offsets, the axis refitted
     from ``result`` at each: (D, M) residuals and (D, 6) axes
-    (:func:`imucal.time_offset.fit_with_offset`)."""
+    (:func:`imucal.time_offset.fit_with_offset`).
+
+    The rates are low-passed at the fit's cut-off or, without one (the default), at
+    :func:`imucal.preprocess.default_cutoff`: white noise above it dilutes the gain of
+    the right alignment but not that of a soft-tissue lag, which lies in the band of the
+    motion. Simulated, 20 ms late at 40 and 100 Hz: cost ratios 1.43-2.9 unfiltered,
+    2.1-12 at 10 Hz; soft tissue without an offset: 1.5-1.75 and 1.0-1.2 at the same
+    shifts."""
     def profile(first):
-        read2 = delayed(lowpass(g2, rate, first.settings["cutoff_hz"]), rate)
+        cutoff = first.settings["cutoff_hz"] or default_cutoff(rate)
+        both = lowpass(np.concatenate([g1, g2], axis=1), rate, cutoff)
         # every k-th sample used: the offset is one number, and each candidate costs a refit
-        thin = slice(None, None, max(1, first.samples_used // OFFSET_SAMPLES))
-        d1, index = first.gyr1[thin], first.sample_index[thin]
+        index = first.sample_index[::max(1, first.samples_used // OFFSET_SAMPLES)]
+        d1, read2 = both[index, :3], delayed(both[:, 3:], rate)
         x = np.concatenate([first.j1, first.j2])
         return lambda deltas: _refit_residuals(d1, read2(index, deltas), x)
     return profile
