@@ -534,9 +534,10 @@ def _offset_profile(g1, g2, rate):
     The rates are low-passed at the fit's cut-off or, without one (the default), at
     :func:`imucal.preprocess.default_cutoff`: white noise above it dilutes the gain of
     the right alignment but not that of a soft-tissue lag, which lies in the band of the
-    motion. Simulated, 20 ms late at 40 and 100 Hz: cost ratios 1.43-2.9 unfiltered,
-    2.1-12 at 10 Hz; soft tissue without an offset: 1.5-1.75 and 1.0-1.2 at the same
-    shifts. A gyroscope bias the fit removed is removed here too: left in, a shift of the
+    motion. Simulated, shank 20 ms late at 40 and 100 Hz: cost ratios 1.43-2.9
+    unfiltered and 2.1-12 at 10 Hz on circling (5 fits), 1.7-8.4 and 2.7-47 on walking
+    (3 fits); soft tissue without an offset: the shifts that gained 1.5-1.75 unfiltered
+    gain 1.1-1.2. A gyroscope bias the fit removed is removed here too: left in, a shift of the
     low-passed rates mimics part of it (simulated circling, 0.02 rad/s: +24 ms applied
     at a cost ratio of 1.6)."""
     def profile(first):
