@@ -76,7 +76,7 @@ from .result import EstimateResult, shared_fields
 from .selection import MAX_SAMPLES
 from .settings import JOINTS, MAX_ITERATIONS, SUBSET_FRACTION, PositionSettings  # noqa: F401 (JOINTS: imported from here)
 from .settings import resolve as resolve_settings
-from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, fit_with_offset, reader
+from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, delayed, fit_with_offset
 from .vectors import unit
 
 #: Two estimates agree when both o1 and o2 are within this distance, m.
@@ -123,8 +123,9 @@ class PositionResult(EstimateResult):
         directions across the axis.
     singular_values : singular values of that Jacobian over sqrt(samples), 1/s^2.
     uncertainty_mm : {"o1", "o2"} 1-sigma, mm (for a hinge: across the axis line): the
-        larger of the curvature's and the time blocks' with the cut-off shift added in
-        quadrature (:func:`imucal.quality.total_sigma`); its parts, in mm, are
+        larger of the curvature's and the time blocks' with the cut-off shift and (with
+        the automatic clock offset) the offset's part added in quadrature
+        (:func:`imucal.quality.uncertainty_totals`); its parts, in mm, are
         ``uncertainty_components``.
     excitation : RMS angular rate of each sensor, deg/s, and the Jacobian's singular
         values over sqrt(samples), 1/s^2.
@@ -300,7 +301,7 @@ def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> Positi
         return estimate_position(g1, a1, g2, a2, rate=rate, axis=axis,
                                  settings=replace(s, time_offset=seconds))
     return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate), rate,
-                           s.offset_search)
+                           s.offset_search, _offset_moved, "mm", MAX_UNCERTAINTY_MM)
 
 
 def _axis_line(p: Prepared, s: PositionSettings, axis):
@@ -741,8 +742,9 @@ class _SpheroidalProblem:
 
 
 def _offset_profile(signals, rate):
-    """``first -> residuals(deltas)``: eq. (3) over candidate offsets, the joint position
-    refitted from the first fit at each (:func:`imucal.time_offset.fit_with_offset`)."""
+    """``result -> refit(deltas)``: eq. (3) over candidate offsets, the joint position
+    refitted from ``result`` at each: (D, M) residuals and (D, 6) positions, m
+    (:func:`imucal.time_offset.fit_with_offset`)."""
     g1, a1, g2, a2 = signals
 
     def profile(first):
@@ -750,23 +752,31 @@ def _offset_profile(signals, rate):
         # every k-th sample used: the offset is one number, and each candidate costs a refit
         index = first.sample_index[::max(1, first.samples_used // OFFSET_SAMPLES)]
         own = [arr[index] for arr in _filtered(g1, a1, rate, cutoff)]
-        readers = [reader(arr, rate) for arr in _filtered(g2, a2, rate, cutoff)]
-        times = index / rate
+        read = delayed(np.concatenate(_filtered(g2, a2, rate, cutoff), axis=1), rate)
         x = np.concatenate([first.o1, first.o2])
 
-        def residuals(deltas):
-            out = []
-            for d in deltas:
-                problem = _SpheroidalProblem(*own, *(read(times + d) for read in readers),
-                                             None)
+        def refit(deltas):
+            out, states = [], []
+            for other in read(index, deltas):
+                problem = _SpheroidalProblem(*own, *np.split(other, 3, axis=1), None)
                 y = x
                 for _ in range(OFFSET_STEPS):  # plain Gauss-Newton from the first estimate
                     e, jac = problem.linearise(y[None, :])
                     y = y + np.linalg.lstsq(jac[0], -e[0], rcond=None)[0]
                 out.append(problem.residual(y[None, :])[0])
-            return np.stack(out)
-        return residuals
+                states.append(y)
+            return np.stack(out), np.stack(states)
+        return refit
     return profile
+
+
+def _offset_moved(result, a, b) -> dict:
+    """{"o1", "o2"}: distances between two refitted positions ``a``, ``b`` (6,), mm; for
+    a hinge, between their closest points on the axis line (along it nothing is known)."""
+    if result.line is not None:
+        a, b = closest_point_on_axis(np.stack([a, b]), result.line)
+    return {k: float(1000 * np.linalg.norm(a[sl] - b[sl]))
+            for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
 
 
 def _filtered(g, a, rate, cutoff):

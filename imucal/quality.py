@@ -173,11 +173,16 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
         "time_blocks": "fits on different stretches of the recording disagree",
         "cutoff_shift": "it moves with the low-pass cut-off of the refits",
         "model": "the residuals are systematic (soft tissue, a joint that is no hinge)",
+        "gyr_bias": "a gyroscope bias was estimated with it",
+        "time_offset": "it moves with the uncertain clock offset between the sensors",
     }[main]
+    extra = {"model": "model", "gyr_bias": "gyroscope bias", "time_offset": "clock offset"}
     return (f"the estimate is uncertain: 1-sigma {total[name]:.1f} {unit} for {name}, mostly "
             f"because {why} (curvature {parts['curvature']:.1f}, time blocks "
             f"{parts['time_blocks']:.1f}, cut-off shift {parts['cutoff_shift']:.1f}"
-            + (f", model {parts['model']:.1f}" if "model" in parts else "") + f" {unit})")
+            + "".join(f", {label} {parts[kind]:.1f}" for kind, label in extra.items()
+                      if kind in parts and (kind == "model" or parts[kind] > 0))
+            + f" {unit})")
 
 
 def cutoff_shifts(sensitivity: dict, names: tuple[str, str], unit: str) -> dict:
@@ -188,13 +193,16 @@ def cutoff_shifts(sensitivity: dict, names: tuple[str, str], unit: str) -> dict:
 def uncertainty_totals(components: dict) -> dict:
     """{name: :func:`total_sigma`} of each vector from its uncertainty ``components``
     ("curvature", "time_blocks", "cutoff_shift" and, where there is one, "model"), with
-    "gyr_bias" (the axis's widening by a removed gyroscope bias) added in quadrature."""
+    "gyr_bias" (the axis's widening by a removed gyroscope bias) and "time_offset" (the
+    part due to the automatic clock offset's uncertainty,
+    :func:`imucal.time_offset.fit_with_offset`) added in quadrature where present."""
     model = components.get("model", {})
-    bias = components.get("gyr_bias", {})
-    return {k: float(np.hypot(total_sigma(components["curvature"][k],
-                                          components["time_blocks"][k],
-                                          components["cutoff_shift"][k], model.get(k, 0.0)),
-                              bias.get(k, 0.0)))
+    extra = [components.get(kind, {}) for kind in ("gyr_bias", "time_offset")]
+    return {k: float(np.linalg.norm([total_sigma(components["curvature"][k],
+                                                 components["time_blocks"][k],
+                                                 components["cutoff_shift"][k],
+                                                 model.get(k, 0.0)),
+                                     *(part.get(k, 0.0) for part in extra)]))
             for k in components["curvature"]}
 
 

@@ -112,13 +112,15 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
 
 
 UNCERTAINTY_METHOD = (
-    "sqrt(max(curvature, time_blocks)^2 + cutoff_shift^2 + model^2 + gyr_bias^2): curvature "
-    "of the cost "
+    "sqrt(max(curvature, time_blocks)^2 + cutoff_shift^2 + model^2 + gyr_bias^2 + "
+    "time_offset^2): curvature of the cost "
     "at the estimate ((J^T J)^-1 S (J^T J)^-1, Newey-West S), delete-one-block jackknife "
     "over 10 contiguous time blocks, the largest shift of the cut-off refits (axis: 10 and "
     "20 Hz low-pass, or the cut-off halved and doubled; position: the cut-off x 0.75 and "
     "x 1.5), and for the axis a model-error bound from the residual's smooth part and the "
-    "widening by a removed gyroscope bias (see uncertainty_components and docs/quality.md)"
+    "widening by a removed gyroscope bias, and with an automatic clock offset the "
+    "estimate's move per ms of offset times the offset's 1-sigma (see "
+    "uncertainty_components and docs/quality.md)"
 )
 SPREAD_METHOD = (
     "RMS distance between the results of the restarts that reached the estimate, each "

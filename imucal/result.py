@@ -39,7 +39,10 @@ class EstimateResult(Verdict):
         (delete-one-block jackknife over contiguous time blocks,
         :func:`imucal.quality.block_masks`), "cutoff_shift" (the largest shift of the
         cut-off refits), "model" (the axis' bias bound in proportion to the smooth part
-        of the residual, :func:`imucal.quality.smooth_residual_rms`; 0 for a position).
+        of the residual, :func:`imucal.quality.smooth_residual_rms`; 0 for a position)
+        and, with the automatic clock offset only, "time_offset" (the estimate's move
+        per unit of offset times the offset's 1-sigma,
+        :func:`imucal.time_offset.fit_with_offset`).
     excitation : how much the joint moved over the samples used (per estimator).
     sensitivity : cut-offs of the two refits from the estimate, "cutoffs_hz", and how far
         each vector moved (":math:`v`\\_shift_deg" or "..._shift_mm", and the maximum).
@@ -73,7 +76,8 @@ class EstimateResult(Verdict):
     time_offset : the second sensor's clock lateness: "time_offset_s" applied (s),
         "mode" ("auto" or "given"), and with "auto" the estimate "estimated_s", its
         "sigma_s", "applied", "cost_ratio" (cost at 0 over cost at the estimate),
-        "search_s" and "at_edge" (:class:`imucal.time_offset.Offset`).
+        "search_s", "at_edge" (:class:`imucal.time_offset.Offset`) and
+        "sensitivity_per_ms" (per vector, deg or mm per ms of offset).
     """
 
     rms_residual: float

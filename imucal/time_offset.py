@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
-from .quality import block_masks, jackknife_sigma
+from .quality import block_masks, jackknife_sigma, uncertainty_totals, uncertainty_warning
 
 # the search range and the offset check live with the settings; imported here for the
 # callers of their old home
@@ -33,16 +33,22 @@ from .settings import OFFSET_SEARCH_S as SEARCH_S  # noqa: F401
 from .settings import check_time_offset  # noqa: F401
 
 #: The profile refits use about this many of the samples and this many plain
-#: Gauss-Newton steps from the first estimate (an offset of tens of milliseconds moves
-#: the estimate a little: the refits start next to their minimum); both estimators.
+#: Gauss-Newton steps from the first estimate; both estimators. An offset of tens of
+#: milliseconds moves a joint centre far (hundreds of mm for 20 ms): with 2 steps the
+#: refits near the right offset had not converged and the simulated ankle's offset came
+#: out 0.5-0.9 ms early (40-200 Hz); from 4 steps on it does not move.
 OFFSET_SAMPLES = 1500
-OFFSET_STEPS = 2
+OFFSET_STEPS = 5
 #: A shift also lowers the residual a little where the model is wrong rather than the
 #: clocks (soft tissue lags the bone; a knee is no perfect hinge): on the shared real
-#: recording the knees' best shifts are -31 ms (0-55 s) and -115 ms (55-100 s), which no
-#: clock does, at cost ratios of only 1.06-1.41, while a real 20 ms offset on simulated
-#: circling or walking gives 2.1-16. An offset is applied only above this ratio.
-MIN_COST_RATIO = 1.5
+#: recording the knees' best shifts differ between 0-55 s and 55-100 s and between eq. (1)
+#: and eq. (3), which no clock does, at cost ratios of at most 1.50 (the right knee's
+#: centre, 55-100 s); on simulated soft tissue without an offset (1 deg / 2 mm and 2 deg /
+#: 3 mm, 40-200 Hz, seeds 1-8) the knee axes' best shifts reach 1.57 (one seed; the next
+#: 1.49). A real 20 ms offset on simulated circling, walking, gait and the protocol gives
+#: 1.5-3 on the noisiest (circling at 40 Hz) and 2.6-90 otherwise. An offset is applied
+#: only from this ratio on.
+MIN_COST_RATIO = 1.6
 #: A best shift this large, clear of its 1-sigma but not applied, is reported as a warning.
 SUSPICIOUS_S = 0.01
 #: Grid step of the first pass over the search range, samples.
@@ -50,6 +56,25 @@ COARSE_STEP = 4
 #: An estimated offset is applied when it exceeds both this fraction of a sample and
 #: twice its own 1-sigma: a smaller one changes nothing the estimates could resolve.
 MIN_APPLIED_SAMPLES = 0.25
+#: The sub-sample pass of :func:`estimate_offset`: this many candidates this far apart,
+#: s, around the one-sample grid's minimum (spanning +-4 ms: well inside the +-10 ms or
+#: so over which the profile is a parabola).
+FINE_POINTS = 5
+FINE_STEP_S = 0.002
+FINE_SPAN_S = FINE_STEP_S * (FINE_POINTS // 2)
+#: At most this many sub-sample passes, each recentred on the last one's vertex.
+FINE_PASSES = 4
+#: The offset's reported 1-sigma is the delete-one-block jackknife's times this. The
+#: jackknife leaves the refitted estimates at their all-sample values and has only 9
+#: degrees of freedom: on 80 simulated 20 ms offsets (knee and ankle, 40-200 Hz, seeds
+#: 1-8, docs/accuracy.md) the errors' RMS was 1.5 jackknife sigmas and the largest 4.3,
+#: with no bias left (mean error -0.02 ms knee, +0.01 ms ankle); times 2, every error
+#: is within 2.2 sigma.
+SIGMA_SCALE = 2.0
+#: The estimate's sensitivity to the offset: refits this far, s, either side of it.
+SENSITIVITY_STEP_S = 0.002
+#: How :func:`imucal.quality.uncertainty_warning`'s warning begins.
+UNCERTAIN_PREFIX = "the estimate is uncertain"
 
 
 @dataclass(frozen=True)
@@ -98,18 +123,29 @@ def shifted(x: np.ndarray, rate: float, delta: float) -> np.ndarray:
     return spline(np.clip(t + delta, 0.0, t[-1]))
 
 
-def estimate_offset(residuals: Callable[[np.ndarray], np.ndarray], rate: float,
-                    search: float = SEARCH_S) -> Offset:
-    """Minimise the profile cost: for candidate offsets on a grid of one-sample steps
-    over +-``search`` s, ``residuals(deltas)`` (D,) refits the estimate with the second
-    sensor read at t + delta, for every delta at once, and returns the (D, M) residuals
-    (the same M samples, in time order, for every delta).
+def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+                    rate: float, search: float = SEARCH_S) -> Offset:
+    """Minimise the profile cost: for candidate offsets over +-``search`` s,
+    ``refit(deltas)`` (D,) refits the estimate with the second sensor read at
+    t + delta, for every delta at once, and returns the (D, M) residuals (the same M
+    samples, in time order, for every delta) and the (D, k) refitted states.
 
     Refitting matters: at a fixed estimate the cost barely sees the offset, because the
     first fit, made with the wrong alignment, has already absorbed most of it (simulated
     circling, shank 20 ms late: the axis moves 3.9 deg and a fixed-axis search finds
     1.3 ms).
+
+    Three stages: a coarse grid, one-sample steps around its lowest point, and a
+    least-squares parabola through ``FINE_POINTS`` candidates ``FINE_STEP_S`` apart
+    around the one-sample minimum, recentred on its vertex until the candidates straddle
+    it. The last stage matters at low rates: the profile is a parabola only within about
+    +-10 ms of its minimum, so a parabola through one-sample neighbours 25 ms apart
+    (40 Hz) landed 3-6 ms off (the simulated ankle, foot 20 ms late).
     """
+
+    def residuals(deltas):
+        return refit(deltas)[0]
+
     steps = max(1, int(np.floor(search * rate)))
     # coarse grid first, then one-sample steps around its lowest point: the profile is
     # smooth, and each point costs a refit
@@ -117,52 +153,137 @@ def estimate_offset(residuals: Callable[[np.ndarray], np.ndarray], rate: float,
     coarse = np.unique(np.concatenate([-half, half]))  # symmetric, with 0 and both ends
     costs = dict(zip(coarse.tolist(), np.square(residuals(coarse / rate)), strict=True))
     low = min(costs, key=lambda k: costs[k].mean())
-    at_edge = low in (-steps, steps)
+    # the profile falling to the end of the search is evidence of a larger offset only
+    # where it gains as much as an offset that would be applied: the real knees' model
+    # errors fall to the end at 1.16-1.28
+    gain = costs[0].mean() / max(costs[low].mean(), 1e-300)  # 0 is on the coarse grid
+    at_edge = low in (-steps, steps) and gain >= MIN_COST_RATIO
     fine = np.arange(max(-steps, low - COARSE_STEP), min(steps, low + COARSE_STEP) + 1)
     todo = np.array([k for k in fine.tolist() if k not in costs])
     if todo.size:
         costs.update(zip(todo.tolist(), np.square(residuals(todo / rate)), strict=True))
     table = np.stack([costs[int(k)] for k in fine])  # (D, M) on the one-sample grid
-    deltas = fine / rate
     if not np.isfinite(table).all() or table.shape[1] < 20:
         return Offset(0.0, float("inf"), False, float(search), 1.0)
-    masks = block_masks(table.shape[1])
-    # mean square per delta over all samples, then with each block left out
     whole = table.mean(axis=1)
-    parts = (table @ masks.T) / masks.sum(axis=1)
-    best = _parabola_minimum(whole, deltas)[0]
-    left_out = np.array([_parabola_minimum(parts[:, k], deltas)[0]
-                         for k in range(masks.shape[0])])
-    sigma = jackknife_sigma(left_out - best)
-    zero = costs[0].mean()  # 0 is on the coarse grid
+    zero = costs[0].mean()
     ratio = float(zero / max(whole.min(), 1e-300))
-    return Offset(float(best), sigma, bool(at_edge), float(search), ratio)
+    rough, edge = _parabola_minimum(whole, fine / rate)
+    if at_edge or edge:
+        return Offset(rough, _block_sigma(table, fine / rate, rough), bool(at_edge),
+                      float(search), ratio)
+    # the sub-sample pass, recentred on its own vertex until the candidates straddle it
+    lo, hi = fine[0] / rate + FINE_SPAN_S, fine[-1] / rate - FINE_SPAN_S
+    lo, hi = min(lo, rough), max(hi, rough)  # a search narrower than the sub-sample span
+    best, near_table, near = float(np.clip(rough, lo, hi)), table, fine / rate
+    for _ in range(FINE_PASSES):
+        centre = best
+        near = centre + FINE_STEP_S * (np.arange(FINE_POINTS) - FINE_POINTS // 2)
+        near_table = np.square(residuals(near))
+        if not np.isfinite(near_table).all():
+            return Offset(rough, _block_sigma(table, fine / rate, rough), False,
+                          float(search), ratio)
+        best = float(np.clip(_parabola_vertices(near_table.mean(axis=1)[:, None], near)[0],
+                             lo, hi))
+        if abs(best - centre) <= FINE_STEP_S:
+            break
+    ratio = max(ratio, float(zero / max(near_table.mean(axis=1).min(), 1e-300)))
+    return Offset(best, _block_sigma(near_table, near, best), False, float(search), ratio)
 
 
-def reader(x: np.ndarray, rate: float) -> Callable[[np.ndarray], np.ndarray]:
-    """``times -> x(times)``: ``x`` (N, ...) sampled at ``rate`` Hz as a cubic spline of
-    time in s (times beyond the ends held at the ends)."""
-    t = np.arange(x.shape[0]) / rate
-    spline = make_interp_spline(t, x, k=3, axis=0)
-    return lambda times: spline(np.clip(times, 0.0, t[-1]))
+def _block_sigma(table: np.ndarray, deltas: np.ndarray, best: float) -> float:
+    """1-sigma, s, of the parabola vertex of the (D, M) cost ``table`` over the
+    candidates ``deltas``: ``SIGMA_SCALE`` times the delete-one-block jackknife's."""
+    masks = block_masks(table.shape[1])
+    parts = (table @ masks.T) / masks.sum(axis=1)  # (D, K): mean square, one block out
+    left_out = np.clip(_parabola_vertices(parts, deltas), deltas[0], deltas[-1])
+    return SIGMA_SCALE * jackknife_sigma(left_out - best)
 
 
-def fit_with_offset(fit, profile, rate: float, search: float):
+def _parabola_vertices(cost: np.ndarray, deltas: np.ndarray) -> np.ndarray:
+    """(K,) vertices of least-squares parabolas through each column of ``cost`` (D, K)
+    over ``deltas`` (D,); the lowest candidate where a column does not curve upwards."""
+    x = deltas - deltas.mean()
+    a, b, _ = np.linalg.lstsq(np.stack([x**2, x, np.ones_like(x)], axis=1), cost,
+                              rcond=None)[0]
+    lowest = x[np.argmin(cost, axis=0)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = np.where(a > 0, -b / (2 * a), lowest)
+    return vertex + deltas.mean()
+
+
+def delayed(x: np.ndarray, rate: float) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """``(index, deltas) -> (D, M, ...)``: ``x`` (N, ...) sampled at ``rate`` Hz, read at
+    the samples ``index`` (M,) t + each of ``deltas`` (D,) s later, by a band-limited
+    (Fourier) delay of the evenly extended signal (times beyond the ends read its mirror
+    image).
+
+    Band-limited, not a cubic spline, because the delay must not change the noise: a
+    spline between samples averages neighbouring samples and so lowers white noise's
+    variance by about a quarter half-way between them, which pulls the profile's minimum
+    towards half-samples (the knee at 40 and 60 Hz, unfiltered rates: -0.3 and +0.4 ms
+    on every seed, 2-7 times the jackknife sigma). The Fourier delay is all-pass: white
+    noise keeps its variance at every delay.
+    """
+    n = x.shape[0]
+    spectrum = np.fft.rfft(np.concatenate([x, x[::-1]], axis=0), axis=0)
+    freq = np.fft.rfftfreq(2 * n, d=1.0 / rate).reshape((-1,) + (1,) * (x.ndim - 1))
+
+    def read(index: np.ndarray, deltas: np.ndarray) -> np.ndarray:
+        return np.stack([np.fft.irfft(spectrum * np.exp(2j * np.pi * freq * d), n=2 * n,
+                                      axis=0)[index] for d in np.atleast_1d(deltas)])
+    return read
+
+
+def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
+                    limit: float):
     """The "auto" clock offset around any estimator.
 
     ``fit(seconds)`` runs the estimator with the second sensor read at
-    t + seconds; ``profile(first)`` returns the ``residuals(deltas)`` function of
-    :func:`estimate_offset` around the first, synchronised fit. Fits again with the
-    offset where it is significant (:meth:`Offset.significant`) and records it in the
-    result's ``time_offset``, ``settings`` and ``warnings``.
+    t + seconds; ``profile(result)`` returns the ``refit(deltas)`` function of
+    :func:`estimate_offset` around a result (the estimate refitted at each candidate
+    offset, from that result). Fits again with the offset where it is significant
+    (:meth:`Offset.significant`) and records it in the result's ``time_offset``,
+    ``settings`` and ``warnings``.
+
+    The offset's uncertainty then goes into the estimate's: ``moved(result, a, b)``
+    gives each vector's distance ({name: deg or mm}) between two refitted states (6,),
+    here the refits at the offset used +- ``SENSITIVITY_STEP_S``; that over the step is
+    the estimate's sensitivity to the offset, and times the offset's 1-sigma it is the
+    ``time_offset`` entry of ``uncertainty_components``, added in quadrature to the
+    reported 1-sigma (``uncertainty_<unit>``); a total above ``limit`` raises the
+    estimator's "uncertain" warning.
     """
     first = fit(0.0)
     found = estimate_offset(profile(first), rate, search)
-    result = fit(found.delta_s) if found.significant(rate) else first
+    applied = found.significant(rate)
+    result = fit(found.delta_s) if applied else first
     result.time_offset = offset_report(found, rate)
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(found, rate))
+    used = found.delta_s if applied else 0.0
+    states = profile(result)(used + SENSITIVITY_STEP_S * np.array([-1.0, 1.0]))[1]
+    per_s = {k: v / (2 * SENSITIVITY_STEP_S)
+             for k, v in moved(result, states[0], states[1]).items()}
+    result.time_offset["sensitivity_per_ms"] = {k: v / 1000 for k, v in per_s.items()}
+    # not applied, the estimate is made as with --time-offset 0 (clocks in sync), and the
+    # profile's sigma there mostly measures a model error's preferred shift (the real
+    # recording's knees: 3-16 ms, which would add 1-15 deg); the sensitivity is reported
+    sigma = found.sigma_s if applied and np.isfinite(found.sigma_s) else 0.0
+    _widen(result, {k: v * sigma for k, v in per_s.items()}, unit, limit)
     return result
+
+
+def _widen(result, part: dict, unit: str, limit: float) -> None:
+    """Add ``part`` ({name: deg or mm}) to ``result``'s uncertainty as its "time_offset"
+    component, with the "uncertain" warning when the new total exceeds ``limit``."""
+    components = result.uncertainty_components
+    components["time_offset"] = {k: float(v) for k, v in part.items()}
+    total = uncertainty_totals(components)
+    setattr(result, f"uncertainty_{unit}", total)
+    if (max(total.values()) > limit
+            and not any(w.startswith(UNCERTAIN_PREFIX) for w in result.warnings)):
+        result.warnings.append(uncertainty_warning(total, components, unit))
 
 
 def offset_report(found: Offset, rate: float) -> dict:
