@@ -36,7 +36,7 @@ import numpy as np
 from threadpoolctl import ThreadpoolController
 
 from .gauss_newton import BatchResult, chain, gauss_newton
-from .restarts import agreeing, best_restart
+from .restarts import agreeing, best_restart, settled
 
 #: Precision of the restarts' arithmetic: single precision halves the time of the
 #: element-wise work; the estimate itself is polished in double precision.
@@ -144,6 +144,8 @@ class Stages:
         (:func:`imucal.gauss_newton.gauss_newton`).
     project : ``x -> x`` applied to the refined states before they are compared (e.g. a
         hinge's point moved to its closest point on the axis); None: compared as they are.
+    mean : ``(x, ref) -> m``: the mean of states ``x`` (k, s) next to ``ref`` (s,) (e.g.
+        of axes without sign); None: the arithmetic mean.
     """
 
     problem: Callable
@@ -157,6 +159,7 @@ class Stages:
     max_step: float
     contraction: bool = False
     project: Callable[[np.ndarray], np.ndarray] | None = None
+    mean: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
 
     def solve(self, problem, x0: np.ndarray, max_iterations: int,
               step_tolerance: float) -> BatchResult:
@@ -201,9 +204,10 @@ class Multistart:
     finals : the refined states as compared (after ``Stages.project``), (R, s).
     best : index of the estimate, the refined restart with the lowest cost.
     reached : (R,) restarts whose final state lies within ``Stages.agreement`` of it.
-    centre : (s,) the squared-norm form's minimum on all samples next to the estimate
-        (as compared): the subset results scatter around it, not around the estimate,
-        where residuals remain.
+    centre : (s,) the mean of the settled subset results that reached the estimate (as
+        compared, :func:`imucal.restarts.settled`): they scatter around it, not around
+        the estimate, as the squared-norm form's minima lie off the paper's where
+        residuals remain.
     """
 
     batch: BatchResult
@@ -239,8 +243,8 @@ def multistart(stages: Stages, data: tuple, mask: np.ndarray | None, x0: np.ndar
     refined = chain(refined, polished, np.array([best]))
     # best is not chosen again: the other restarts' costs are single precision
     finals = project(refined.x)
-    centre = stages.solve(moments.with_mask(None), refined.x[best][None, :], max_iterations,
-                          stages.restart_step_tolerance).x
-    return Multistart(batch, refined, finals, best,
-                      agreeing(finals, best, stages.distance, stages.agreement),
-                      project(centre)[0])
+    reached = agreeing(finals, best, stages.distance, stages.agreement)
+    keep = settled(batch.final_cost, reached)
+    mean = stages.mean or (lambda x, ref: x.mean(axis=0))
+    centre = mean(project(batch.x[keep]), finals[best]) if keep.any() else finals[best]
+    return Multistart(batch, refined, finals, best, reached, centre)

@@ -16,9 +16,9 @@ expected. Blue: restarts that reached the estimate; grey: the others; black: the
 restart, the estimate.
 
 The restart-spread panel shows where the reported spread (``quality.*_spread_*``) comes
-from: each restart's result on its data subset, relative to the squared-norm form's fit
-on all samples next to the estimate (what the subset fits scatter around), in deg (axis)
-or mm (position). Its Axes carries the gid :data:`SPREAD_GID`.
+from: each restart's result on its data subset, relative to the mean of those that make
+the spread (what they scatter around), in deg (axis) or mm (position). Its Axes carries
+the gid :data:`SPREAD_GID`.
 """
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ def axis_figure(result: AxisResult, sensors: str = "") -> Figure:
 
     Panels: cost per iteration by stage ((rad/s)^2 on the subsets, rad/s on all
     samples); j1, j2 components per iteration; each restart's subset fit as an angle
-    from the fit on all samples it scatters around (deg);
+    from the subset fits' mean (deg);
     eq. (1) at the estimate; both sensors' rates in their joint planes (rad/s, drawn as
     points).
     """
@@ -97,7 +97,7 @@ def position_figure(result: PositionResult, sensors: str = "") -> Figure:
 
     Panels: cost per iteration by stage ((m/s^2)^2 on the subsets, m/s^2 on all
     samples); o1, o2 components per iteration (mm); each restart's subset fit relative
-    to the fit on all samples it scatters around, per component (mm). For a hinge
+    to the subset fits' mean, per component (mm). For a hinge
     every point is first moved along the axis to the point closest to both sensors, as
     the estimate is.
     """
@@ -307,8 +307,8 @@ def _axis_spread_panel(ax, result: AxisResult) -> None:
     spread = getattr(result, "spread_deg", {}) or {}
     _strip(ax, ["j1", "j2"], angles, result, "angle (deg)", " deg", signed=False,
            rms={0: spread.get("j1"), 1: spread.get("j2")}, rms_groups={0: [0], 1: [1]})
-    ax.set_title("Each restart's fit on its data subset: angle from the fit on all "
-                 "samples\n(the spread is the RMS of the blue points)")
+    ax.set_title("Each restart's fit on its data subset: angle from the blue points' mean"
+                 "\n(the spread is the RMS of the blue points)")
 
 
 def _position_spread_panel(ax, result: PositionResult, line) -> None:
@@ -317,14 +317,14 @@ def _position_spread_panel(ax, result: PositionResult, line) -> None:
     d = 1000 * (x - result.centre)
     spread = getattr(result, "spread_mm", {}) or {}
     names = [f"{v} {c}" for v in ("o1", "o2") for c in "xyz"]
-    _strip(ax, names, d, result, "subset fit - fit on all samples (mm)", " mm",
+    _strip(ax, names, d, result, "subset fit - their mean (mm)", " mm",
            signed=True,
            rms={1: spread.get("o1"), 4: spread.get("o2")},
            rms_groups={1: [0, 1, 2], 4: [3, 4, 5]})
     hinge = " (moved along the axis to the point closest to both sensors)" if line is not None \
         else ""
-    ax.set_title(f"Each restart's fit on its data subset{hinge}, relative to the fit on "
-                 "all samples\n"
+    ax.set_title(f"Each restart's fit on its data subset{hinge}, relative to the blue "
+                 "points' mean\n"
                  "(the spread is the RMS distance of the blue points)")
 
 

@@ -378,8 +378,8 @@ def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
         "uncertainty": uncertainty_totals(components),
         "fraction": float(fit.reached.mean()),
         "agreement": competing_agreement(fit.refined.final_cost, fit.reached),
-        # around the subsets' own (squared-form) minimum on all samples: the spread
-        # measures the subsets, not the two forms' difference
+        # around the subset results' mean: the spread measures the subsets, not how far
+        # the squared form's minima lie from the paper's
         "spread": {k: rms(np.linalg.norm(subset_finals[keep, sl] - fit.centre[sl], axis=1)
                           * 1000)
                    for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))},

@@ -123,10 +123,10 @@ UNCERTAINTY_METHOD = (
     "uncertainty_components and docs/quality.md)"
 )
 SPREAD_METHOD = (
-    "RMS distance between the results of the restarts that reached the estimate, each "
-    "fitted on a random half of the samples, and the fit on all samples next to the "
-    "estimate (both of the subset stage's squared-norm residual; leaving out subset fits "
-    "stuck in a local minimum: RMS residual above 1.25 x the median)"
+    "RMS distance of the results of the restarts that reached the estimate, each fitted "
+    "on a random half of the samples (the subset stage's squared-norm residual), from "
+    "their mean, leaving out subset fits stuck in a local minimum (RMS residual above "
+    "1.25 x the median)"
 )
 
 

@@ -63,8 +63,9 @@ class EstimateResult(Verdict):
     refined : each restart's result refined on all samples with the paper's residual;
         the estimate is the one with the lowest cost, polished in double precision.
     best : index of the restart the estimate came from.
-    centre : the squared-norm form's minimum on all samples next to the estimate (as
-        compared): what the subset results (``batch``) scatter around.
+    centre : the mean of the subset results (``batch``) that make the spread: what they
+        scatter around (the squared-norm form's minima lie off the paper's where
+        residuals remain).
     settings : every setting used, including the seed.
     samples_used : samples after window, subsampling and informative-sample selection.
     window : (start, end) in seconds from the first sample.
