@@ -358,9 +358,9 @@ constraint's residual is profiled over relative shifts of the second sensor with
 +-0.2 s, the estimate refitted at each
 ([method.md](method.md#clock-offsets-between-the-two-sensors)). Estimated: the second
 sensor's lateness that minimises the residual, ms (positive: its clock late); sigma: its
-block-jackknife 1-sigma, ms; cost ratio: mean squared residual at zero shift over that at
-the estimate (1 = no gain). Applied only when it is larger than a
-quarter sample and twice its sigma, and the cost ratio is at least 1.5.
+1-sigma (twice the block jackknife), ms; cost ratio: mean squared residual at zero shift
+over that at the estimate (1 = no gain). Applied only when it is larger than a
+quarter sample and twice its sigma, and the cost ratio is at least 1.6.
 
 """
 OFFSET_HEAD = [
@@ -443,24 +443,25 @@ FOOTER = """
   mm. The hip (pelvis - thigh) fits the spheroidal model with a relative residual of
   0.09-0.25 (the left hip in 55-100 s at the 0.25 where imucal warns of a poor fit);
   in 55-100 s the right hip has a second centre 241 mm away within 1.05 x the best RMS
-  residual, reached by 42 restarts: refused. The left hip in 55-100 s shows no such
+  residual, reached by 45 restarts: refused. The left hip in 55-100 s shows no such
   second minimum with this seed and is answered with a 1-sigma of 99 mm.
-- **Clock offsets.** No fit applied one: every cost ratio is 1.00-1.48, below the 1.5 at
-  which imucal aligns the sensors. What the profiles prefer is not a clock. The knee
-  axes' residual is lowest at a shank lateness of -31 ms (left, +-4) or -67 ms (right,
-  +-30) in 0-55 s, but -115 and -112 ms in 55-100 s; the same sensor pair's joint
-  centre (eq. 3, `--joint hinge`) prefers -9 to -10 ms in 0-55 s and -38 to -39 ms in 55-100 s. One
-  pair of clocks has one offset (a drift of 80 ms within a minute would be 0.15 %, far
-  beyond any crystal), whatever the constraint: shifts that differ between windows and
-  between eq. (1) and eq. (3), and that lower the mean squared residual by a factor of
-  only 1.06-1.48, are model
-  errors (soft tissue lagging the bone, a knee that is not a hinge) that a shift partly
-  mimics. This is why an offset must improve the fit by 1.5 x to be applied; the larger
-  ones (at least 10 ms, clear of twice their sigma) appear as the warning "offset not
-  applied". The left knee centre in 55-100 s comes closest (1.48). The ankles' and hips'
-  best shifts are -19 to +8 ms at 1.00-1.19. On simulated data a real 20 ms offset gives
-  cost ratios of 2 and more and is found within 1 ms at 100 Hz
-  ([accuracy.md](accuracy.md)).
+- **Clock offsets.** No fit applied one: every cost ratio is 1.00-1.50, below the 1.6 at
+  which imucal aligns the sensors. What the profiles prefer is not a clock. The left knee
+  axis' residual keeps falling to the end of the +-0.2 s search (+200 ms, at a cost
+  ratio of only 1.16 and 1.28, so no "beyond the search" warning); the right knee axis'
+  is lowest at a shank lateness of -37 ms (+-16) in 0-55 s but -14 ms in 55-100 s; the
+  same sensor pairs' joint centres (eq. 3, `--joint hinge`) prefer -9 ms in 0-55 s and
+  -38 to -40 ms in 55-100 s. One pair of clocks has one offset (a drift of 30 ms within a
+  minute would be 0.05 %, far beyond any crystal), whatever the constraint: shifts that
+  differ between windows and between eq. (1) and eq. (3), and that lower the mean
+  squared residual by a factor of only 1.06-1.50, are model errors (soft tissue lagging
+  the bone, a knee that is not a hinge) that a shift partly mimics. This is why an
+  offset must improve the fit by 1.6 x to be applied; the larger ones (at least 10 ms,
+  clear of twice their sigma) appear as the warning "offset not applied". The right knee
+  centre in 55-100 s comes closest (1.50). The ankle centres' and hips' best shifts are
+  -19 to +8 ms at 1.00-1.19 (the right ankle fitted as a hinge in 55-100 s: -112 ms at
+  1.47). On simulated data a real 20 ms offset gives cost ratios of 2 and more and is
+  found within 0.2 ms at 40-200 Hz ([accuracy.md](accuracy.md)).
 - **Split halves.** Wherever neither half is refused, the halves agree within 2.1
   combined sigma (worst: the left hip, 0-50 / 50-100 s, whose o1 moves 276 mm between the
   halves against a combined sigma of 129 mm). Before issue 10, with the curvature alone,
