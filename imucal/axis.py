@@ -27,7 +27,6 @@ import numpy as np
 
 from .errors import InputError
 from .gyr_bias import GyrBias, estimate_gyr_bias
-from .moments import HingeMoments
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
@@ -95,6 +94,13 @@ STEP_TOLERANCE = 1e-5
 #: The restarts (on their subsets and refined) stop at this estimated distance, rad
 #: (about 0.06 deg).
 RESTART_STEP_TOLERANCE = 1e-3
+#: The coarse stage only has to find each restart's basin, rad (about 0.6 deg).
+COARSE_STEP_TOLERANCE = 1e-2
+#: Samples shared by all restarts in the coarse stage (each sees its subset of them).
+COARSE_SAMPLES = 600
+#: The coarse stage stops after this many steps; restarts still moving go on on their
+#: subsets (a few restarts in flat valleys would otherwise run long on little data).
+COARSE_ITERATIONS = 6
 #: Stop when a step lowers the mean squared residual by less than this fraction.
 COST_TOLERANCE = 1e-12
 #: Largest tangent step per iteration, rad (norm over both axes).
@@ -386,7 +392,7 @@ def _fit(p: Prepared, s: AxisSettings) -> Multistart:
     x0 = np.concatenate([_random_unit(rng, s.restarts), _random_unit(rng, s.restarts)],
                         axis=1)
     return multistart(HINGE, p.data, subset_mask(p.samples, s.restarts, s.subset, rng), x0,
-                      s.max_iterations)
+                      s.max_iterations, rng)
 
 
 def _signs(p: Prepared, fit: Multistart, s: AxisSettings):
@@ -441,9 +447,7 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
         "uncertainty": uncertainty_totals(components),
         "fraction": float(fit.reached.mean()),
         "agreement": competing_agreement(fit.refined.final_cost, fit.reached),
-        # around the subset results' mean: the spread measures the subsets, not how far
-        # the squared form's minima lie from the paper's
-        "spread": {k: rms(_angle_deg(fit.batch.x[keep, sl], fit.centre[sl]))
+        "spread": {k: rms(_angle_deg(fit.batch.x[keep, sl], x[sl]))
                    for k, sl in (("j1", slice(0, 3)), ("j2", slice(3, 6)))},
         "minima": equal_minima(fit.refined.x, fit.refined.final_cost, fit.best, fit.reached,
                                _axis_distance),
@@ -497,6 +501,8 @@ def _settings_record(p: Prepared, s: AxisSettings, decision) -> dict:
         "max_iterations": s.max_iterations,
         "step_tolerance_rad": STEP_TOLERANCE,
         "restart_step_tolerance_rad": RESTART_STEP_TOLERANCE,
+        "coarse_samples": COARSE_SAMPLES,
+        "coarse_iterations": COARSE_ITERATIONS,
         "cost_tolerance": COST_TOLERANCE,
         "agreement_deg": AGREEMENT_DEG,
         "initial_values": "j1, j2 uniform on the unit sphere",
@@ -930,16 +936,6 @@ def _axis_distance(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.maximum(_angle_deg(x[..., :3], y[..., :3]), _angle_deg(x[..., 3:], y[..., 3:]))
 
 
-def _mean_axes(x: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """Mean direction of the (j1, j2) rows of ``x`` (k, 6), each turned to the side of
-    ``ref`` (6,) first (axes have no sign in eq. 1)."""
-    out = np.empty(6)
-    for sl in (slice(0, 3), slice(3, 6)):
-        v = x[:, sl] * np.where(x[:, sl] @ ref[sl] < 0, -1.0, 1.0)[:, None]
-        out[sl] = unit(v.mean(axis=0))
-    return out
-
-
 def _random_unit(rng: np.random.Generator, n: int) -> np.ndarray:
     v = rng.standard_normal((n, 3))
     return v / np.linalg.norm(v, axis=1, keepdims=True)
@@ -949,14 +945,13 @@ def _hinge_problem(data, mask, dtype, newton) -> _HingeProblem:
     return _HingeProblem(data[0], data[1], mask, dtype, newton)
 
 
-#: Eq. (1) in the staged multistart (:mod:`imucal.multistart`): the restarts on its
-#: squared-norm form from moments, the estimate polished in double precision. In single
-#: precision the quality refits resolve the axis to about 1e-5 rad, far below
-#: ``RESTART_STEP_TOLERANCE``.
+#: Eq. (1) in the staged multistart (:mod:`imucal.multistart`). In single precision the
+#: restarts resolve the axis to about 1e-5 rad, far below ``RESTART_STEP_TOLERANCE``.
 HINGE = Stages(
-    problem=_hinge_problem, moments=lambda data: HingeMoments(*data), retract=_retract,
-    distance=_axis_distance, mean=_mean_axes,
+    problem=_hinge_problem, retract=_retract, distance=_axis_distance,
     agreement=AGREEMENT_DEG, step_tolerance=STEP_TOLERANCE,
     restart_step_tolerance=RESTART_STEP_TOLERANCE,
-    cost_tolerance=COST_TOLERANCE, max_step=MAX_STEP, contraction=True,
+    coarse_step_tolerance=COARSE_STEP_TOLERANCE, coarse_samples=COARSE_SAMPLES,
+    coarse_iterations=COARSE_ITERATIONS, cost_tolerance=COST_TOLERANCE, max_step=MAX_STEP,
+    contraction=True,
 )

@@ -7,18 +7,17 @@ of restart curves and sample clouds are embedded as images (hundreds of thousand
 vector segments would make files of megabytes that viewers draw slowly), axes and text
 stay vector.
 
-Every restart is drawn through both its stages, shaded and named in each per-iteration
-panel: the fit on the restart's random data subset, on the squared-norm form of the
-residual (:mod:`imucal.multistart`; its cost on the left axis), then the refinement on
-all samples with the paper's residual (its cost on the right axis), where the best
-restart is polished further; a curve steps where its restart changes stage, which is
+Every restart is drawn through all its stages, shaded and named in each per-iteration
+panel: for the axis a coarse stage on a share of a few hundred samples (long recordings
+only), then the fit on the restart's random data subset, then the refinement on all
+samples, where the best restart is polished further. Costs are RMS residuals on the
+samples a stage fits, so a curve steps where its restart changes stage; that step is
 expected. Blue: restarts that reached the estimate; grey: the others; black: the best
 restart, the estimate.
 
 The restart-spread panel shows where the reported spread (``quality.*_spread_*``) comes
-from: each restart's result on its data subset, relative to the mean of those that make
-the spread (what they scatter around), in deg (axis) or mm (position). Its Axes carries
-the gid :data:`SPREAD_GID`.
+from: each restart's result on its data subset, relative to the estimate, in deg (axis)
+or mm (position). Its Axes carries the gid :data:`SPREAD_GID`.
 """
 
 from __future__ import annotations
@@ -66,19 +65,17 @@ class _Stage:
 def axis_figure(result: AxisResult, sensors: str = "") -> Figure:
     """The axis estimate's convergence (Fig. 4 of the paper) and its data dependence.
 
-    Panels: cost per iteration by stage ((rad/s)^2 on the subsets, rad/s on all
-    samples); j1, j2 components per iteration; each restart's subset fit as an angle
-    from the subset fits' mean (deg);
-    eq. (1) at the estimate; both sensors' rates in their joint planes (rad/s, drawn as
-    points).
+    Panels: cost per iteration by stage (rad/s); j1, j2 components per iteration; each
+    restart's subset fit as an angle from the estimate (deg); eq. (1) at the estimate;
+    both sensors' rates in their joint planes (rad/s, drawn as points).
     """
     fig = Figure(figsize=(12, 19), layout="constrained")
     ax = _rows(fig, [["cost"], ["j1", "j2"], ["spread", "fit"], ["plane1", "plane2"]],
                [0.8, 1.0, 1.0, 1.0])
     best = _best_axis_restart(result)
-    stages = _subset_and_refined(result)
+    stages = _axis_stages(result)
     path = _aligned_axis_path(result)
-    _cost_panel(ax["cost"], result, ("(rad/s)^2", "rad/s"), stages, best)
+    _cost_panel(ax["cost"], result, "rad/s", stages, best, polished=True)
     _component_panel(ax["j1"], path[:, :, :3], result, result.j1, stages, best,
                      "j1 (first sensor's frame) per iteration", "component (unit vector)")
     _component_panel(ax["j2"], path[:, :, 3:], result, result.j2, stages, best,
@@ -95,9 +92,8 @@ def axis_figure(result: AxisResult, sensors: str = "") -> Figure:
 def position_figure(result: PositionResult, sensors: str = "") -> Figure:
     """The joint-position estimate's convergence (Fig. 5 of the paper), in mm.
 
-    Panels: cost per iteration by stage ((m/s^2)^2 on the subsets, m/s^2 on all
-    samples); o1, o2 components per iteration (mm); each restart's subset fit relative
-    to the subset fits' mean, per component (mm). For a hinge
+    Panels: cost per iteration by stage (m/s^2); o1, o2 components per iteration (mm);
+    each restart's subset fit relative to the estimate, per component (mm). For a hinge
     every point is first moved along the axis to the point closest to both sensors, as
     the estimate is.
     """
@@ -109,7 +105,7 @@ def position_figure(result: PositionResult, sensors: str = "") -> Figure:
         path = closest_point_on_axis(path, line)
     best = _best_position_restart(result, line)
     stages = _subset_and_refined(result)
-    _cost_panel(ax["cost"], result, ("(m/s^2)^2", "m/s^2"), stages, best)
+    _cost_panel(ax["cost"], result, "m/s^2", stages, best)
     for key, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6))):
         which = "first" if key == "o1" else "second"
         _component_panel(ax[key], 1000 * path[:, :, sl], result,
@@ -176,35 +172,63 @@ def _aligned_axis_path(result: AxisResult) -> np.ndarray:
     return path
 
 
-def _axis_angles_deg(x: np.ndarray, result: AxisResult,
-                     centre: np.ndarray | None = None) -> np.ndarray:
-    """(R, 2) sign-free angles of (j1, j2) rows of ``x`` from ``centre`` (6,) (default:
-    the estimate), deg."""
-    if centre is None:
-        centre = np.concatenate([result.j1, result.j2])
+def _axis_angles_deg(x: np.ndarray, result: AxisResult) -> np.ndarray:
+    """(R, 2) sign-free angles of (j1, j2) rows of ``x`` from the estimate, deg."""
     out = np.empty((x.shape[0], 2))
-    for k, sl in enumerate((slice(0, 3), slice(3, 6))):
-        ref = centre[sl] / np.linalg.norm(centre[sl])
+    for k, (sl, ref) in enumerate(((slice(0, 3), result.j1), (slice(3, 6), result.j2))):
         v = x[:, sl] / np.linalg.norm(x[:, sl], axis=1, keepdims=True)
         out[:, k] = np.degrees(np.arccos(np.clip(np.abs(v @ ref), 0.0, 1.0)))
     return out
 
 
 def _best_axis_restart(result: AxisResult) -> int:
-    """Index of the restart the estimate came from."""
-    return int(result.best)
+    """Index of the restart the estimate came from (its refined value is the estimate)."""
+    best = getattr(result, "best", None)
+    if best is not None:
+        return int(best)
+    with np.errstate(invalid="ignore"):
+        d = _axis_angles_deg(result.refined.x, result).sum(axis=1)
+    return int(np.nanargmin(d)) if np.isfinite(d).any() else 0
 
 
 def _best_position_restart(result: PositionResult, line) -> int:
-    return int(result.best)
+    best = getattr(result, "best", None)
+    if best is not None:
+        return int(best)
+    finals = result.refined.x if line is None else closest_point_on_axis(result.refined.x, line)
+    d = np.linalg.norm(finals - np.concatenate([result.o1, result.o2]), axis=1)
+    return int(np.nanargmin(d)) if np.isfinite(d).any() else 0
 
 
 def _subset_and_refined(result) -> list[_Stage]:
     k1 = result.batch.cost.shape[1] - 1
     end = k1 + result.refined.cost.shape[1] - 1
-    return [_Stage("subset: each restart on its random half\nof the samples (squared-norm "
-                   "form)", 0, k1, "white"),
+    return [_Stage("subset: each restart on its random half of the samples", 0, k1, "white"),
             _Stage("refined on all samples", k1, end, "#dbe9f6")]
+
+
+def _axis_stages(result: AxisResult) -> list[_Stage]:
+    """The axis solver's stages on the joined iteration axis (see axis._multistart)."""
+    stages = _subset_and_refined(result)
+    k1 = stages[0].end
+    coarse = getattr(result, "coarse_iterations", None)
+    if coarse is not None:
+        c_end = float(np.max(coarse)) if np.size(coarse) else 0.0
+    else:
+        # Not in the result: the coarse stage runs when the used samples are at least
+        # twice its sample count, for at most coarse_iterations steps; where within
+        # that span each restart moves on is not recorded.
+        s = result.settings
+        ran = "coarse_samples" in s and result.samples_used >= 2 * s["coarse_samples"]
+        c_end = min(s.get("coarse_iterations", 0), s["max_iterations"], k1) if ran else 0.0
+    if c_end > 0:
+        samples = result.settings.get("coarse_samples", "a few hundred")
+        stages = [_Stage(f"coarse: at most {c_end:g} steps on a share of {samples} samples",
+                         0, c_end, "#fde9c9"),
+                  _Stage("subset: each restart on its random half of the samples", c_end, k1,
+                         "white"),
+                  stages[1]]
+    return stages
 
 
 def _shade(ax, stages: list[_Stage]) -> None:
@@ -224,48 +248,44 @@ def _filled(cost: np.ndarray) -> np.ndarray:
     return out
 
 
-def _cost_panel(ax, result, units: tuple[str, str], stages: list[_Stage], best: int) -> None:
-    """Cost per iteration: the subset stage's squared-norm form (``units[0]``, left axis),
-    then the refinement's paper residual (``units[1]``, right axis)."""
-    with np.errstate(invalid="ignore"):  # mean square -> RMS
-        subset = np.sqrt(_filled(result.batch.cost))
-        refined = np.sqrt(_filled(result.refined.cost))
-    k1 = subset.shape[1] - 1
+def _cost_panel(ax, result, unit: str, stages: list[_Stage], best: int,
+                polished: bool = False) -> None:
+    subset = _filled(result.batch.cost)
+    refined = _filled(result.refined.cost)
+    with np.errstate(invalid="ignore"):
+        cost = np.sqrt(np.concatenate([subset, refined[:, 1:]], axis=1))  # mean square -> RMS
+    its = np.arange(cost.shape[1])
     _shade(ax, stages)
     reached = np.asarray(result.reached, dtype=bool)
-    right = ax.twinx()
-    for axes, cost, its in ((ax, subset, np.arange(k1 + 1)),
-                            (right, refined, k1 + np.arange(refined.shape[1]))):
-        # the few restarts that did not reach the estimate go on top: where they end at
-        # the estimate's cost, a competing minimum, they must not hide behind the blue ones
-        for mask, colour in ((reached, _REACHED), (~reached, _OTHER)):
-            if mask.any():
-                axes.plot(its, cost[mask].T, color=colour, lw=0.7, alpha=0.5,
-                          rasterized=True)
-        axes.plot(its, cost[best], color=_BEST, lw=1.5)
-        finite = cost[np.isfinite(cost) & (cost > 0)]
-        if finite.size and finite.max() > 10 * finite.min():
-            axes.set_yscale("log")
-            _plain_log_ticks(axes.yaxis)
-        else:  # within a decade a log axis would carry one or two labels
-            axes.yaxis.get_major_formatter().set_useOffset(False)
+    # the few restarts that did not reach the estimate go on top: where they end at the
+    # estimate's cost, a competing minimum, they must not hide behind the blue ones
+    for mask, colour in ((reached, _REACHED), (~reached, _OTHER)):
+        if mask.any():
+            ax.plot(its, cost[mask].T, color=colour, lw=0.7, alpha=0.5, rasterized=True)
+    ax.plot(its, cost[best], color=_BEST, lw=1.5)
+    finite = cost[np.isfinite(cost) & (cost > 0)]
+    if finite.size and finite.max() > 10 * finite.min():
+        ax.set_yscale("log")
+        _plain_log_ticks(ax.yaxis)
+    else:  # within a decade a log axis would carry one or two labels
+        ax.yaxis.get_major_formatter().set_useOffset(False)
     _iteration_axis(ax)
     n = len(reached)
-    ax.set(ylabel=f"subsets: RMS squared-norm residual ({units[0]})",
+    ax.set(ylabel=f"RMS residual ({unit})",
            title=f"Cost of {n} restarts per iteration ({int(reached.sum())} reached the "
                  "estimate)")
-    right.set_ylabel(f"all samples: RMS residual ({units[1]})")
     n_reached = int(reached.sum())
     handles = [
         Line2D([], [], color=_REACHED, lw=1.2, label=f"reached the estimate ({n_reached})"),
         Line2D([], [], color=_OTHER, lw=1.2, label=f"did not reach it ({n - n_reached})"),
         Line2D([], [], color=_BEST, lw=1.5,
-               label="best restart = the estimate\n(polished further on all samples)"),
+               label="best restart = the estimate"
+                     + ("\n(polished further on all samples)" if polished else "")),
     ] + [Patch(facecolor=st.colour, edgecolor="0.5", lw=0.5, label=st.name) for st in stages]
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.17, 1.0), fontsize=8,
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
               title_fontsize=8, alignment="left",
-              title="Each stage fits other samples and\nits own residual (left and right\n"
-                    "axis), so a curve steps where its\nrestart moves on: expected")
+              title="Each stage fits other samples, so\na curve steps where its restart\n"
+                    "moves on: expected, not a failure")
 
 
 def _component_panel(ax, path, result, final, stages, best, title, ylabel,
@@ -301,30 +321,28 @@ def _plain_log_ticks(axis) -> None:
 
 
 def _axis_spread_panel(ax, result: AxisResult) -> None:
-    """Each restart's subset fit: its angle from the best restart's refined result, deg,
-    per axis."""
-    angles = _axis_angles_deg(result.batch.x, result, result.centre)
+    """Each restart's subset fit: its angle from the estimate, deg, per axis."""
+    angles = _axis_angles_deg(result.batch.x, result)
     spread = getattr(result, "spread_deg", {}) or {}
-    _strip(ax, ["j1", "j2"], angles, result, "angle (deg)", " deg", signed=False,
+    _strip(ax, ["j1", "j2"], angles, result, "angle from the estimate (deg)", " deg",
+           signed=False,
            rms={0: spread.get("j1"), 1: spread.get("j2")}, rms_groups={0: [0], 1: [1]})
-    ax.set_title("Each restart's fit on its data subset: angle from the blue points' mean"
-                 "\n(the spread is the RMS of the blue points)")
+    ax.set_title("Each restart's fit on its data subset: angle from the estimate\n"
+                 "(the spread is the RMS of the blue points)")
 
 
 def _position_spread_panel(ax, result: PositionResult, line) -> None:
     """Each restart's subset fit minus the estimate, per component, mm."""
     x = result.batch.x if line is None else closest_point_on_axis(result.batch.x, line)
-    d = 1000 * (x - result.centre)
+    d = 1000 * (x - np.concatenate([result.o1, result.o2]))
     spread = getattr(result, "spread_mm", {}) or {}
     names = [f"{v} {c}" for v in ("o1", "o2") for c in "xyz"]
-    _strip(ax, names, d, result, "subset fit - their mean (mm)", " mm",
-           signed=True,
+    _strip(ax, names, d, result, "subset fit - estimate (mm)", " mm", signed=True,
            rms={1: spread.get("o1"), 4: spread.get("o2")},
            rms_groups={1: [0, 1, 2], 4: [3, 4, 5]})
     hinge = " (moved along the axis to the point closest to both sensors)" if line is not None \
         else ""
-    ax.set_title(f"Each restart's fit on its data subset{hinge}, relative to the blue "
-                 "points' mean\n"
+    ax.set_title(f"Each restart's fit on its data subset{hinge}, relative to the estimate\n"
                  "(the spread is the RMS distance of the blue points)")
 
 

@@ -27,7 +27,6 @@ import numpy as np
 
 from .axis import AxisResult, estimate_axis
 from .errors import InputError
-from .moments import SpheroidalMoments
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
@@ -89,6 +88,12 @@ STEP_TOLERANCE = 1e-5
 #: The restarts (single precision, on their subsets and refined) stop at this step, m:
 #: a hundredth of ``AGREEMENT_M``, and below the spreads and sigmas reported (mm).
 RESTART_STEP_TOLERANCE = 1e-4
+#: The coarse stage only has to find each restart's basin, m.
+COARSE_STEP_TOLERANCE = 1e-3
+#: Samples shared by all restarts in the coarse stage, and its step limit (see
+#: :mod:`imucal.multistart`).
+COARSE_SAMPLES = 150
+COARSE_ITERATIONS = 6
 COST_TOLERANCE = 1e-9
 #: The cut-off sensitivity refits use the cut-off times these factors.
 SENSITIVITY_FACTORS = (0.75, 1.5)
@@ -333,7 +338,7 @@ def _fit(p: Prepared, s: PositionSettings, line) -> Multistart:
     # points with the lowest-cost one is fair.
     stages = SPHEROIDAL if line is None else replace(
         SPHEROIDAL, project=partial(closest_point_on_axis, line=line))
-    return multistart(stages, p.data, mask, x0, s.max_iterations)
+    return multistart(stages, p.data, mask, x0, s.max_iterations, rng)
 
 
 def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
@@ -378,10 +383,7 @@ def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
         "uncertainty": uncertainty_totals(components),
         "fraction": float(fit.reached.mean()),
         "agreement": competing_agreement(fit.refined.final_cost, fit.reached),
-        # around the subset results' mean: the spread measures the subsets, not how far
-        # the squared form's minima lie from the paper's
-        "spread": {k: rms(np.linalg.norm(subset_finals[keep, sl] - fit.centre[sl], axis=1)
-                          * 1000)
+        "spread": {k: rms(np.linalg.norm(subset_finals[keep, sl] - x[sl], axis=1) * 1000)
                    for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))},
         "minima": (count, 1000 * apart, ratio),  # distance in mm
         "weak_direction": (_weak_direction(cov, float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
@@ -519,6 +521,8 @@ def _settings_record(p: Prepared, s: PositionSettings) -> dict:
         "time_offset": s.time_offset,
         "step_tolerance_m": STEP_TOLERANCE,
         "restart_step_tolerance_m": RESTART_STEP_TOLERANCE,
+        "coarse_samples": COARSE_SAMPLES,
+        "coarse_iterations": COARSE_ITERATIONS,
         "cost_tolerance": COST_TOLERANCE,
         "agreement_mm": AGREEMENT_M * 1000,
         "initial_values": f"o1, o2 uniform in [-{INIT_BOX_M}, {INIT_BOX_M}]^3 m",
@@ -818,16 +822,11 @@ def _spheroidal_problem(data, mask, dtype, newton) -> _SpheroidalProblem:
 
 
 #: Eq. (3) in the staged multistart (:mod:`imucal.multistart`).
-def _spheroidal_moments(data) -> SpheroidalMoments:
-    g1, gdot1, a1, g2, gdot2, a2 = data
-    return SpheroidalMoments(np.moveaxis(_SpheroidalProblem._gamma(g1, gdot1), 2, 0), a1,
-                             np.moveaxis(_SpheroidalProblem._gamma(g2, gdot2), 2, 0), a2)
-
-
 SPHEROIDAL = Stages(
-    problem=_spheroidal_problem, moments=_spheroidal_moments,
-    retract=lambda x, step: x + step,
+    problem=_spheroidal_problem, retract=lambda x, step: x + step,
     distance=_position_distance, agreement=AGREEMENT_M, step_tolerance=STEP_TOLERANCE,
     restart_step_tolerance=RESTART_STEP_TOLERANCE,
-    cost_tolerance=COST_TOLERANCE, max_step=MAX_STEP, contraction=True,
+    coarse_step_tolerance=COARSE_STEP_TOLERANCE, coarse_samples=COARSE_SAMPLES,
+    coarse_iterations=COARSE_ITERATIONS, cost_tolerance=COST_TOLERANCE, max_step=MAX_STEP,
+    contraction=True,
 )

@@ -60,10 +60,7 @@ def axis_report(result: AxisResult, *, input_info: dict, trace: bool = False) ->
         "settings": result.settings,
         "convention": _axis_convention(result.settings["sign_convention"]),
         "units": {"j1": "unit vector", "j2": "unit vector", "rms_residual": "rad/s",
-                  "cost": "rad/s (RMS residual: refined_cost, refined_cost_trace)",
-                  "restart_cost": "(rad/s)^2 (RMS squared-norm residual: final_cost, "
-                                  "cost_trace)",
-                  "uncertainty": "deg", "spread": "deg",
+                  "cost": "rad/s (RMS residual)", "uncertainty": "deg", "spread": "deg",
                   "time_offset": "s (positive: the second sensor's clock is late)",
                   "gyr_bias": "rad/s"},
         "j1": result.j1,
@@ -86,10 +83,7 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
         "settings": result.settings,
         "convention": POSITION_CONVENTION,
         "units": {"o1": "m", "o2": "m", "rms_residual": "m/s^2",
-                  "cost": "m/s^2 (RMS residual: refined_cost, refined_cost_trace)",
-                  "restart_cost": "(m/s^2)^2 (RMS squared-norm residual: final_cost, "
-                                  "cost_trace)",
-                  "uncertainty": "mm", "spread": "mm",
+                  "cost": "m/s^2 (RMS residual)", "uncertainty": "mm", "spread": "mm",
                   "time_offset": "s (positive: the second sensor's clock is late)"},
         "joint": result.joint,
         "o1": result.o1,
@@ -123,10 +117,9 @@ UNCERTAINTY_METHOD = (
     "uncertainty_components and docs/quality.md)"
 )
 SPREAD_METHOD = (
-    "RMS distance of the results of the restarts that reached the estimate, each fitted "
-    "on a random half of the samples (the subset stage's squared-norm residual), from "
-    "their mean, leaving out subset fits stuck in a local minimum (RMS residual above "
-    "1.25 x the median)"
+    "RMS distance between the estimate and the results of the restarts that reached it, "
+    "each fitted on a random half of the samples (leaving out subset fits stuck in a local "
+    "minimum: RMS residual above 1.25 x the median)"
 )
 
 
@@ -220,9 +213,8 @@ RESTART_DIGITS = 7
 def _restart_entries(result, first: str, second: str, trace: bool = False) -> list[dict]:
     """One JSON entry per restart; ``first``/``second`` name the two state vectors.
 
-    Costs are RMS residuals: ``final_cost`` on the restart's subset (as ``final``), of
-    the squared-norm form the subset stage fits; ``refined_cost`` on all samples, of the
-    paper's residual; ``trace`` adds each stage's cost per iteration.
+    Costs are RMS residuals: ``final_cost`` on the restart's subset (as ``final``),
+    ``refined_cost`` on all samples; ``trace`` adds each stage's cost per iteration.
     """
     batch, refined = result.batch, result.refined
 

@@ -58,14 +58,9 @@ class EstimateResult(Verdict):
         estimate).
     reached : (R,) which restarts reached the estimate.
     batch : the restarts on their subsets (initial states ``batch.path[0]``, costs,
-        iterations), on the squared-norm form of the residual (:mod:`imucal.multistart`,
-        :mod:`imucal.moments`; costs are mean squares of that form).
-    refined : each restart's result refined on all samples with the paper's residual;
-        the estimate is the one with the lowest cost, polished in double precision.
-    best : index of the restart the estimate came from.
-    centre : the mean of the subset results (``batch``) that make the spread: what they
-        scatter around (the squared-norm form's minima lie off the paper's where
-        residuals remain).
+        iterations), the coarse stage's steps first (:mod:`imucal.multistart`).
+    refined : each restart's result refined on all samples; the estimate is the one with
+        the lowest cost, polished in double precision.
     settings : every setting used, including the seed.
     samples_used : samples after window, subsampling and informative-sample selection.
     window : (start, end) in seconds from the first sample.
@@ -94,8 +89,6 @@ class EstimateResult(Verdict):
     reached: np.ndarray
     batch: BatchResult
     refined: BatchResult
-    best: int
-    centre: np.ndarray
     settings: dict
     samples_used: int
     window: tuple[float, float]
@@ -107,7 +100,7 @@ class EstimateResult(Verdict):
 
     @property
     def iterations(self) -> np.ndarray:
-        """(R,) iterations of each restart on its subset."""
+        """(R,) iterations of each restart on its subset (coarse stage included)."""
         return self.batch.iterations
 
 
@@ -134,8 +127,6 @@ def shared_fields(p: Prepared, fit: Multistart, q: dict, *, unit: str, settings:
         "reached": fit.reached,
         "batch": fit.batch,
         "refined": fit.refined,
-        "best": fit.best,
-        "centre": fit.centre,
         "settings": settings,
         "samples_used": p.samples,
         "window": p.span_s,

@@ -103,15 +103,15 @@ def test_mismatched_arrays_raise_input_error():
         estimate_axis(np.ones((100, 2)), np.ones((100, 2)), rate=100)
 
 
-def test_lowest_cost_wins_and_the_restarts_find_it_on_simulated_walking():
-    # Simulated walking: with the subset fits on the norms of eq. (1) most restarts ended
-    # in a local minimum ~10 deg off the truth; fitted on its squared form, every subset
-    # result lies in the global minimum's basin.
+def test_lowest_cost_wins_even_when_most_restarts_end_elsewhere():
+    # Simulated walking: most restarts end in a local minimum ~10 deg off the truth.
     rec, truth = simulated(2, 100.0, 100.0, "walking")
     r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate, seed=1)
     assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
     assert r.refined.final_cost[r.reached].max() <= r.refined.final_cost.min() * 1.001
-    assert r.convergence_fraction == 1.0
+    # The other minimum fits clearly worse, so it is no reason to doubt the estimate.
+    rms = np.sqrt(r.refined.final_cost)
+    assert r.convergence_fraction < 0.5 and rms[~r.reached].min() > 1.25 * rms.min()
     assert r.competing_agreement == 1.0 and r.warnings == []
 
 

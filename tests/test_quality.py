@@ -246,11 +246,6 @@ def test_spheroidal_ankles_fitted_as_a_hinge_are_never_good():
             r = estimate_axis(sh.gyr, ft.gyr, rate=rate, seed=1)
             assert r.relative_residual > 0.1, (seed, duration)
             verdicts.append(r.verdict)
-            if r.verdict != "not identifiable":
-                # the restarts agree, and the uncertainty says what the fit cannot
-                assert max(r.uncertainty_deg.values()) > 10.0, (seed, duration)
     assert "good" not in verdicts
-    # measured: 8 of 12 refused (restarts disagree and the hinge fits poorly); the
-    # others warn with a 1-sigma of 14-25 deg. (11 of 12 with the restarts on the norms
-    # of eq. 1: its squared form, which the restarts now fit, has fewer local minima.)
-    assert verdicts.count("not identifiable") >= 8, verdicts
+    # measured: 11 of 12 refused; the other one, where the restarts agree, warns
+    assert verdicts.count("not identifiable") >= 10, verdicts

@@ -28,21 +28,20 @@ def _cases():
 
 
 def restarts_figure(results) -> Figure:
-    """Where each restart ended (its basin's minimum, polished with the paper's residual
-    on all samples): angle from the estimate against its RMS residual relative to the
-    best. One point = one answer."""
+    """Where each restart ended (refined on all samples): angle from the estimate against
+    its RMS residual relative to the best. One point = one answer."""
     fig = Figure(figsize=(9, 3.2), layout="constrained")
     for ax, (name, r) in zip(fig.subplots(1, len(results)), results.items(), strict=True):
-        rms = np.sqrt(r.final_cost)
-        x = r.finals
+        rms = np.sqrt(r.refined.final_cost)
+        x = r.refined.x
         cos = np.minimum(np.abs(x[:, :3] @ r.j1), np.abs(x[:, 3:] @ r.j2))
-        ax.plot(np.degrees(np.arccos(np.clip(cos, 0, 1))), rms / np.nanmin(rms), "o", alpha=0.4,
+        ax.plot(np.degrees(np.arccos(np.clip(cos, 0, 1))), rms / rms.min(), "o", alpha=0.4,
                 color="tab:green" if r.verdict == "good" else "tab:red")
         ax.set_title(f"{name}\nverdict: {r.verdict}", fontsize=9)
         ax.set_xlabel("angle from the estimate, deg")
         ax.set_ylabel("RMS residual / best")
         ax.set_xlim(-5, 95)
-        ax.set_ylim(0.995, max(1.1, 1.02 * float(np.nanmax(rms / np.nanmin(rms)))))
+        ax.set_ylim(0.995, max(1.1, 1.02 * float(np.max(rms / rms.min()))))
         ax.ticklabel_format(axis="y", useOffset=False)
         ax.text(0.97, 0.95, f"{r.convergence_fraction:.0%} reached the estimate\n"
                 f"relative residual {r.relative_residual:.2f}\n"

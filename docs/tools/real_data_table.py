@@ -443,7 +443,7 @@ FOOTER = """
   mm. The hip (pelvis - thigh) fits the spheroidal model with a relative residual of
   0.09-0.25 (the left hip in 55-100 s at the 0.25 where imucal warns of a poor fit);
   in 55-100 s the right hip has a second centre 241 mm away within 1.05 x the best RMS
-  residual, reached by 45 restarts: refused. The left hip in 55-100 s shows no such
+  residual, reached by 61 restarts: refused. The left hip in 55-100 s shows no such
   second minimum with this seed and is answered with a 1-sigma of 99 mm.
 - **Clock offsets.** No fit applied one: every cost ratio is 1.00-1.50, below the 1.6 at
   which imucal aligns the sensors. What the profiles prefer is not a clock. The left knee
