@@ -82,7 +82,13 @@ from .sign import (
     perpendicular,
     plane_test,
 )
-from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, delayed, fit_with_offset
+from .time_offset import (
+    OFFSET_STEPS,
+    SEARCH_S,
+    delayed,
+    fit_with_offset,
+    profile_samples,
+)
 from .vectors import joint_plane_rate, tangent_basis, unit
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.
@@ -351,7 +357,8 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
     def again(seconds):
         return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
                              settings=replace(s, time_offset=seconds))
-    return fit_with_offset(again, _offset_profile(g1, g2, rate), rate, s.offset_search,
+    return fit_with_offset(again, _offset_profile(g1, g2, rate, s.offset_search), rate,
+                           s.offset_search,
                            _offset_moved, "deg", MAX_UNCERTAINTY_DEG)
 
 
@@ -526,7 +533,7 @@ def _cutoff_sensitivity(p: Prepared, x: np.ndarray) -> dict:
             "max_shift_deg": max(shifts["j1"] + shifts["j2"])}
 
 
-def _offset_profile(g1, g2, rate):
+def _offset_profile(g1, g2, rate, search):
     """``result -> refit(deltas)``: eq. (1) over candidate offsets, the axis refitted
     from ``result`` at each: (D, M) residuals and (D, 6) axes
     (:func:`imucal.time_offset.fit_with_offset`).
@@ -546,8 +553,7 @@ def _offset_profile(g1, g2, rate):
         rates = np.concatenate([g1 - np.asarray(bias.get("b1_rad_s", 0.0)),
                                 g2 - np.asarray(bias.get("b2_rad_s", 0.0))], axis=1)
         both = lowpass(rates, rate, cutoff)
-        # every k-th sample used: the offset is one number, and each candidate costs a refit
-        index = first.sample_index[::max(1, first.samples_used // OFFSET_SAMPLES)]
+        index = profile_samples(first.sample_index, g1.shape[0], rate, search)
         d1, read2 = both[index, :3], delayed(both[:, 3:], rate)
         x = np.concatenate([first.j1, first.j2])
         return lambda deltas: _refit_residuals(d1, read2(index, deltas), x)

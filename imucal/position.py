@@ -75,7 +75,13 @@ from .result import EstimateResult, shared_fields
 from .selection import MAX_SAMPLES
 from .settings import JOINTS, MAX_ITERATIONS, SUBSET_FRACTION, PositionSettings  # noqa: F401 (JOINTS: imported from here)
 from .settings import resolve as resolve_settings
-from .time_offset import OFFSET_SAMPLES, OFFSET_STEPS, SEARCH_S, delayed, fit_with_offset
+from .time_offset import (
+    OFFSET_STEPS,
+    SEARCH_S,
+    delayed,
+    fit_with_offset,
+    profile_samples,
+)
 from .vectors import unit
 
 #: Two estimates agree when both o1 and o2 are within this distance, m.
@@ -305,7 +311,7 @@ def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> Positi
     def again(seconds):
         return estimate_position(g1, a1, g2, a2, rate=rate, axis=axis,
                                  settings=replace(s, time_offset=seconds))
-    return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate), rate,
+    return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate, s.offset_search), rate,
                            s.offset_search, _offset_moved, "mm", MAX_UNCERTAINTY_MM)
 
 
@@ -745,7 +751,7 @@ class _SpheroidalProblem:
         return cost, safe_newton(jtj, hess), jte
 
 
-def _offset_profile(signals, rate):
+def _offset_profile(signals, rate, search):
     """``result -> refit(deltas)``: eq. (3) over candidate offsets, the joint position
     refitted from ``result`` at each: (D, M) residuals and (D, 6) positions, m
     (:func:`imucal.time_offset.fit_with_offset`)."""
@@ -753,8 +759,7 @@ def _offset_profile(signals, rate):
 
     def profile(first):
         cutoff = first.settings["cutoff_hz"]
-        # every k-th sample used: the offset is one number, and each candidate costs a refit
-        index = first.sample_index[::max(1, first.samples_used // OFFSET_SAMPLES)]
+        index = profile_samples(first.sample_index, g1.shape[0], rate, search)
         own = [arr[index] for arr in _filtered(g1, a1, rate, cutoff)]
         read = delayed(np.concatenate(_filtered(g2, a2, rate, cutoff), axis=1), rate)
         x = np.concatenate([first.o1, first.o2])

@@ -309,7 +309,13 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *,
     if settings.time_offset:  # the second sensor read at t + offset, over the whole recording
         second = tuple(None if x is None else shifted(x, rate, settings.time_offset)
                        for x in second)
-    win = window_slice(first[0].shape[0], rate, settings.start, settings.end)
+    n_all = first[0].shape[0]
+    win = window_slice(n_all, rate, settings.start, settings.end)
+    if settings.time_offset:
+        # within the offset of either end the second sensor read at t + offset is no
+        # recorded motion (the reading holds the end values): those samples stay out
+        edge = int(np.ceil(abs(settings.time_offset) * rate)) + 1
+        win = slice(max(win.start, edge), max(min(win.stop, n_all - edge), max(win.start, edge)))
     if callable(cutoff):
         cutoff = cutoff(first[0][win], second[0][win])
     step = resolve_subsample(rate, cutoff, settings.subsample)

@@ -10,11 +10,14 @@ degrees. Both constraints hold only at the right relative shift ``delta``::
 
 ``delta`` > 0 means the second sensor's clock is late: its samples show the motion
 ``delta`` seconds after the first sensor's do, so its signal is read at ``t + delta``.
-The cost over ``delta`` is smooth near its minimum: a grid of one-sample steps over
-+-``search`` finds the basin and a parabola through the lowest grid point and its
-neighbours gives the minimum to a fraction of a sample (realism-and-angles-notes.md).
-The uncertainty is the delete-one-block jackknife over contiguous time blocks, as for the
-estimates themselves (:func:`imucal.quality.block_masks`).
+The cost over ``delta`` is smooth near its minimum: a coarse grid over +-``search``, then
+one-sample steps around its lowest point find the basin, and a least-squares parabola
+through candidates 2 ms apart, recentred until they straddle its vertex, gives the
+minimum to a fraction of a sample (:func:`estimate_offset`; realism-and-angles-notes.md).
+The profile leaves out samples within the search of the recording's ends
+(:func:`profile_samples`). The uncertainty is twice the delete-one-block jackknife over
+contiguous time blocks, as for the estimates themselves
+(:func:`imucal.quality.block_masks`; the factor is measured, see ``SIGMA_SCALE``).
 """
 
 from __future__ import annotations
@@ -84,9 +87,11 @@ class Offset:
     Attributes
     ----------
     delta_s : the second sensor's clock lateness, s (0 when not estimated).
-    sigma_s : its 1-sigma (delete-one-block jackknife), s.
-    at_edge : the cost kept falling to the end of the search range: the offset may be
-        larger than the search, so ``delta_s`` is not trusted (and not applied).
+    sigma_s : its 1-sigma (``SIGMA_SCALE`` times the delete-one-block jackknife), s.
+    at_edge : the cost kept falling to the end of the search range (the lowest point of
+        the one-sample grid is an end of the search) with a gain of at least
+        ``MIN_COST_RATIO``: the offset may be larger than the search, so ``delta_s`` is
+        not trusted (and not applied).
     search_s : the search range +-, s.
     cost_ratio : cost at zero offset over the cost at ``delta_s`` (1 = no gain).
     """
@@ -153,11 +158,6 @@ def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
     coarse = np.unique(np.concatenate([-half, half]))  # symmetric, with 0 and both ends
     costs = dict(zip(coarse.tolist(), np.square(residuals(coarse / rate)), strict=True))
     low = min(costs, key=lambda k: costs[k].mean())
-    # the profile falling to the end of the search is evidence of a larger offset only
-    # where it gains as much as an offset that would be applied: the real knees' model
-    # errors fall to the end at 1.16-1.28
-    gain = costs[0].mean() / max(costs[low].mean(), 1e-300)  # 0 is on the coarse grid
-    at_edge = low in (-steps, steps) and gain >= MIN_COST_RATIO
     fine = np.arange(max(-steps, low - COARSE_STEP), min(steps, low + COARSE_STEP) + 1)
     todo = np.array([k for k in fine.tolist() if k not in costs])
     if todo.size:
@@ -166,14 +166,21 @@ def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
     if not np.isfinite(table).all() or table.shape[1] < 20:
         return Offset(0.0, float("inf"), False, float(search), 1.0)
     whole = table.mean(axis=1)
-    zero = costs[0].mean()
+    zero = costs[0].mean()  # 0 is on the coarse grid
     ratio = float(zero / max(whole.min(), 1e-300))
+    # the profile falling to the end of the search (on the one-sample grid: a coarse
+    # point at the end may have a lower neighbour inside) is evidence of a larger offset
+    # only where it gains as much as an offset that would be applied: the real knees'
+    # model errors fall to the end at 1.16-1.28
+    at_edge = bool(fine[np.argmin(whole)] in (-steps, steps) and ratio >= MIN_COST_RATIO)
     rough, edge = _parabola_minimum(whole, fine / rate)
     if at_edge or edge:
         return Offset(rough, _block_sigma(table, fine / rate, rough), bool(at_edge),
                       float(search), ratio)
     # the sub-sample pass, recentred on its own vertex until the candidates straddle it
-    lo, hi = fine[0] / rate + FINE_SPAN_S, fine[-1] / rate - FINE_SPAN_S
+    # the candidates stay inside the search (at 1000 Hz the one-sample grid spans only
+    # the sub-sample pass's own width)
+    lo, hi = -search + FINE_SPAN_S, search - FINE_SPAN_S
     lo, hi = min(lo, rough), max(hi, rough)  # a search narrower than the sub-sample span
     best, near_table, near = float(np.clip(rough, lo, hi)), table, fine / rate
     for _ in range(FINE_PASSES):
@@ -233,6 +240,25 @@ def delayed(x: np.ndarray, rate: float) -> Callable[[np.ndarray, np.ndarray], np
         return np.stack([np.fft.irfft(spectrum * np.exp(2j * np.pi * freq * d), n=2 * n,
                                       axis=0)[index] for d in np.atleast_1d(deltas)])
     return read
+
+
+def profile_samples(sample_index: np.ndarray, n: int, rate: float,
+                    search: float) -> np.ndarray:
+    """The samples an offset profile compares: of the fit's samples ``sample_index``
+    (into a recording of ``n`` samples at ``rate`` Hz), those farther than the search
+    range ``search`` s (plus the sub-sample pass's span and a sample) from either end,
+    thinned to about ``OFFSET_SAMPLES``.
+
+    Near an end the second sensor read at t + delta is no recorded motion (the delay
+    wraps or holds the ends there), and when eq. (1) barely separates the offset from a
+    turn of the axis a few such samples decide the minimum: noise-free circling at 1000
+    Hz, shank 13 ms late, found 9.6 ms from 1500 samples of which 3 lay within the search
+    of the end, 13.02 ms without them; at 100 Hz with noise a 20 ms offset read 14.7 ms
+    and was not applied, leaving a 4.5 deg axis error called good.
+    """
+    margin = int(np.ceil((search + FINE_SPAN_S) * rate)) + 1
+    inside = sample_index[(sample_index >= margin) & (sample_index < n - margin)]
+    return inside[::max(1, inside.size // OFFSET_SAMPLES)]
 
 
 def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
@@ -299,12 +325,22 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
     """What to say about an automatic offset that was not applied."""
     if found.at_edge:
         return [offset_edge_warning(found)]
+    if found.significant(rate):
+        return []
+    # a minimum on the search's end is a bound, not an estimate
+    end = abs(found.delta_s) >= found.search_s - 0.5 / rate
+    where = (f"at least {1000 * found.delta_s:+.0f} ms later (the end of the search)" if end
+             else f"{1000 * found.delta_s:+.0f} ms later (+-{1000 * found.sigma_s:.0f} ms)")
+    if found.cost_ratio >= MIN_COST_RATIO and abs(found.delta_s) > MIN_APPLIED_SAMPLES / rate:
+        return [f"the residual is lowest with the second sensor read {where}, lower by a "
+                f"factor {found.cost_ratio:.2f}, but the offset is not determined well "
+                "enough to apply: the estimate assumes synchronised clocks. Check the "
+                "synchronisation, or pass the offset with --time-offset"]
     if found.suspicious(rate):
-        return [f"the residual is lowest with the second sensor read {1000 * found.delta_s:+.0f} "
-                f"ms later (+-{1000 * found.sigma_s:.0f} ms), but that lowers it only by a "
-                f"factor {found.cost_ratio:.2f}: a clock offset or a model error (soft "
-                "tissue, not a hinge); not applied. Check the synchronisation, or pass the "
-                "offset with --time-offset"]
+        return [f"the residual is lowest with the second sensor read {where}, but that "
+                f"lowers it only by a factor {found.cost_ratio:.2f}: a clock offset or a "
+                "model error (soft tissue, not a hinge); not applied. Check the "
+                "synchronisation, or pass the offset with --time-offset"]
     return []
 
 

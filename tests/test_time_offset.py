@@ -190,3 +190,42 @@ def test_soft_tissue_lag_is_not_taken_for_a_clock_offset():
                           acc_noise=0.05)
         r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=60.0, seed=1)
         assert not r.time_offset["applied"] and r.time_offset["cost_ratio"] < 1.3, r.time_offset
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_circling_with_a_late_shank_is_aligned_not_called_good_while_off(seed):
+    # The simulator's own clock offset on plain circling (its default motion): the
+    # profile once compared samples within the search range of the recording's end,
+    # where the delayed shank is no recorded motion; it found 14.7-17.2 ms, applied
+    # none, and called a 4.5 deg axis error good.
+    rec, truth = simulate(seed=seed, rate=100.0, duration=20.0, clock_offset={"shank": 0.02})
+    thigh, shank = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(thigh.gyr, shank.gyr, rate=rec.rate, seed=1, acc1=thigh.acc,
+                      acc2=shank.acc)
+    found = r.time_offset
+    assert found["applied"] and abs(found["time_offset_s"] - 0.02) < 0.003, found
+    truth = truth["knee"] if "knee" in truth else truth
+    assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
+
+
+def test_an_offset_just_inside_the_search_is_applied():
+    # 190 ms late, search +-200 ms: the coarse grid's lowest point is the search's end,
+    # the one-sample grid's is 190 ms, inside it
+    rec, truth = simulate(seed=6, rate=100.0, duration=20.0, clock_offset={"shank": 0.19})
+    thigh, shank = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(thigh.gyr, shank.gyr, rate=rec.rate, seed=1)
+    found = r.time_offset
+    assert found["applied"] and not found["at_edge"], found
+    assert abs(found["time_offset_s"] - 0.19) < 0.003, found
+    truth = truth["knee"] if "knee" in truth else truth
+    assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 1.0
+
+
+def test_the_profile_leaves_out_samples_within_the_search_of_the_ends():
+    from imucal.time_offset import FINE_SPAN_S, profile_samples
+
+    index = np.arange(0, 10_000, 2)
+    used = profile_samples(index, 10_000, 100.0, 0.2)
+    margin = int(np.ceil((0.2 + FINE_SPAN_S) * 100.0)) + 1
+    assert used.min() >= margin and used.max() < 10_000 - margin
+    assert 1400 <= used.size <= 3000 and np.isin(used, index).all()

@@ -460,8 +460,8 @@ FOOTER = """
   clear of twice their sigma) appear as the warning "offset not applied". The right knee
   centre in 55-100 s comes closest (1.50). The ankle centres' and hips' best shifts are
   -19 to +8 ms at 1.00-1.19 (the right ankle fitted as a hinge in 55-100 s: -112 ms at
-  1.47). On simulated data a real 20 ms offset gives cost ratios of 2 and more and is
-  found within 0.2 ms at 40-200 Hz ([accuracy.md](accuracy.md)).
+  1.47). On simulated data a real 20 ms offset gives cost ratios of 1.5-3 (circling at
+  40 Hz) to 90 and is found within 0.2 ms at 40-200 Hz ([accuracy.md](accuracy.md)).
 - **Split halves.** Wherever neither half is refused, the halves agree within 2.1
   combined sigma (worst: the left hip, 0-50 / 50-100 s, whose o1 moves 276 mm between the
   halves against a combined sigma of 129 mm). Before issue 10, with the curvature alone,
