@@ -171,7 +171,7 @@ def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
     # the profile falling to the end of the search (on the one-sample grid: a coarse
     # point at the end may have a lower neighbour inside) is evidence of a larger offset
     # only where it gains as much as an offset that would be applied: the real knees'
-    # model errors fall to the end at 1.16-1.24
+    # model errors fall to the end at 1.16-1.28
     at_edge = bool(fine[np.argmin(whole)] in (-steps, steps) and ratio >= MIN_COST_RATIO)
     rough, edge = _parabola_minimum(whole, fine / rate)
     if at_edge or edge:

@@ -445,22 +445,22 @@ FOOTER = """
   in 55-100 s the right hip has a second centre 241 mm away within 1.05 x the best RMS
   residual, reached by 61 restarts: refused. The left hip in 55-100 s shows no such
   second minimum with this seed and is answered with a 1-sigma of 99 mm.
-- **Clock offsets.** No fit applied one: every cost ratio is 1.00-1.52, below the 1.6 at
+- **Clock offsets.** No fit applied one: every cost ratio is 1.00-1.51, below the 1.6 at
   which imucal aligns the sensors. What the profiles prefer is not a clock. The left knee
   axis' residual keeps falling to the end of the +-0.2 s search (+200 ms, at a cost
-  ratio of only 1.16 and 1.24, so no "beyond the search" warning); the right knee axis'
+  ratio of only 1.16 and 1.28, so no "beyond the search" warning); the right knee axis'
   is lowest at a shank lateness of -37 ms (+-16) in 0-55 s but -14 ms in 55-100 s; the
   same sensor pairs' joint centres (eq. 3, `--joint hinge`) prefer -9 ms in 0-55 s and
   -38 to -40 ms in 55-100 s. One pair of clocks has one offset (a drift of 30 ms within a
   minute would be 0.05 %, far beyond any crystal), whatever the constraint: shifts that
   differ between windows and between eq. (1) and eq. (3), and that lower the mean
-  squared residual by a factor of only 1.06-1.52, are model errors (soft tissue lagging
+  squared residual by a factor of only 1.06-1.51, are model errors (soft tissue lagging
   the bone, a knee that is not a hinge) that a shift partly mimics. This is why an
   offset must improve the fit by 1.6 x to be applied; the larger ones (at least 10 ms,
   clear of twice their sigma) appear as the warning "offset not applied". The right knee
-  centre in 55-100 s comes closest (1.52). The ankle centres' and hips' best shifts are
+  centre in 55-100 s comes closest (1.51). The ankle centres' and hips' best shifts are
   -19 to +8 ms at 1.00-1.19 (the right ankle fitted as a hinge in 55-100 s: -113 ms at
-  1.51). On simulated data a real 20 ms offset gives cost ratios of 1.5-3 (circling at
+  1.46). On simulated data a real 20 ms offset gives cost ratios of 1.5-3 (circling at
   40 Hz) to 90 and is found within 0.2 ms at 40-200 Hz ([accuracy.md](accuracy.md)).
 - **Split halves.** Wherever neither half is refused, the halves agree within 2.1
   combined sigma (worst: the left hip, 0-50 / 50-100 s, whose o1 moves 276 mm between the
