@@ -388,14 +388,12 @@ noise between samples, which pulled the knee's offset towards half-samples by 0.
 remove that ([method.md](method.md#clock-offsets-between-the-two-sensors)). The
 offset's uncertainty now also counts in the estimate's: an applied offset's 1-sigma times
 the estimate's move per ms of offset (4-18 mm/ms for these ankle centres, 0.01-0.1 deg/ms
-for these knees, 0.16-0.28 on circling) is `uncertainty_components.time_offset`. Under
-soft tissue the knee axes' profile is now low-passed (white noise diluted the gain of a
-real offset, not that of a soft-tissue lag), and an offset needs a cost ratio of 1.6: in
-this table no fit without a simulated offset applies one (the largest best shift of the
-soft-tissue rows, +20.0 ms, gains only 1.18), and in the coverage run 1 of the 80
-soft-tissue knee fits does (2 deg / 3 mm, 40 Hz, seed 7: -36.6 ms at 1.63, its axis 3.2
-deg off at a 1-sigma of 3.1 deg, `use with care`); before, 9 of the 80 applied +10 to
-+21 ms.
+for these knees, 0.16-0.28 on circling) is `uncertainty_components.time_offset`. No fit
+without a simulated offset applies one: under soft tissue the knee axes' profile is now
+low-passed (white noise diluted the gain of a real offset, not that of a soft-tissue
+lag), and an offset needs a cost ratio of 1.6 (the largest best shift of the soft-tissue
+rows, +19.6 ms, gains only 1.18; before, 9 of the 80 soft-tissue knee fits of the
+coverage run applied +10 to +21 ms).
 
 **Missed.**
 - **Soft tissue is not accurate, only honest.** Knee axis errors up to 2.2 deg (median
