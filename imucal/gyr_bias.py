@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .vectors import joint_plane_rate, tangent_basis, unit
+from .vectors import cross_rows, joint_plane_rate, tangent_basis, unit
 
 #: Prior standard deviation of each bias component, rad/s (MEMS gyroscopes after warm-up:
 #: 0.005-0.05 rad/s).
@@ -136,12 +136,12 @@ def _fit(gyr1, gyr2, j1, j2, tolerance: float = TOLERANCE) -> GyrBias:
             q = p[3 * k:3 * k + 3]
             j = unit(q)
             h = g - p[6 + 3 * k:9 + 3 * k]
-            u = _cross(h, j)
+            u = cross_rows(h, j)
             n = np.maximum(np.linalg.norm(u, axis=1), 1e-12)[:, None]
             # d|h x j|/dj = (u x h)/n, taken back through j = q/|q|; d/db = (u x j)/n
-            dj = _cross(u, h) / n
+            dj = cross_rows(u, h) / n
             jac[:-6, 3 * k:3 * k + 3] = sign * (dj - (dj @ j)[:, None] * j) / np.linalg.norm(q)
-            jac[:-6, 6 + 3 * k:9 + 3 * k] = sign * _cross(u, j) / n
+            jac[:-6, 6 + 3 * k:9 + 3 * k] = sign * cross_rows(u, j) / n
         jac[-6:, 6:] = weight * np.eye(6)
         return jac
 
@@ -206,17 +206,6 @@ def _inflation(jac: np.ndarray, j1: np.ndarray, j2: np.ndarray,
         ratio = np.trace(free[sl, sl]) / np.trace(known[sl, sl])
         out.append(float(np.sqrt(ratio)) if np.isfinite(ratio) and ratio >= 1 else 1.0)
     return out[0], out[1]
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise a x b of (N, 3) arrays (either may be one (3,) vector): numpy's cross
-    spends more on moving axes than on these few thousand products."""
-    a, b = np.broadcast_arrays(a, b)
-    out = np.empty(a.shape)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
 
 
 def _residual(g1, g2, j1, j2, b1, b2) -> np.ndarray:

@@ -315,7 +315,8 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *,
         # within the offset of either end the second sensor read at t + offset is no
         # recorded motion (the reading holds the end values): those samples stay out
         edge = int(np.ceil(abs(settings.time_offset) * rate)) + 1
-        win = slice(max(win.start, edge), max(min(win.stop, n_all - edge), max(win.start, edge)))
+        first_in = max(win.start, edge)
+        win = slice(first_in, max(first_in, min(win.stop, n_all - edge)))
     if callable(cutoff):
         cutoff = cutoff(first[0][win], second[0][win])
     step = resolve_subsample(rate, cutoff, settings.subsample)
