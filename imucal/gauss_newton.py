@@ -24,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 MAX_HALVINGS = 12
+#: Halved step lengths tried per cost call (:func:`_descend`).
+HALVINGS_PER_CALL = 4
 #: Largest step ratio trusted when estimating the distance left (``contraction``).
 MAX_CONTRACTION = 0.99
 #: Damping added to J^T J, relative to its mean diagonal.
@@ -244,30 +246,35 @@ def _descend(cost, retract, x_old, step, c_old, rows, x_full, c_full, good_full)
     ``x_full``, ``c_full``, ``good_full``: the full step, already tried. Returns the new
     states and costs, the norm of the step actually taken (0 where none was) and where a
     step was taken.
+
+    Each restart takes the longest of the halved steps that does not raise the cost, as
+    if it halved one step at a time; the trials are made ``HALVINGS_PER_CALL`` lengths at
+    a time in one cost call, because a call's fixed cost exceeds that of a few more rows.
     """
     if good_full.all():  # the usual case: every full step lowered the cost
         return x_full, c_full, _norms(step), good_full
-    step = step.copy()
-    x_new = x_old.copy()
-    c_new = c_old.copy()
-    ok = np.zeros(x_old.shape[0], dtype=bool)
-    trial = np.arange(x_old.shape[0])
-    for attempt in range(MAX_HALVINGS + 1):
-        if attempt == 0:
-            x_try, c_try, good = x_full, c_full, good_full
-        else:
-            x_try = retract(x_old[trial], step[trial])
-            c_try = cost(x_try, rows[trial])
-            good = np.isfinite(c_try) & (c_try <= c_old[trial])
-        x_new[trial[good]] = x_try[good]
-        c_new[trial[good]] = c_try[good]
-        ok[trial[good]] = True
-        trial = trial[~good]
+    x_new = np.where(good_full[:, None], x_full, x_old)
+    c_new = np.where(good_full, c_full, c_old)
+    taken = np.where(good_full, 1.0, 0.0)  # fraction of the step taken
+    trial = np.flatnonzero(~good_full)
+    for first in range(1, MAX_HALVINGS + 1, HALVINGS_PER_CALL):
+        fractions = 0.5 ** np.arange(first, min(first + HALVINGS_PER_CALL, MAX_HALVINGS + 1))
+        m, t = fractions.size, trial.size
+        # fraction-major: trial state (i, q) is row i * t + q
+        x_try = retract(np.tile(x_old[trial], (m, 1)),
+                        (fractions[:, None, None] * step[trial][None]).reshape(m * t, -1))
+        c_try = cost(x_try, np.tile(rows[trial], m)).reshape(m, t)
+        good = np.isfinite(c_try) & (c_try <= c_old[trial])
+        found = good.any(axis=0)
+        longest = np.argmax(good, axis=0)[found]  # the first fraction that descends
+        q = np.flatnonzero(found)
+        x_new[trial[q]] = x_try.reshape(m, t, -1)[longest, q]
+        c_new[trial[q]] = c_try[longest, q]
+        taken[trial[q]] = fractions[longest]
+        trial = trial[~found]
         if trial.size == 0:
             break
-        step[trial] *= 0.5
-    step[~ok] = 0.0
-    return x_new, c_new, _norms(step), ok
+    return x_new, c_new, taken * _norms(step), taken > 0
 
 
 def _norms(v: np.ndarray) -> np.ndarray:

@@ -623,18 +623,8 @@ class _SpheroidalProblem:
 
     @staticmethod
     def _gamma(g, gdot):
-        """(3, 3, N) array G with (Gamma_n o)_k = sum_i G[k, i, n] o_i, where
-        Gamma o = g x (g x o) + gdot x o = (g g^T - |g|^2 I + [gdot]x) o."""
-        gt, dt = g.T, gdot.T
-        m = gt[:, None, :] * gt[None, :, :]
-        m -= np.sum(gt * gt, axis=0)[None, None, :] * np.eye(3)[:, :, None]
-        m[0, 1] -= dt[2]
-        m[0, 2] += dt[1]
-        m[1, 0] += dt[2]
-        m[1, 2] -= dt[0]
-        m[2, 0] -= dt[1]
-        m[2, 1] += dt[0]
-        return m
+        """(3, 3, N) array G with (Gamma_n o)_k = sum_i G[k, i, n] o_i (:func:`_gamma_rows`)."""
+        return _gamma_rows(g, gdot).transpose(1, 2, 0)
 
     def _r(self, k, o, out=None):
         """a - Gamma(o) for sensor k and offsets o (r, 3): (r, 3, N)."""
@@ -763,20 +753,60 @@ def _offset_profile(signals, rate, search):
         own = [arr[index] for arr in _filtered(g1, a1, rate, cutoff)]
         read = delayed(np.concatenate(_filtered(g2, a2, rate, cutoff), axis=1), rate)
         x = np.concatenate([first.o1, first.o2])
-
-        def refit(deltas):
-            out, states = [], []
-            for other in read(index, deltas):
-                problem = _SpheroidalProblem(*own, *np.split(other, 3, axis=1), None)
-                y = x
-                for _ in range(OFFSET_STEPS):  # plain Gauss-Newton from the first estimate
-                    e, jac = problem.linearise(y[None, :])
-                    y = y + np.linalg.lstsq(jac[0], -e[0], rcond=None)[0]
-                out.append(problem.residual(y[None, :])[0])
-                states.append(y)
-            return np.stack(out), np.stack(states)
-        return refit
+        return lambda deltas: _refit_offsets(own, np.split(read(index, deltas), 3, axis=2), x)
     return profile
+
+
+def _refit_offsets(own, other, x) -> tuple[np.ndarray, np.ndarray]:
+    """(D, M) residuals of eq. (3) and the (D, 6) positions after ``OFFSET_STEPS`` plain
+    Gauss-Newton steps from ``x`` (6,), for each of D offset candidates at once: ``own``
+    the first sensor's (g, dg/dt, a), each (M, 3), ``other`` the second's, each (D, M, 3)
+    (the profile cost of each, without the solver's restart machinery).
+
+    Each step is the minimum-norm least-squares step, as ``numpy.linalg.lstsq`` takes it:
+    along a hinge's axis the data do not fix the position (a singular value below
+    ``eps max(M, 6)`` times the largest counts as zero).
+    """
+    gam1, gam2 = _gamma_rows(*own[:2]), _gamma_rows(*other[:2])  # (M, 3, 3), (D, M, 3, 3)
+    a1, a2 = own[2], other[2]
+    y = np.repeat(x[None, :], a2.shape[0], axis=0)
+
+    def linearise(y):
+        # Gamma o as sums of columns times components: einsum's generic loop over these
+        # small axes cost 5-15 times more
+        r1 = a1 - (gam1.reshape(-1, 3) @ y[:, :3].T).T.reshape(a2.shape)
+        r2 = a2 - sum(gam2[..., i] * y[:, None, None, 3 + i] for i in range(3))
+        n1, n2 = (np.sqrt(np.einsum("dnk,dnk->dn", r, r)) for r in (r1, r2))
+        # d|a - Gamma o| / do = -Gamma^T (a - Gamma o) / |a - Gamma o| (eq. 4); e = |r1| -
+        # |r2|, so the second sensor's enters negated
+        jac = np.concatenate([
+            -sum(gam1[:, k, :] * r1[..., k, None] for k in range(3))
+            / np.maximum(n1, 1e-12)[..., None],
+            np.einsum("dnki,dnk->dni", gam2, r2) / np.maximum(n2, 1e-12)[..., None]], axis=2)
+        return n1 - n2, jac
+
+    for _ in range(OFFSET_STEPS):
+        e, jac = linearise(y)
+        u, sv, vt = np.linalg.svd(jac, full_matrices=False)
+        keep = sv > np.finfo(float).eps * max(jac.shape[1:]) * sv[:, :1]
+        inverse = np.where(keep, 1.0 / np.where(keep, sv, 1.0), 0.0)
+        coeff = inverse * np.einsum("dnk,dn->dk", u, -e)
+        y = y + np.einsum("dkj,dk->dj", vt, coeff)
+    return linearise(y)[0], y
+
+
+def _gamma_rows(g, gdot) -> np.ndarray:
+    """(..., M, 3, 3) matrices Gamma = g g^T - |g|^2 I + [gdot]x of eq. (3) for rates
+    ``g`` and their derivatives ``gdot`` (..., M, 3), rad/s and rad/s^2."""
+    gam = g[..., :, None] * g[..., None, :]
+    gam -= np.sum(g * g, axis=-1)[..., None, None] * np.eye(3)
+    gam[..., 0, 1] -= gdot[..., 2]
+    gam[..., 0, 2] += gdot[..., 1]
+    gam[..., 1, 0] += gdot[..., 2]
+    gam[..., 1, 2] -= gdot[..., 0]
+    gam[..., 2, 0] -= gdot[..., 1]
+    gam[..., 2, 1] += gdot[..., 0]
+    return gam
 
 
 def _offset_moved(result, a, b) -> dict:

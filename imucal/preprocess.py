@@ -82,21 +82,19 @@ MIN_JOINT_CUTOFF_HZ = 4.0
 def spectral_cutoff(gyr: tuple, rate: float) -> float:
     """Cut-off for the joint-centre filter from the recording's spectrum, Hz.
 
-    ``gyr``: the sensors' (N, 3) rates, rad/s. Welch power spectra of all components are
-    summed; the frequency below which :data:`MOTION_POWER` of the power lies, times
-    :data:`CUTOFF_PER_MOTION_FREQUENCY`, clipped to [:data:`MIN_JOINT_CUTOFF_HZ`,
-    :func:`default_joint_cutoff`].
+    ``gyr``: the sensors' (N, 3) rates, rad/s (their first N in common). Welch power
+    spectra of all components are summed; the frequency below which :data:`MOTION_POWER`
+    of the power lies, times :data:`CUTOFF_PER_MOTION_FREQUENCY`, clipped to
+    [:data:`MIN_JOINT_CUTOFF_HZ`, :func:`default_joint_cutoff`].
     """
     top = default_joint_cutoff(rate)
     n = min(g.shape[0] for g in gyr)
     if n < 64:
         return top
-    total = None
-    for g in gyr:
-        freqs, power = signal.welch(g - g.mean(axis=0), fs=rate, nperseg=min(n, 4 * int(rate)),
-                                    axis=0)
-        total = power.sum(axis=1) if total is None else total + power.sum(axis=1)
-    cumulative = np.cumsum(total)
+    # all sensors' components in one call: its cost is mostly per segment, not per channel
+    centred = np.concatenate([g[:n] - g[:n].mean(axis=0) for g in gyr], axis=1)
+    freqs, power = signal.welch(centred, fs=rate, nperseg=min(n, 4 * int(rate)), axis=0)
+    cumulative = np.cumsum(power.sum(axis=1))
     if cumulative[-1] <= 0:
         return top
     f_motion = freqs[np.searchsorted(cumulative, MOTION_POWER * cumulative[-1])]
