@@ -767,23 +767,23 @@ def _refit_offsets(own, other, x) -> tuple[np.ndarray, np.ndarray]:
     along a hinge's axis the data do not fix the position (a singular value below
     ``eps max(M, 6)`` times the largest counts as zero).
     """
-    gam1, gam2 = _gamma_rows(*own[:2]), _gamma_rows(*other[:2])  # (M, 3, 3), (D, M, 3, 3)
-    a1, a2 = own[2], other[2]
+    # component-major (k, i, M) layouts: every operation below runs over samples
+    gam1 = np.ascontiguousarray(np.moveaxis(_gamma_rows(*own[:2]), -3, -1))  # (3, 3, M)
+    gam2 = np.ascontiguousarray(np.moveaxis(_gamma_rows(*other[:2]), -3, -1))  # (D, 3, 3, M)
+    a1, a2 = own[2].T, np.swapaxes(other[2], 1, 2)  # (3, M), (D, 3, M)
     y = np.repeat(x[None, :], a2.shape[0], axis=0)
 
     def linearise(y):
-        # Gamma o as sums of columns times components: einsum's generic loop over these
-        # small axes cost 5-15 times more
-        r1 = a1 - (gam1.reshape(-1, 3) @ y[:, :3].T).T.reshape(a2.shape)
-        r2 = a2 - sum(gam2[..., i] * y[:, None, None, 3 + i] for i in range(3))
-        n1, n2 = (np.sqrt(np.einsum("dnk,dnk->dn", r, r)) for r in (r1, r2))
+        r1 = a1 - sum(gam1[None, :, i] * y[:, i, None, None] for i in range(3))
+        r2 = a2 - sum(gam2[:, :, i] * y[:, 3 + i, None, None] for i in range(3))
+        n1, n2 = (np.sqrt(np.sum(r * r, axis=1)) for r in (r1, r2))
         # d|a - Gamma o| / do = -Gamma^T (a - Gamma o) / |a - Gamma o| (eq. 4); e = |r1| -
         # |r2|, so the second sensor's enters negated
         jac = np.concatenate([
-            -sum(gam1[:, k, :] * r1[..., k, None] for k in range(3))
-            / np.maximum(n1, 1e-12)[..., None],
-            np.einsum("dnki,dnk->dni", gam2, r2) / np.maximum(n2, 1e-12)[..., None]], axis=2)
-        return n1 - n2, jac
+            -sum(gam1[None, k] * r1[:, k, None] for k in range(3)) / np.maximum(n1, 1e-12)[:, None],
+            sum(gam2[:, k] * r2[:, k, None] for k in range(3)) / np.maximum(n2, 1e-12)[:, None],
+        ], axis=1)
+        return n1 - n2, np.swapaxes(jac, 1, 2)
 
     for _ in range(OFFSET_STEPS):
         e, jac = linearise(y)
