@@ -76,3 +76,32 @@ def test_static_recording_gives_warnings_not_a_confident_position():
     assert any("barely rotate" in w for w in r.blocking)
     assert not r.confident and r.verdict == "not identifiable"
     assert np.isfinite(r.batch.x).all()
+
+
+def test_offset_profile_refits_all_candidates_as_lstsq_one_at_a_time():
+    # the batched refits of the position's clock-offset profile against the plain loop
+    # they replaced (five lstsq Gauss-Newton steps per candidate), on a hinge, where
+    # the position along the axis is free (minimum-norm steps), and on an ankle
+    from imucal.position import _filtered, _offset_profile, _SpheroidalProblem
+    from imucal.time_offset import OFFSET_STEPS, delayed, profile_samples
+
+    rec, _ = simulated(3)
+    for first, second in (("thigh", "shank"), ("shank", "foot")):
+        a, b = rec.sensor(first), rec.sensor(second)
+        result = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=rec.rate, restarts=10,
+                                   seed=1, time_offset=0)
+        deltas = np.array([-0.05, 0.0, 0.0123, 0.04])
+        e, y = _offset_profile((a.gyr, a.acc, b.gyr, b.acc), rec.rate, 0.2)(result)(deltas)
+        cutoff = result.settings["cutoff_hz"]
+        index = profile_samples(result.sample_index, a.gyr.shape[0], rec.rate, 0.2)
+        own = [arr[index] for arr in _filtered(a.gyr, a.acc, rec.rate, cutoff)]
+        read = delayed(np.concatenate(_filtered(b.gyr, b.acc, rec.rate, cutoff), axis=1),
+                       rec.rate)
+        for k, other in enumerate(read(index, deltas)):
+            problem = _SpheroidalProblem(*own, *np.split(other, 3, axis=1), None)
+            x = np.concatenate([result.o1, result.o2])
+            for _ in range(OFFSET_STEPS):
+                res, jac = problem.linearise(x[None, :])
+                x = x + np.linalg.lstsq(jac[0], -res[0], rcond=None)[0]
+            assert np.abs(y[k] - x).max() < 1e-9
+            assert np.abs(e[k] - problem.residual(x[None, :])[0]).max() < 1e-9

@@ -223,3 +223,32 @@ def test_refine_problem_shares_tables_and_matches_a_fresh_one():
         shared, fresh = build(mask).with_mask(None), build(None)
         for a, b in zip(shared.normal(state, rows), fresh.normal(state, rows), strict=True):
             np.testing.assert_array_equal(a, b)
+
+
+def test_halved_steps_tried_together_take_the_step_sequential_halving_takes():
+    # cost (x - 1)^2 from x = 0: a full step s lowers the cost only where |s - 1| < 1,
+    # i.e. after halving k times where s / 2^k < 2. Rows need 0 to 12 halvings, the last
+    # never descends (a step of the wrong sign).
+    from imucal.gauss_newton import MAX_HALVINGS, _descend
+
+    def cost(x, rows):
+        return ((x[:, 0] - 1.0) ** 2)
+
+    steps = np.array([1.5, 3.0, 5.0, 9.0, 30.0, 100.0, 2000.0, 5000.0, -1.0])[:, None]
+    x_old = np.zeros_like(steps)
+    c_old = cost(x_old, None)
+    x_full = x_old + steps
+    c_full = cost(x_full, None)
+    x_new, c_new, taken, ok = _descend(cost, lambda x, s: x + s, x_old, steps, c_old,
+                                       np.arange(steps.shape[0]), x_full, c_full,
+                                       c_full <= c_old)
+    # sequential halving, one trial at a time
+    expected = []
+    for s in steps[:, 0]:
+        k = next((k for k in range(MAX_HALVINGS + 1) if (s / 2**k - 1) ** 2 <= 1.0), None)
+        expected.append(0.0 if k is None else s / 2**k)
+    expected = np.array(expected)
+    assert np.array_equal(x_new[:, 0], expected)
+    assert np.array_equal(taken, np.abs(expected))
+    assert np.array_equal(ok, expected != 0)
+    assert np.array_equal(c_new, np.where(ok, (expected - 1) ** 2, c_old))

@@ -229,3 +229,20 @@ def test_the_profile_leaves_out_samples_within_the_search_of_the_ends():
     margin = int(np.ceil((0.2 + FINE_SPAN_S) * 100.0)) + 1
     assert used.min() >= margin and used.max() < 10_000 - margin
     assert 1400 <= used.size <= 3000 and np.isin(used, index).all()
+
+
+def test_whole_sample_delays_are_the_fourier_delay_read_as_shifts():
+    # the coarse and one-sample grids are read by indexing the evenly extended signal,
+    # which must equal its band-limited delay, also where the delay reaches past an end
+    rate, n = 100.0, 1000
+    x = np.random.default_rng(2).standard_normal((n, 3))
+    index = np.array([0, 3, 500, 990, 999])
+    deltas = np.array([-0.2, -0.03, 0.0, 0.01, 0.2, 0.0123, -0.0049])
+    spectrum = np.fft.rfft(np.concatenate([x, x[::-1]]), axis=0)
+    freq = np.fft.rfftfreq(2 * n, d=1 / rate)[:, None]
+    reference = np.stack([np.fft.irfft(spectrum * np.exp(2j * np.pi * freq * d), n=2 * n,
+                                       axis=0)[index] for d in deltas])
+    read = delayed(x, rate)(index, deltas)
+    assert np.abs(read - reference).max() < 1e-12
+    # one sample later; past the last sample the mirror image: x[999] again
+    assert np.array_equal(read[3], x[[1, 4, 501, 991, 999]])
