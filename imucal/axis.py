@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .errors import InputError
+from .gauss_newton import every_row
 from .gyr_bias import GyrBias, estimate_gyr_bias
 from .multistart import (
     SENSITIVITY_ITERATIONS,
@@ -802,7 +803,7 @@ class _HingeProblem:
         w = None
         if self.mask is not None:
             w = self.mask[:, sl]
-            if rows.size != self.mask.shape[0]:  # only some restarts are still active
+            if not every_row(rows, self.mask.shape[0]):  # some stopped, or trials
                 w = np.take(w, rows, axis=0)
             # w is 0 or 1, so weighting e once weights e^2 and every product with e
             np.multiply(e, w, out=e)

@@ -277,6 +277,12 @@ def _descend(cost, retract, x_old, step, c_old, rows, x_full, c_full, good_full)
     return x_new, c_new, taken * _norms(step), taken > 0
 
 
+def every_row(rows: np.ndarray, n: int) -> bool:
+    """Whether ``rows`` is each of ``n`` restarts once, in order (a problem may then use
+    its per-restart tables as they are). Not the size alone: trial steps repeat rows."""
+    return rows.size == n and bool(np.array_equal(rows, np.arange(n)))
+
+
 def _norms(v: np.ndarray) -> np.ndarray:
     """(r,) Euclidean norms of the rows of ``v`` (r, k): called a few times per
     iteration, where ``np.linalg.norm``'s own overhead exceeds the arithmetic."""

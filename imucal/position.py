@@ -27,6 +27,7 @@ import numpy as np
 
 from .axis import AxisResult, estimate_axis
 from .errors import InputError
+from .gauss_newton import every_row
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
@@ -646,7 +647,7 @@ class _SpheroidalProblem:
     def _weights(self, rows):
         if self.mask is None:
             return None
-        return self.mask if rows.size == self.mask.shape[0] else self.mask[rows]
+        return self.mask if every_row(rows, self.mask.shape[0]) else self.mask[rows]
 
     def _count(self, rows):
         return self.count if self.mask is None else self.count[rows]

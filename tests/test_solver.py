@@ -252,3 +252,23 @@ def test_halved_steps_tried_together_take_the_step_sequential_halving_takes():
     assert np.array_equal(taken, np.abs(expected))
     assert np.array_equal(ok, expected != 0)
     assert np.array_equal(c_new, np.where(ok, (expected - 1) ** 2, c_old))
+
+
+def test_a_batch_of_repeated_rows_the_size_of_all_restarts_uses_their_own_subsets():
+    # the halved-step trials repeat rows; when their count happens to equal the number
+    # of restarts, each must still be weighted by its own restart's subset
+    from imucal.position import _SpheroidalProblem
+
+    rng = np.random.default_rng(4)
+    rec, _ = simulated(2)
+    mask = (rng.random((4, 300)) < 0.5).astype(float)
+    g, a = rec.sensor("shank").gyr[:300], rec.sensor("shank").acc[:300]
+    gd = np.gradient(g, axis=0) * rec.rate
+    x = rng.normal(scale=0.1, size=(4, 6))
+    g1, g2 = rec.sensor("thigh").gyr[:300], rec.sensor("shank").gyr[:300]
+    j = _random_unit(rng, 8).reshape(4, 6)
+    rows = np.array([1, 3, 1, 3])  # four rows, as many as the restarts
+    for problem, state in ((_HingeProblem(g1, g2, mask), j),
+                           (_SpheroidalProblem(g, gd, a, g, gd, a[::-1].copy(), mask), x)):
+        single = np.array([problem.cost(state[[r]], np.array([r]))[0] for r in rows])
+        assert np.allclose(problem.cost(state[rows], rows), single, rtol=1e-12)
