@@ -271,7 +271,7 @@ def estimate_axis(
         again with the second sensor's signals read at t + offset; a number applies that
         offset; 0 assumes synchronised clocks.
     offset_search
-        Search range of the automatic offset, +- s.
+        Search range of the automatic offset, +- s; at least one sample (else InputError).
     select, max_samples
         Informative-sample selection (:mod:`imucal.selection`): drop still stretches and
         thin to at most ``max_samples`` (None: no cap). ``select=False`` fits every sample.

@@ -67,7 +67,8 @@ class AxisSettings:
     time_offset : float or str
         The second sensor's clock lateness, s, or "auto".
     offset_search : float
-        Search range of the automatic time offset, +- s, > 0.
+        Search range of the automatic time offset, +- s, > 0; at least one sample (an
+        estimate refuses a shorter one).
     """
 
     restarts: int = 100

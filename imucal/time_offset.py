@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
+from .errors import InputError
 from .quality import block_masks, jackknife_sigma, uncertainty_totals, uncertainty_warning
 
 # the search range and the offset check live with the settings; imported here for the
@@ -299,6 +300,7 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     reported 1-sigma (``uncertainty_<unit>``); a total above ``limit`` raises the
     estimator's "uncertain" warning.
     """
+    check_search(search, rate)
     first = fit(0.0)
     found = estimate_offset(profile(first), rate, search)
     applied = found.significant(rate)
@@ -317,6 +319,15 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     sigma = found.sigma_s if applied and np.isfinite(found.sigma_s) else 0.0
     _widen(result, {k: v * sigma for k, v in per_s.items()}, unit, limit)
     return result
+
+
+def check_search(search: float, rate: float) -> None:
+    """InputError unless the search range ``search`` (+- s) spans at least one sample at
+    ``rate`` Hz: a shorter one has no candidate besides 0 (it used to be widened to one
+    sample silently, and reported as given)."""
+    if search * rate < 1 - 1e-9:  # (1 / rate) * rate may round below 1
+        raise InputError(f"the time-offset search +-{search:g} s is shorter than one sample "
+                         f"at {rate:g} Hz ({1 / rate:g} s): widen it or pass the offset")
 
 
 def _widen(result, part: dict, unit: str, limit: float) -> None:

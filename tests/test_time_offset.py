@@ -246,3 +246,18 @@ def test_whole_sample_delays_are_the_fourier_delay_read_as_shifts():
     assert np.abs(read - reference).max() < 1e-12
     # one sample later; past the last sample the mirror image: x[999] again
     assert np.array_equal(read[3], x[[1, 4, 501, 991, 999]])
+
+
+@pytest.mark.parametrize("estimator", ["axis", "position"])
+def test_a_search_shorter_than_one_sample_is_refused_not_widened(estimator):
+    # it used to search one sample either side while reporting the range given
+    rec, _ = simulated(1)
+    a, b = rec.sensor("shank"), rec.sensor("foot")
+    call = {"axis": lambda **k: estimate_axis(a.gyr, b.gyr, rate=rec.rate, restarts=4,
+                                              seed=1, **k),
+            "position": lambda **k: estimate_position(a.gyr, a.acc, b.gyr, b.acc,
+                                                      rate=rec.rate, restarts=4, seed=1,
+                                                      **k)}[estimator]
+    with pytest.raises(InputError, match="shorter than one sample at 100 Hz"):
+        call(offset_search=0.5 / rec.rate)
+    assert call(offset_search=1 / rec.rate).time_offset["search_s"] == 0.01
