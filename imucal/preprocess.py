@@ -82,7 +82,7 @@ MIN_JOINT_CUTOFF_HZ = 4.0
 def spectral_cutoff(gyr: tuple, rate: float) -> float:
     """Cut-off for the joint-centre filter from the recording's spectrum, Hz.
 
-    ``gyr``: the sensors' (N, 3) rates, rad/s (their first N in common). Welch power
+    ``gyr``: the sensors' (N, 3) rates, rad/s (N may differ). Welch power
     spectra of all components are summed; the frequency below which :data:`MOTION_POWER`
     of the power lies, times :data:`CUTOFF_PER_MOTION_FREQUENCY`, clipped to
     [:data:`MIN_JOINT_CUTOFF_HZ`, :func:`default_joint_cutoff`].
@@ -91,10 +91,14 @@ def spectral_cutoff(gyr: tuple, rate: float) -> float:
     n = min(g.shape[0] for g in gyr)
     if n < 64:
         return top
-    # all sensors' components in one call: its cost is mostly per segment, not per channel
-    centred = np.concatenate([g[:n] - g[:n].mean(axis=0) for g in gyr], axis=1)
-    freqs, power = signal.welch(centred, fs=rate, nperseg=min(n, 4 * int(rate)), axis=0)
-    cumulative = np.cumsum(power.sum(axis=1))
+    # sensors of one length in one call: its cost is mostly per segment, not per channel
+    total = 0.0
+    for length in sorted({g.shape[0] for g in gyr}):
+        centred = np.concatenate([g - g.mean(axis=0) for g in gyr if g.shape[0] == length],
+                                 axis=1)
+        freqs, power = signal.welch(centred, fs=rate, nperseg=min(n, 4 * int(rate)), axis=0)
+        total = total + power.sum(axis=1)
+    cumulative = np.cumsum(total)
     if cumulative[-1] <= 0:
         return top
     f_motion = freqs[np.searchsorted(cumulative, MOTION_POWER * cumulative[-1])]

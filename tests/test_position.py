@@ -105,3 +105,30 @@ def test_offset_profile_refits_all_candidates_as_lstsq_one_at_a_time():
                 x = x + np.linalg.lstsq(jac[0], -res[0], rcond=None)[0]
             assert np.abs(y[k] - x).max() < 1e-9
             assert np.abs(e[k] - problem.residual(x[None, :])[0]).max() < 1e-9
+
+
+def test_spectral_cutoff_sums_each_sensors_whole_spectrum():
+    # one Welch call per length of sensors; sensors of different lengths (Python API)
+    # each contribute their whole recording, as separate calls did
+    from scipy import signal
+
+    from imucal.preprocess import (
+        CUTOFF_PER_MOTION_FREQUENCY,
+        MIN_JOINT_CUTOFF_HZ,
+        MOTION_POWER,
+        default_joint_cutoff,
+        spectral_cutoff,
+    )
+
+    rec, _ = simulated(1, motion="protocol", duration=60.0)
+    a, b = rec.sensor("shank").gyr, rec.sensor("foot").gyr
+    for pair in ((a, b), (a[:500], b)):
+        n = min(len(g) for g in pair)
+        total = sum(signal.welch(g - g.mean(axis=0), fs=rec.rate, nperseg=min(n, 400),
+                                 axis=0)[1].sum(axis=1) for g in pair)
+        freqs = signal.welch(pair[0], fs=rec.rate, nperseg=min(n, 400), axis=0)[0]
+        cumulative = np.cumsum(total)
+        f_motion = freqs[np.searchsorted(cumulative, MOTION_POWER * cumulative[-1])]
+        expected = np.clip(CUTOFF_PER_MOTION_FREQUENCY * f_motion, MIN_JOINT_CUTOFF_HZ,
+                           default_joint_cutoff(rec.rate))
+        assert spectral_cutoff(pair, rec.rate) == pytest.approx(expected)
