@@ -241,19 +241,20 @@ def delayed(x: np.ndarray, rate: float) -> Callable[[np.ndarray, np.ndarray], np
     only fractional delays are transformed (the whole recording, once per delay).
     """
     n = x.shape[0]
-    extended = np.concatenate([x, x[::-1]], axis=0)  # one period of the even extension
-    transformed = []  # its spectrum and frequencies, Hz, on the first fractional delay
+    transformed = []  # the extension's spectrum and frequencies, Hz, on the first
+    # fractional delay (the extension itself is never stored: 2 N samples of a long one)
 
     def read(index: np.ndarray, deltas: np.ndarray) -> np.ndarray:
         deltas = np.atleast_1d(np.asarray(deltas, dtype=np.float64))
         steps = np.rint(deltas * rate)
         whole = np.abs(deltas * rate - steps) < WHOLE_SAMPLE_TOLERANCE
         out = np.empty((deltas.size, index.size) + x.shape[1:])
-        out[whole] = extended[(index[None, :] + steps[whole, None].astype(np.intp)) % (2 * n)]
+        at = (index[None, :] + steps[whole, None].astype(np.intp)) % (2 * n)
+        out[whole] = x[np.where(at < n, at, 2 * n - 1 - at)]  # the second half mirrors x
         for k in np.flatnonzero(~whole):
             if not transformed:
                 freq = np.fft.rfftfreq(2 * n, d=1.0 / rate)
-                transformed.extend([np.fft.rfft(extended, axis=0),
+                transformed.extend([np.fft.rfft(np.concatenate([x, x[::-1]], axis=0), axis=0),
                                     freq.reshape((-1,) + (1,) * (x.ndim - 1))])
             spectrum, freq = transformed
             out[k] = np.fft.irfft(spectrum * np.exp(2j * np.pi * freq * deltas[k]), n=2 * n,
