@@ -905,21 +905,15 @@ class _HingeProblem:
 
 def _residual_and_jacobian(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
     """e (N,) and J (N, 4) of one state ``x`` (6,) on all samples (for quality)."""
-    e, jac = _residuals_and_jacobians(g1, g2[None], x[None])
-    return e[0], jac[0]
-
-
-def _residuals_and_jacobians(g1: np.ndarray, g2: np.ndarray, x: np.ndarray):
-    """e (D, N) and J (D, N, 4) of eq. (1) for D states ``x`` (D, 6), each with its own
-    second sensor's rates ``g2`` (D, N, 3) and the first sensor's ``g1`` (N, 3)."""
-    e, jac = _residuals_and_jacobian_rows(g1, np.swapaxes(g2, 1, 2), x)
-    return e, np.swapaxes(jac, 1, 2)
+    e, jac = _residuals_and_jacobian_rows(g1, g2.T[None], x[None])
+    return e[0], jac[0].T
 
 
 def _residuals_and_jacobian_rows(g1: np.ndarray, g2t: np.ndarray, x: np.ndarray):
-    """:func:`_residuals_and_jacobians` with the second sensor's rates component-major,
-    ``g2t`` (D, 3, N), and the Jacobian as (D, 4, N): every product over samples is then
-    one matrix product (a few times faster than small matrices per sample)."""
+    """e (D, N) and J (D, 4, N) of eq. (1) for D states ``x`` (D, 6), each with its own
+    second sensor's rates, component-major ``g2t`` (D, 3, N), and the first sensor's
+    ``g1`` (N, 3): every product over samples is then one matrix product (a few times
+    faster than small matrices per sample)."""
     d = x.shape[0]
     j = x.reshape(-1, 3)  # rows j1, j2, j1, j2, ...
     b = np.concatenate([j[:, :, None], tangent_basis(j)], axis=2)  # columns j, u, v

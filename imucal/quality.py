@@ -162,6 +162,10 @@ def total_sigma(curvature: float, blocks: float, cutoff_shift: float,
     return float(np.sqrt(sampling**2 + cutoff_shift**2 + model**2))
 
 
+#: How :func:`uncertainty_warning`'s warning begins.
+UNCERTAIN_PREFIX = "the estimate is uncertain"
+
+
 def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
     """The warning for a large reported 1-sigma, naming the component that dominates it
     (``components`` as in the results' ``uncertainty_components``)."""
@@ -177,7 +181,7 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
         "time_offset": "it moves with the uncertain clock offset between the sensors",
     }[main]
     extra = {"model": "model", "gyr_bias": "gyroscope bias", "time_offset": "clock offset"}
-    return (f"the estimate is uncertain: 1-sigma {total[name]:.1f} {unit} for {name}, mostly "
+    return (f"{UNCERTAIN_PREFIX}: 1-sigma {total[name]:.1f} {unit} for {name}, mostly "
             f"because {why} (curvature {parts['curvature']:.1f}, time blocks "
             f"{parts['time_blocks']:.1f}, cut-off shift {parts['cutoff_shift']:.1f}"
             + "".join(f", {label} {parts[kind]:.1f}" for kind, label in extra.items()

@@ -29,7 +29,13 @@ import numpy as np
 from scipy.interpolate import make_interp_spline
 
 from .errors import InputError
-from .quality import block_masks, jackknife_sigma, uncertainty_totals, uncertainty_warning
+from .quality import (
+    UNCERTAIN_PREFIX,
+    block_masks,
+    jackknife_sigma,
+    uncertainty_totals,
+    uncertainty_warning,
+)
 
 # the search range and the offset check live with the settings; imported here for the
 # callers of their old home
@@ -80,8 +86,6 @@ WHOLE_SAMPLE_TOLERANCE = 1e-9
 SIGMA_SCALE = 2.0
 #: The estimate's sensitivity to the offset: refits this far, s, either side of it.
 SENSITIVITY_STEP_S = 0.002
-#: How :func:`imucal.quality.uncertainty_warning`'s warning begins.
-UNCERTAIN_PREFIX = "the estimate is uncertain"
 
 
 @dataclass(frozen=True)
