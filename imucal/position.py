@@ -292,7 +292,7 @@ def estimate_position(
         (g1, a1), (g2, a2), rate, s,
         cutoff=(lambda w1, w2: spectral_cutoff((w1, w2), rate)) if s.cutoff is None
         else float(s.cutoff),
-        fit_signals=lambda sensor, c: _filtered(*sensor, rate, c),
+        fit_signals=lambda sensors, c: _filtered_sensors(sensors, rate, c),
         min_samples=MIN_SAMPLES, what="joint position")
     axis_result, line = _axis_line(prepared, s, axis)
     fit = _fit(prepared, s, line)
@@ -751,8 +751,9 @@ def _offset_profile(signals, rate, search):
     def profile(first):
         cutoff = first.settings["cutoff_hz"]
         index = profile_samples(first.sample_index, g1.shape[0], rate, search)
-        own = [arr[index] for arr in _filtered(g1, a1, rate, cutoff)]
-        read = delayed(np.concatenate(_filtered(g2, a2, rate, cutoff), axis=1), rate)
+        first_f, second_f = _filtered_sensors(((g1, a1), (g2, a2)), rate, cutoff)
+        own = [arr[index] for arr in first_f]
+        read = delayed(np.concatenate(second_f, axis=1), rate)
         x = np.concatenate([first.o1, first.o2])
         return lambda deltas: _refit_offsets(own, np.split(read(index, deltas), 3, axis=2), x)
     return profile
@@ -819,14 +820,10 @@ def _offset_moved(result, a, b) -> dict:
             for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
 
 
-def _filtered(g, a, rate, cutoff):
-    """Low-passed rates, their derivative and low-passed specific force (full rate)."""
-    return _filtered_sensors([(g, a)], rate, cutoff)[0]
-
-
 def _filtered_sensors(sensors, rate, cutoff) -> list[tuple]:
-    """:func:`_filtered` of each (g, a) in ``sensors``, all channels in one filter call
-    (each channel is filtered on its own; the call's fixed cost is that of several)."""
+    """Per (g, a) in ``sensors``: the low-passed rates, their derivative and the
+    low-passed specific force (full rate), all channels in one filter call (each channel
+    is filtered on its own; the call's fixed cost is that of several)."""
     parts = np.split(lowpass(np.concatenate([arr for pair in sensors for arr in pair], axis=1),
                              rate, cutoff, JOINT_FILTER_ORDER), 2 * len(sensors), axis=1)
     return [(gf, derivative(gf, rate), af) for gf, af in zip(parts[0::2], parts[1::2],

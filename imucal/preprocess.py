@@ -294,13 +294,13 @@ class Prepared:
 
 def prepare(first: tuple, second: tuple, rate: float, settings, *,
             cutoff: float | Callable[[np.ndarray, np.ndarray], float],
-            fit_signals: Callable[[tuple, float], tuple], min_samples: int,
+            fit_signals: Callable[[tuple, float], list[tuple]], min_samples: int,
             what: str) -> Prepared:
     """The ``prepare`` stage of every estimator: the second sensor's clock offset
-    applied, the window cut, the signals filtered by ``fit_signals(sensor, cutoff)`` (on
-    the whole recording first, so the window has no filter transients), subsampled and
-    the informative samples selected (:mod:`imucal.selection`, on the gyroscopes: the
-    first array ``fit_signals`` returns).
+    applied, the window cut, the signals filtered by ``fit_signals((first, second),
+    cutoff)`` (one tuple of arrays per sensor; on the whole recording first, so the window
+    has no filter transients), subsampled and the informative samples selected
+    (:mod:`imucal.selection`, on the gyroscopes: the first array of each sensor's tuple).
 
     ``first``, ``second``: each sensor's full-length (N, 3) signals; ``settings``: an
     :class:`imucal.settings.AxisSettings` with a number for ``time_offset``; ``cutoff``:
@@ -322,8 +322,8 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *,
     if callable(cutoff):
         cutoff = cutoff(first[0][win], second[0][win])
     step = resolve_subsample(rate, cutoff, settings.subsample)
-    parts = [tuple(x[win][::step] for x in fit_signals(sensor, cutoff))
-             for sensor in (first, second)]
+    parts = [tuple(x[win][::step] for x in sensor)
+             for sensor in fit_signals((first, second), cutoff)]
     sel = select_samples(parts[0][0], parts[1][0], rate / step,
                          max_samples=settings.max_samples, min_samples=min_samples,
                          enabled=settings.select)

@@ -82,7 +82,7 @@ def test_offset_profile_refits_all_candidates_as_lstsq_one_at_a_time():
     # the batched refits of the position's clock-offset profile against the plain loop
     # they replaced (five lstsq Gauss-Newton steps per candidate), on a hinge, where
     # the position along the axis is free (minimum-norm steps), and on an ankle
-    from imucal.position import _filtered, _offset_profile, _SpheroidalProblem
+    from imucal.position import _filtered_sensors, _offset_profile, _SpheroidalProblem
     from imucal.time_offset import OFFSET_STEPS, delayed, profile_samples
 
     rec, _ = simulated(3)
@@ -94,9 +94,10 @@ def test_offset_profile_refits_all_candidates_as_lstsq_one_at_a_time():
         e, y = _offset_profile((a.gyr, a.acc, b.gyr, b.acc), rec.rate, 0.2)(result)(deltas)
         cutoff = result.settings["cutoff_hz"]
         index = profile_samples(result.sample_index, a.gyr.shape[0], rec.rate, 0.2)
-        own = [arr[index] for arr in _filtered(a.gyr, a.acc, rec.rate, cutoff)]
-        read = delayed(np.concatenate(_filtered(b.gyr, b.acc, rec.rate, cutoff), axis=1),
-                       rec.rate)
+        # each sensor filtered on its own (the profile filters both in one call)
+        own = [arr[index] for arr in _filtered_sensors([(a.gyr, a.acc)], rec.rate, cutoff)[0]]
+        read = delayed(np.concatenate(_filtered_sensors([(b.gyr, b.acc)], rec.rate, cutoff)[0],
+                                      axis=1), rec.rate)
         for k, other in enumerate(read(index, deltas)):
             problem = _SpheroidalProblem(*own, *np.split(other, 3, axis=1), None)
             x = np.concatenate([result.o1, result.o2])
