@@ -33,7 +33,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 from scipy.ndimage import gaussian_filter1d
 
-from .errors import InputError
+from .errors import InputError, NotIdentifiableError
 from .preprocess import derivative, lowpass
 from .rest import STILL_MIN_S, STILL_RATE, gravity_check, gravity_warning, still_periods
 
@@ -72,6 +72,18 @@ FIT_FLOOR_DEG = 2.0
 #: On the calibration trial, an RMS disagreement of the acc and gyro angles above this
 #: (deg) means the acc angle cannot be trusted to correct drift (simulated: 0.3-2 deg).
 ACC_AGREEMENT_DEG = 10.0
+#: The disagreement limit never exceeds what a trustworthy calibration trial allows: a
+#: trial that itself disagreed by 79 deg (real knees with wrong axes) would otherwise
+#: accept anything, even another recording's sensors (knee angles of -278 deg).
+FIT_MAX_DEG = FIT_FACTOR * ACC_AGREEMENT_DEG + FIT_FLOOR_DEG
+#: Flexion a knee (or elbow) can reach from its extended zero, deg. With the zero taken
+#: from the calibration or a standing posture, more than ``IMPLAUSIBLE_SHARE`` of the
+#: samples outside it means the zero or the axes do not carry over to this recording.
+PLAUSIBLE_FLEXION_DEG = (-30.0, 180.0)
+IMPLAUSIBLE_SHARE = 0.01
+#: A calibration trial whose flexion (1st to 99th percentile) spans more than this, deg,
+#: measured no hinge of the body: its knee is "not identifiable" (docs/angles.md).
+PLAUSIBLE_SPAN_DEG = PLAUSIBLE_FLEXION_DEG[1] - PLAUSIBLE_FLEXION_DEG[0]
 #: Walking: at least this many flexion peaks of this prominence (deg), spaced by strides
 #: of 0.6-2 s that vary by at most GAIT_MAX_CV.
 GAIT_MIN_CYCLES = 4
@@ -178,7 +190,7 @@ def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fu
     n = sig.theta_gyro.shape[0]
     w = sig.weight
     if not np.any(w > 0):
-        raise InputError("the joint centre's acceleration never lies in the joint plane "
+        raise NotIdentifiableError("the joint centre's acceleration never lies in the joint plane "
                          f"(in-plane part below {MIN_INPLANE_ACC:g} m/s^2 throughout): no "
                          "accelerometer angle to correct the gyro drift")
     s = smoothing_s * rate  # kernel sigma in samples
@@ -386,6 +398,10 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
             f"from the gyro-based angle by {math.degrees(fus.disagreement):.0f} deg RMS "
             f"(more than {ACC_AGREEMENT_DEG:g} deg): the drift correction is unreliable; "
             "the joint is far from a hinge with these axes, or the axes are wrong")
+    flexion_range = [float(np.percentile(flex, 1)), float(np.percentile(flex, 99))]
+    implausible = implausible_range(jc.name, flexion_range)
+    if implausible:  # last: the reason calibrate gives for the joint
+        warnings.append(implausible)
     x1, _ = plane_basis(jc.j1)
     x2, _ = plane_basis(jc.j2)
     return {
@@ -399,12 +415,25 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
         "smoothing_s": smoothing_s,
         "hinge_residual": hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2),
         "acc_gyro_disagreement_deg": math.degrees(fus.disagreement),
-        "flexion_range_deg": [float(np.percentile(flex, 1)), float(np.percentile(flex, 99))],
+        "flexion_range_deg": flexion_range,
         "sigma_median_deg": float(np.degrees(np.median(fus.sigma))),
         "gravity_mismatch_deg": gravity["max_mismatch_deg"],
         "gravity_consistent": gravity["consistent"],
         "warnings": warnings,
     }
+
+
+def implausible_range(name: str, flexion_range) -> str | None:
+    """Why a calibration trial's flexion range ``[p1, p99]`` (deg) is no hinge of the body's
+    (it spans more than ``PLAUSIBLE_SPAN_DEG``), else None. The real knees of the shared
+    recording, with axes the gravity check rejects, spanned -25 to 278 deg."""
+    low, high = flexion_range
+    if not high - low > PLAUSIBLE_SPAN_DEG:
+        return None
+    return (f"{name}: on the calibration trial the flexion spans {low:.0f} to {high:.0f} deg "
+            f"(1st to 99th percentile), more than the {PLAUSIBLE_SPAN_DEG:g} deg a hinge of "
+            "the body can move through: the axes or the drift correction are wrong, and no "
+            "angle measured with this calibration can be trusted")
 
 
 # ----------------------------------------------------------------------------- apply
@@ -659,7 +688,11 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
 
 def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     ref = jc.angle
-    s1, s2, sig, fus = _fused(rec, jc, smoothing_s)
+    try:
+        s1, s2, sig, fus = _fused(rec, jc, smoothing_s)
+    except NotIdentifiableError as err:
+        raise NotIdentifiableError(f"{rec.source}: joint '{jc.name}': {err}; nothing "
+                                   "written") from None
     raw = np.degrees(fus.theta)
     warnings = []
     evidence = sign_evidence(raw)
@@ -713,15 +746,18 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     flex = sign * (raw - zero["raw_deg"])
     gyro_only = sign * np.degrees(sig.theta_gyro - sig.theta_gyro[0]) + flex[0]
     warnings = [f"calibration: {w}" for w in ref.get("warnings", [])] + warnings
-    check = _fit_check(jc, ref, s1, s2, fus, rec.rate)
+    check = _fit_check(jc, ref, s1, s2, fus, rec.rate,
+                       flex if reference in (None, "standing") else None)
     if not check["fits"]:
         warnings.append(check["message"])
     return JointAngle(jc.name, jc.sensors, flex, np.degrees(fus.sigma), gyro_only, sign,
                       source, evidence, zero, check, detect_gait(flex, rec.rate), warnings)
 
 
-def _fit_check(jc, ref, s1, s2, fus, rate: float) -> dict:
-    """Does the calibration still fit this recording? (docs/angles.md)"""
+def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray | None) -> dict:
+    """Does the calibration still fit this recording? (docs/angles.md) ``flex``: the
+    flexion, deg, when its zero is an extended posture (None: a user's reference time,
+    from which any angle may be reached)."""
     res = hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2)
     dis = math.degrees(fus.disagreement)
     # A calibration trial that never moved has no residual (NaN, null in its file): no
@@ -729,7 +765,7 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float) -> dict:
     ref_res, ref_dis = (math.nan if ref[k] is None else float(ref[k])
                         for k in ("hinge_residual", "acc_gyro_disagreement_deg"))
     res_lim = FIT_FACTOR * ref_res + FIT_FLOOR_RESIDUAL
-    dis_lim = FIT_FACTOR * ref_dis + FIT_FLOOR_DEG
+    dis_lim = min(FIT_FACTOR * ref_dis + FIT_FLOOR_DEG, FIT_MAX_DEG)
     bad = []
     if res > res_lim:  # NaN (never moved, here or there) is no evidence against
         bad.append(f"hinge residual {res:.3f} > {res_lim:.3f} (calibration trial "
@@ -743,13 +779,21 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float) -> dict:
     if dis > dis_lim:
         bad.append(f"acc- vs gyro-angle disagreement {dis:.2f} deg > {dis_lim:.2f} deg "
                    f"(calibration trial {ref_dis:.2f} deg)")
+    low, high = PLAUSIBLE_FLEXION_DEG
+    outside = 0.0 if flex is None else float(np.mean((flex < low) | (flex > high)))
+    if outside > IMPLAUSIBLE_SHARE:
+        bad.append(f"the flexion spans {np.min(flex):.0f} to {np.max(flex):.0f} deg, outside "
+                   f"the {low:g} to {high:g} deg a hinge of the body reaches from its "
+                   f"extended zero on {outside:.0%} of the samples")
     out = {"fits": not bad, "hinge_residual": res, "hinge_residual_limit": res_lim,
            "calibration_hinge_residual": ref["hinge_residual"],
            "acc_gyro_disagreement_deg": dis, "acc_gyro_disagreement_limit_deg": dis_lim,
            "calibration_acc_gyro_disagreement_deg": ref["acc_gyro_disagreement_deg"],
            "gravity_mismatch_deg": gravity["max_mismatch_deg"],
+           "implausible_flexion_share": outside,
            "tolerance": f"{FIT_FACTOR:g} x the calibration trial's value + "
-                        f"{FIT_FLOOR_RESIDUAL:g} (residual) / {FIT_FLOOR_DEG:g} deg"}
+                        f"{FIT_FLOOR_RESIDUAL:g} (residual) / {FIT_FLOOR_DEG:g} deg (at most "
+                        f"{FIT_MAX_DEG:g} deg)"}
     if bad:
         out["message"] = (f"{jc.name}: the calibration does not fit this recording ("
                           + "; ".join(bad) + "): sensors re-strapped, swapped or another "

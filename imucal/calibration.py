@@ -362,12 +362,19 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
                        strict=True):
         jc.warnings += [f"{what}: {w}" for w in d["quality"]["warnings"]]
     if spec.kind == "hinge":
-        from .angles import reference_statistics
+        from .angles import implausible_range, reference_statistics
 
-        jc.angle = reference_statistics(used, jc, smoothing_s=smoothing_s)
+        try:
+            jc.angle = reference_statistics(used, jc, smoothing_s=smoothing_s)
+        except ImucalError as err:  # e.g. a trial without acceleration across the axis
+            jc.verdict = "not identifiable"
+            jc.warnings.append(f"angle: {spec.name}: no angle calibration: {err}")
+            return jc, (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate)
         if jc.angle["warnings"]:
             jc.warnings += [f"angle: {w}" for w in jc.angle["warnings"]]
             jc.verdict = _worst([jc.verdict, "use with care"])
+        if implausible_range(spec.name, jc.angle["flexion_range_deg"]):
+            jc.verdict = _worst([jc.verdict, "not identifiable"])
     window = (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate)
     return jc, window
 
@@ -387,8 +394,10 @@ def load_calibration(path: str | Path) -> Calibration:
     calibrate``). InputError naming the file for a missing file, a file that is not JSON
     or not a calibration, another format version, or a joint without its vectors."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise InputError(f"{path}: calibration file not found")
+    if not path.is_file():  # a folder, /dev/null, a pipe
+        raise InputError(f"{path}: not a calibration file (not a regular file)")
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:

@@ -785,8 +785,15 @@ class _errors:
         if isinstance(err, ImucalError):
             _err(f"imucal: error: {err}")
             raise typer.Exit(err.exit_code)
+        if isinstance(err, BrokenPipeError):
+            # a reader that stopped early (| head): quiet, with the status of a process
+            # stopped by SIGPIPE, as _write_stdout; Python would complain again when it
+            # flushes stdout at exit
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            raise typer.Exit(141)
         if isinstance(err, OSError):
-            _err(f"imucal: error: {err.filename or ''}: {err.strerror or err}")
+            where = f"{err.filename}: " if err.filename else ""
+            _err(f"imucal: error: {where}{err.strerror or err}")
             raise typer.Exit(2)
         _err(f"imucal: internal error: {type(err).__name__}: {err} (rerun with --debug and "
              "report it)")
@@ -842,9 +849,13 @@ def _summary(doc: dict, names) -> None:
     offset = doc.get("time_offset") or {}
     if offset.get("mode") == "auto":
         applied = "applied" if offset["applied"] else "not applied"
-        sigma = offset["sigma_s"]
-        _err(f"  clock offset of {names[1]}: {1000 * offset['estimated_s']:+.1f} ms "
-             f"(1-sigma {'-' if sigma is None else f'{1000 * sigma:.1f}'} ms, {applied})")
+        sigma, ms = offset["sigma_s"], 1000 * offset["estimated_s"]
+        if sigma is None and ms != 0:  # a minimum on the end of the search: a bound
+            value = f"at least {ms:+.1f} ms (the end of the search, {applied})"
+        else:
+            value = (f"{ms:+.1f} ms (1-sigma {'-' if sigma is None else f'{1000 * sigma:.1f}'}"
+                     f" ms, {applied})")
+        _err(f"  clock offset of {names[1]}: {value}")
     _err(f"  verdict: {q['verdict']}")
     for w in q["warnings"]:
         _err(f"  warning: {w}")

@@ -116,11 +116,10 @@ def _process_calibrate(job, recording, outcome) -> None:
     outcome.document, outcome.result = cal.to_document(), cal
     bad = [j for j in cal.joints.values() if j.verdict in ("not identifiable", "failed")]
     if bad and not job.force:
-        reason = _reason(bad[0])
-        which = ", ".join(f"{j.name} ({j.verdict})" for j in bad)
+        # each joint with its own reason: they differ (one not identifiable, one failed)
+        which = "; ".join(f"joint {j.name} ({j.verdict}): {_reason(j)}" for j in bad)
         outcome.exit_code = NotIdentifiableError.exit_code
-        outcome.error = (f"{recording.source}: joint{'s' if len(bad) > 1 else ''} {which}: "
-                         f"{reason}; the calibration is written with "
+        outcome.error = (f"{recording.source}: {which}; the calibration is written with "
                          f"{'them' if len(bad) > 1 else 'it'} marked (--force: exit 0)")
         outcome.exception = NotIdentifiableError(outcome.error)
 
@@ -128,13 +127,14 @@ def _process_calibrate(job, recording, outcome) -> None:
 def _reason(joint) -> str:
     """Why a calibrated joint is not usable: the error that stopped its estimate (its last
     warning), or the first warning of the estimate that cannot identify it (blocking
-    reasons come first)."""
+    reasons come first), or else why its angle could not be calibrated (its last
+    warning)."""
     if joint.verdict == "failed":
         return joint.warnings[-1] if joint.warnings else "failed"
     for what, doc in (("axis", joint.axis), ("position", joint.position)):
         if doc is not None and doc["quality"]["verdict"] == "not identifiable":
             return f"{what}: {doc['quality']['warnings'][0]}"
-    return joint.verdict
+    return joint.warnings[-1] if joint.warnings else joint.verdict
 
 
 #: The estimating commands by name. A new one is one entry here (plus its option parsing
@@ -334,9 +334,13 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
     doc = command.report(result, input_info=_input_info(recording, names, used, job),
                          trace=job.trace)
     what = f"{job.command} ({doc['joint']})" if "joint" in doc else job.command
+    w0, w1 = doc["input"]["window_s"]
+    # the file as a whole, then the window fitted when one was asked for
+    window_text = ("" if job.start is None and job.end is None
+                   else f", window {w0:g}-{w1:g} s")
     outcome.headline = (f"imucal {what}: {recording.source}: {names[0]} -> {names[1]}, "
                         f"{recording.n_samples} samples at {recording.rate:g} Hz "
-                        f"({recording.duration:.1f} s)")
+                        f"({recording.duration:.1f} s){window_text}")
     if doc["quality"]["verdict"] == "not identifiable" and not job.force:
         # The first warning is the reason (blocking reasons come first); the others only
         # help a human reading along ("input: " ones were warnings at load already).

@@ -350,10 +350,19 @@ def _widen(result, part: dict, unit: str, limit: float) -> None:
 def offset_report(found: Offset, rate: float) -> dict:
     """The ``time_offset`` block of a result estimated with "auto"."""
     applied = found.significant(rate)
+    # a minimum on the search's end is a bound, not an estimate: it has no 1-sigma (never
+    # applied: an offset is applied only from inside the search)
+    sigma = None if at_search_end(found, rate) else found.sigma_s
     return {"mode": "auto", "time_offset_s": found.delta_s if applied else 0.0,
-            "estimated_s": found.delta_s, "sigma_s": found.sigma_s, "applied": applied,
+            "estimated_s": found.delta_s, "sigma_s": sigma, "applied": applied,
             "cost_ratio": found.cost_ratio, "search_s": found.search_s,
             "at_edge": found.at_edge}
+
+
+def at_search_end(found: Offset, rate: float) -> bool:
+    """Whether the profile's minimum lies on an end of the search (within half a sample):
+    the offset is then at least that large, its size and 1-sigma unknown."""
+    return abs(found.delta_s) >= found.search_s - 0.5 / rate
 
 
 def offset_warnings(found: Offset, rate: float) -> list[str]:
@@ -362,9 +371,8 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
         return [offset_edge_warning(found)]
     if found.significant(rate):
         return []
-    # a minimum on the search's end is a bound, not an estimate
-    end = abs(found.delta_s) >= found.search_s - 0.5 / rate
-    where = (f"at least {1000 * found.delta_s:+.0f} ms later (the end of the search)" if end
+    where = (f"at least {1000 * found.delta_s:+.0f} ms later (the end of the search)"
+             if at_search_end(found, rate)
              else f"{1000 * found.delta_s:+.0f} ms later (+-{1000 * found.sigma_s:.0f} ms)")
     if found.cost_ratio >= MIN_COST_RATIO and abs(found.delta_s) > MIN_APPLIED_SAMPLES / rate:
         return [f"the residual is lowest with the second sensor read {where}, lower by a "

@@ -113,6 +113,47 @@ def test_a_calibration_of_another_mounting_is_flagged(session):
     assert result.to_document()["fits"] is False
 
 
+def test_a_zero_that_does_not_carry_over_is_flagged(session):
+    # the calibration's zero moved by 250 deg (as another recording's sensors gave): the
+    # knee would read -250 deg on every sample; with the zero from the calibration the
+    # check refuses it, from a user's reference time it has no extended zero to judge by
+    from dataclasses import replace
+
+    from imucal.angles import joint_angles
+
+    calibration, walk, _ = session
+    knee = calibration.joints["knee"]
+    moved = dict(knee.angle, zero_deg=knee.angle["zero_deg"] + 250.0 * knee.angle["flexion_sign"])
+    shifted = replace(calibration, joints={**calibration.joints,
+                                           "knee": replace(knee, angle=moved)})
+    result = joint_angles(walk, shifted, end=30.0)
+    check = result.joints["knee"].check
+    assert not result.fits
+    assert check["implausible_flexion_share"] > 0.9
+    assert "outside the -30 to 180 deg" in check["message"]
+    assert joint_angles(walk, calibration, end=30.0).joints["knee"].check[
+        "implausible_flexion_share"] == 0.0
+    at_time = joint_angles(walk, shifted, end=30.0, reference=5.0).joints["knee"].check
+    assert at_time["implausible_flexion_share"] == 0.0
+
+
+def test_a_trial_that_disagreed_widely_cannot_widen_the_limit(session):
+    # a calibration trial whose acc and gyro angles disagreed by 79 deg (the real knees)
+    # would allow 160 deg on another recording: the limit stays at 22 deg
+    from dataclasses import replace
+
+    from imucal.angles import FIT_MAX_DEG, joint_angles
+
+    calibration, walk, _ = session
+    knee = calibration.joints["knee"]
+    loose = dict(knee.angle, acc_gyro_disagreement_deg=79.0)
+    widened = replace(calibration, joints={**calibration.joints,
+                                           "knee": replace(knee, angle=loose)})
+    check = joint_angles(walk, widened, end=30.0).joints["knee"].check
+    assert FIT_MAX_DEG == 22.0
+    assert check["acc_gyro_disagreement_limit_deg"] == FIT_MAX_DEG
+
+
 def test_sign_and_zero_can_be_pinned(session):
     from imucal.angles import joint_angles
 
@@ -210,7 +251,11 @@ def test_real_knees_are_flagged_not_silently_wrong(real_knees):
     cal, result = real_knees
     for name in ("left_knee", "right_knee"):
         ref = cal.joints[name].angle
-        assert cal.joints[name].verdict != "good"
+        # and their flexion on the calibration trial spans more than a knee can: not
+        # identifiable (it was "use with care", -25 to 278 deg)
+        assert cal.joints[name].verdict == "not identifiable"
+        assert ref["flexion_range_deg"][1] - ref["flexion_range_deg"][0] > 210.0
+        assert "a hinge of the body can move through" in cal.joints[name].warnings[-1]
         assert ref["gravity_consistent"] is False and ref["gravity_mismatch_deg"] > 60.0
         assert ref["acc_gyro_disagreement_deg"] > 30.0
         warned = " ".join(result.joints[name].warnings)

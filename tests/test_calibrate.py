@@ -138,6 +138,9 @@ def test_calibration_file_round_trip(calibration, tmp_path):
 def test_load_calibration_errors(calibration, tmp_path):
     with pytest.raises(InputError, match="calibration file not found"):
         load_calibration(tmp_path / "none.json")
+    # it exists, so not "not found" (an empty /dev/null was said to be missing)
+    with pytest.raises(InputError, match="not a calibration file \\(not a regular file\\)"):
+        load_calibration(tmp_path)
     (tmp_path / "x.json").write_text("{not json")
     with pytest.raises(InputError, match="x.json: not a calibration file"):
         load_calibration(tmp_path / "x.json")

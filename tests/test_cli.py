@@ -200,3 +200,30 @@ def test_implausible_rates_are_refused(rate):
     run = imucal("axis", ROOT / "sample_data" / "circling_40hz.csv", "--rate", rate)
     assert run.returncode == 2 and b"body-worn IMUs" in run.stderr
     assert b"Traceback" not in run.stderr
+
+
+@pytest.mark.parametrize("files", [1, 3])
+def test_a_reader_that_stops_early_ends_the_command_quietly(files):
+    # `imucal axis A B C --jobs 2 | head -c 10` printed "imucal: error: : Broken pipe"
+    # (no file name) and exited 2; now as `angles` does: no message, the status a shell
+    # gives a process stopped by SIGPIPE
+    sample = str(ROOT / "sample_data" / "circling.h5")
+    proc = subprocess.Popen([sys.executable, "-m", "imucal", "axis", *[sample] * files,
+                             "--restarts", "5", "-q", "--jobs", "2"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader is gone before the first line
+    err = proc.stderr.read()
+    assert proc.wait(timeout=120) == 141
+    assert err == b""
+
+
+def test_the_summary_names_the_window_fitted():
+    # the header described the whole file only: "2000 samples at 100 Hz (20.0 s)" for a
+    # fit of 0-10 s
+    sample = ROOT / "sample_data" / "circling.h5"
+    run = run_imucal("axis", sample, "--restarts", "5", "--seed", "1", "--end", "10",
+                     text=True)
+    assert run.returncode == 0
+    assert run.stderr.splitlines()[0].endswith("2000 samples at 100 Hz (20.0 s), window 0-10 s")
+    whole = run_imucal("axis", sample, "--restarts", "5", "--seed", "1", text=True)
+    assert whole.stderr.splitlines()[0].endswith("(20.0 s)")

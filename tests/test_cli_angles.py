@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 from conftest import axis_error_deg, run_imucal
 
+from imucal.errors import InputError
 from imucal.simulate import simulate
 from imucal.writers import save_recording
 
@@ -186,6 +187,43 @@ def test_a_joint_that_is_not_identifiable_is_written_marked_and_exits_1(tmp_path
     assert run.stdout == ""
     assert cli("calibrate", rec, "--restarts", "5", "--seed", "1", "--out", out,
                "--force", "-q").returncode == 0
+
+
+def test_a_still_window_of_the_real_recording_names_file_and_joint(real_recording, tmp_path):
+    # 0-2 s of the shared recording: the person stands still, the joint centres never
+    # accelerate across the knee axes; calibrate marks the joints and still writes the
+    # file (each joint with its own reason), angles refuse with file and joint (exit 1)
+    from conftest import REAL_DATA
+
+    out = tmp_path / "cal.json"
+    run = cli("calibrate", REAL_DATA, "--restarts", "5", "--seed", "1", "--end", "2",
+              "--joint", "lk=hinge:left_thigh,left_shank", "--out", out)
+    assert run.returncode == 1, run.stderr
+    assert "joint lk (not identifiable): axis: the sensors barely rotate" in run.stderr
+    assert json.loads(out.read_text())["joints"]["lk"]["verdict"] == "not identifiable"
+    good = tmp_path / "good.json"
+    assert cli("calibrate", REAL_DATA, "--restarts", "5", "--seed", "1", "--end", "55",
+               "--joint", "lk=hinge:left_thigh,left_shank", "--out", good, "--force",
+               "-q").returncode == 0
+    run = cli("angles", REAL_DATA, "-c", good, "--end", "2", "-o", tmp_path / "a.csv")
+    assert run.returncode == 1
+    assert f"{REAL_DATA}: joint 'lk': the joint centre's acceleration never lies" in run.stderr
+    assert not (tmp_path / "a.csv").exists()
+
+
+def test_a_side_is_never_read_into_an_unsided_sensor():
+    # a calibration of both knees applied to a one-leg recording (sensors thigh, shank)
+    # found "left_thigh" and "right_thigh" both in "thigh": the right knee read -278 deg
+    from imucal.recording import match_sensor
+
+    names = ["thigh", "shank", "foot"]
+    assert match_sensor("thigh", names) == "thigh"
+    assert match_sensor("upper leg", names) == "thigh"
+    with pytest.raises(InputError, match="no sensor 'left_thigh'"):
+        match_sensor("left_thigh", names)
+    run = cli("axis", SAMPLE / "circling.h5", *FAST, "--sensors", "right_thigh,left_shank")
+    assert run.returncode == 2
+    assert "no sensor 'right_thigh' (did you mean 'thigh'?)" in run.stderr
 
 
 def test_simulate_mounting_seed(tmp_path):

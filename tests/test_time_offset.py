@@ -89,6 +89,11 @@ def test_real_knees_model_errors_are_not_taken_for_clock_offsets(real_recording)
     r = estimate_axis(t.gyr, s.gyr, rate=rec.rate, seed=1, end=55.0, acc1=t.acc, acc2=s.acc)
     assert not r.time_offset["applied"] and r.time_offset["cost_ratio"] < 1.5
     assert any("a clock offset or a model error" in w for w in r.warnings)
+    # its minimum lies on the end of the +-0.2 s search: a bound, reported without a
+    # 1-sigma (it had one of 4.3 ms, for an offset of at least 200 ms)
+    assert r.time_offset["estimated_s"] == pytest.approx(0.2)
+    assert r.time_offset["sigma_s"] is None
+    assert any("at least +200 ms later (the end of the search)" in w for w in r.warnings)
 
 
 @pytest.mark.parametrize("bad", ["soon", "nan", "20"])

@@ -216,7 +216,8 @@ def offset_rows():
     for name, side, window, off in OFFSETS:
         rows.append(
             f"| {name} | {side} | {window[0]:g}-{window[1]:g} | "
-            f"{1000 * off['estimated_s']:+.1f} | {1000 * off['sigma_s']:.1f} | "
+            f"{1000 * off['estimated_s']:+.1f} | "
+            f"{'-' if off['sigma_s'] is None else format(1000 * off['sigma_s'], '.1f')} | "
             f"{off['cost_ratio']:.2f} | {'yes' if off['applied'] else 'no'}"
             + (" (at edge)" if off["at_edge"] else "") + " |"
         )
@@ -358,7 +359,8 @@ constraint's residual is profiled over relative shifts of the second sensor with
 +-0.2 s, the estimate refitted at each
 ([method.md](method.md#clock-offsets-between-the-two-sensors)). Estimated: the second
 sensor's lateness that minimises the residual, ms (positive: its clock late); sigma: its
-1-sigma (twice the block jackknife), ms; cost ratio: mean squared residual at zero shift
+1-sigma (twice the block jackknife), ms, "-" where the minimum lies on the end of the
+search (+-200 ms: a bound, not an estimate); cost ratio: mean squared residual at zero shift
 over that at the estimate (1 = no gain). Applied only when it is larger than a
 quarter sample and twice its sigma, and the cost ratio is at least 1.6.
 
