@@ -665,6 +665,7 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
         raise InputError(f"{calibration.file or calibration.source}: the calibration has no "
                          "usable hinge joint (knee); nothing to measure")
     names = []
+    found: dict[str, str] = {}  # sensor in this recording -> the calibration's name for it
     for jc in hinges:
         for s in jc.sensors:
             try:
@@ -672,6 +673,13 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
             except InputError as err:
                 raise InputError(f"{err}; the calibration's joint '{jc.name}' needs sensor "
                                  f"'{s}'") from None
+            # "left_thigh" and "right_thigh" both find a one-leg file's "thigh": both
+            # knees would be read from one leg (-278 deg on the simulated walk)
+            if found.setdefault(names[-1], s) != s:
+                raise InputError(
+                    f"{recording.source}: the calibration's sensors '{found[names[-1]]}' and "
+                    f"'{s}' both find sensor '{names[-1]}' here: not the sensors it "
+                    "calibrated (one leg of a two-leg calibration?); name them with --map")
     rec = recording.select(names, start, end)
     joints = {}
     for jc in hinges:
@@ -746,8 +754,14 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     flex = sign * (raw - zero["raw_deg"])
     gyro_only = sign * np.degrees(sig.theta_gyro - sig.theta_gyro[0]) + flex[0]
     warnings = [f"calibration: {w}" for w in ref.get("warnings", [])] + warnings
-    check = _fit_check(jc, ref, s1, s2, fus, rec.rate,
-                       flex if reference in (None, "standing") else None)
+    # the range a knee reaches is only known from an extended zero, with flexion positive:
+    # not from a user's time, a pinned sign, a zero chosen for the other direction, or a
+    # calibration trial without a still period (its zero is its 1st percentile, 19 deg
+    # low on the sample circling: a trial that never straightens reads stance at -40)
+    extended = (source != "user" and (reference == "standing" or (
+        reference is None and ref["zero_time_s"] is not None
+        and sign == int(ref["flexion_sign"]))))
+    check = _fit_check(jc, ref, s1, s2, fus, rec.rate, flex if extended else None)
     if not check["fits"]:
         warnings.append(check["message"])
     return JointAngle(jc.name, jc.sensors, flex, np.degrees(fus.sigma), gyro_only, sign,

@@ -450,6 +450,9 @@ def _reference(ctx: typer.Context, text: str | None):
 
 def _angles_summary(result, out) -> None:
     """Per joint on stderr: range, sign, zero, the fit check, gait."""
+    from .angles import PLAUSIBLE_FLEXION_DEG
+
+    low, high = PLAUSIBLE_FLEXION_DEG
     doc = result.to_document()
     where = "stdout" if out is None else str(out)
     _err(f"imucal angles: {doc['input']['path']}: {doc['input']['samples']} samples at "
@@ -466,7 +469,11 @@ def _angles_summary(result, out) -> None:
              f"{_num(c['hinge_residual'], '.3f')}, limit "
              f"{_num(c['hinge_residual_limit'], '.3f')}; acc-gyro disagreement "
              f"{_num(c['acc_gyro_disagreement_deg'], '.2f')} deg, limit "
-             f"{_num(c['acc_gyro_disagreement_limit_deg'], '.2f')} deg)")
+             f"{_num(c['acc_gyro_disagreement_limit_deg'], '.2f')} deg"
+             + (f"; gravity mismatch {c['gravity_mismatch_deg']:.0f} deg"
+                if c.get("gravity_mismatch_deg") is not None else "")
+             + (f"; {c['implausible_flexion_share']:.0%} of the flexion outside {low:g} to "
+                f"{high:g} deg" if c.get("implausible_flexion_share") else "") + ")")
 
 
 @app.command(
@@ -850,7 +857,7 @@ def _summary(doc: dict, names) -> None:
     if offset.get("mode") == "auto":
         applied = "applied" if offset["applied"] else "not applied"
         sigma, ms = offset["sigma_s"], 1000 * offset["estimated_s"]
-        if sigma is None and ms != 0:  # a minimum on the end of the search: a bound
+        if sigma is None and ms != 0 and not offset["applied"]:  # the search's end: a bound
             value = f"at least {ms:+.1f} ms (the end of the search, {applied})"
         else:
             value = (f"{ms:+.1f} ms (1-sigma {'-' if sigma is None else f'{1000 * sigma:.1f}'}"

@@ -382,10 +382,10 @@ def match_sensor(name: str, names: list[str], info: Mapping[str, Mapping] | None
             return hits[0]
     side, segment = _segment(name)
     if segment is not None:
-        # a side given must be the sensor's own: "right_thigh" finding a file's only,
-        # unsided "thigh" would let a calibration of both knees read one leg twice
         hits = [n for n in names if _segment(n)[1] == segment
-                and (side is None or _segment(n)[0] == side)]
+                and (side is None or _segment(n)[0] in (side, None))]
+        if side is not None and len(hits) > 1:
+            hits = [n for n in hits if _segment(n)[0] == side]
         if len(hits) == 1:
             return hits[0]
         if len(hits) > 1:

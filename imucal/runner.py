@@ -318,9 +318,12 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
     if command.process is not None:
         command.process(job, recording, outcome)
         return
-    for n in names:
-        if n not in recording.sensors:
-            recording.sensor(n)  # raises with the list of sensors that exist
+    # as the file names them (raises with the list of sensors that exist): results,
+    # units and messages then name what was used, not what was asked for
+    names = [recording.resolve(n) for n in names]
+    if names[0] == names[1]:
+        raise InputError(f"{recording.source}: --sensors {','.join(job.sensors)} both find "
+                         f"sensor '{names[0]}'; name two different sensors")
     # Only now the warnings: which of the file's problems matter depends on the sensors
     # and window used.
     used, window = _window(recording, names, job.start, job.end)

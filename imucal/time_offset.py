@@ -350,9 +350,9 @@ def _widen(result, part: dict, unit: str, limit: float) -> None:
 def offset_report(found: Offset, rate: float) -> dict:
     """The ``time_offset`` block of a result estimated with "auto"."""
     applied = found.significant(rate)
-    # a minimum on the search's end is a bound, not an estimate: it has no 1-sigma (never
-    # applied: an offset is applied only from inside the search)
-    sigma = None if at_search_end(found, rate) else found.sigma_s
+    # a minimum on the search's end that is not applied is a bound, not an estimate: it
+    # has no 1-sigma (the sub-sample pass can apply one within half a sample of the end)
+    sigma = None if not applied and at_search_end(found, rate) else found.sigma_s
     return {"mode": "auto", "time_offset_s": found.delta_s if applied else 0.0,
             "estimated_s": found.delta_s, "sigma_s": sigma, "applied": applied,
             "cost_ratio": found.cost_ratio, "search_s": found.search_s,

@@ -114,27 +114,59 @@ def test_a_calibration_of_another_mounting_is_flagged(session):
 
 
 def test_a_zero_that_does_not_carry_over_is_flagged(session):
-    # the calibration's zero moved by 250 deg (as another recording's sensors gave): the
-    # knee would read -250 deg on every sample; with the zero from the calibration the
-    # check refuses it, from a user's reference time it has no extended zero to judge by
+    # the calibration's zero (as if from a still period: an extended knee) moved by 250
+    # deg, as another recording's sensors gave: the knee would read -250 deg on every
+    # sample, and the check refuses it. Without an extended zero there is no range to
+    # judge by: a user's reference time, a sign pinned against the calibration's (the
+    # flexion is then negative-going), a calibration zero that is only its trial's 1st
+    # percentile (a trial that never straightened the knee reads stance at -40 deg)
     from dataclasses import replace
 
     from imucal.angles import joint_angles
 
     calibration, walk, _ = session
     knee = calibration.joints["knee"]
-    moved = dict(knee.angle, zero_deg=knee.angle["zero_deg"] + 250.0 * knee.angle["flexion_sign"])
-    shifted = replace(calibration, joints={**calibration.joints,
-                                           "knee": replace(knee, angle=moved)})
-    result = joint_angles(walk, shifted, end=30.0)
+
+    def with_zero(shift, zero_time):
+        angle = dict(knee.angle, zero_time_s=zero_time,
+                     zero_deg=knee.angle["zero_deg"] + shift * knee.angle["flexion_sign"])
+        return replace(calibration, joints={"knee": replace(knee, angle=angle)})
+
+    result = joint_angles(walk, with_zero(250.0, 1.0), end=30.0)
     check = result.joints["knee"].check
     assert not result.fits
     assert check["implausible_flexion_share"] > 0.9
     assert "outside the -30 to 180 deg" in check["message"]
-    assert joint_angles(walk, calibration, end=30.0).joints["knee"].check[
-        "implausible_flexion_share"] == 0.0
-    at_time = joint_angles(walk, shifted, end=30.0, reference=5.0).joints["knee"].check
-    assert at_time["implausible_flexion_share"] == 0.0
+    assert joint_angles(walk, with_zero(0.0, 1.0), end=30.0).fits
+    opposite = "-" if knee.angle["flexion_sign"] > 0 else "+"
+    for kwargs, zero_time in (({"reference": 5.0}, 1.0), ({"flexion_sign": opposite}, 1.0),
+                              ({}, None)):
+        check = joint_angles(walk, with_zero(250.0, zero_time), end=30.0,
+                             **kwargs).joints["knee"].check
+        assert check["implausible_flexion_share"] == 0.0, kwargs
+    pinned = joint_angles(walk, calibration, end=30.0, flexion_sign=opposite)
+    assert pinned.fits and np.percentile(pinned.joints["knee"].flexion_deg, 1) < -30.0
+
+
+def test_two_sensors_of_the_calibration_finding_one_here_are_refused(session):
+    # a two-knee calibration (left_thigh ..., right_thigh ...) on a one-leg recording
+    # (thigh, shank): both names find "thigh", and both knees were read from one leg
+    from dataclasses import replace
+
+    from imucal.angles import joint_angles
+
+    calibration, walk, _ = session
+    knee = calibration.joints["knee"]
+    both = replace(calibration, joints={
+        side + "_knee": replace(knee, name=side + "_knee",
+                                sensors=(side + "_thigh", side + "_shank"))
+        for side in ("left", "right")})
+    with pytest.raises(InputError, match="sensors 'left_thigh' and 'right_thigh' both find "
+                                         "sensor 'thigh' here"):
+        joint_angles(walk, both, end=30.0)
+    one = replace(calibration, joints={"left_knee": replace(
+        knee, name="left_knee", sensors=("left_thigh", "left_shank"))})
+    assert joint_angles(walk, one, end=30.0).fits  # one sided knee on one leg is fine
 
 
 def test_a_trial_that_disagreed_widely_cannot_widen_the_limit(session):

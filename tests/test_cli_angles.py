@@ -12,7 +12,6 @@ import pandas as pd
 import pytest
 from conftest import axis_error_deg, run_imucal
 
-from imucal.errors import InputError
 from imucal.simulate import simulate
 from imucal.writers import save_recording
 
@@ -211,19 +210,21 @@ def test_a_still_window_of_the_real_recording_names_file_and_joint(real_recordin
     assert not (tmp_path / "a.csv").exists()
 
 
-def test_a_side_is_never_read_into_an_unsided_sensor():
-    # a calibration of both knees applied to a one-leg recording (sensors thigh, shank)
-    # found "left_thigh" and "right_thigh" both in "thigh": the right knee read -278 deg
+def test_a_sided_name_finds_an_unsided_sensor_and_results_name_the_file_s_sensor():
+    # "left_thigh" finds a one-leg file's "thigh" (a calibration made with sided names
+    # applies to such a file); the result names what was used, as the file does (it
+    # named what was asked for, and found no units for it); one sensor twice is refused
     from imucal.recording import match_sensor
 
-    names = ["thigh", "shank", "foot"]
-    assert match_sensor("thigh", names) == "thigh"
-    assert match_sensor("upper leg", names) == "thigh"
-    with pytest.raises(InputError, match="no sensor 'left_thigh'"):
-        match_sensor("left_thigh", names)
+    assert match_sensor("left_thigh", ["thigh", "shank", "foot"]) == "thigh"
     run = cli("axis", SAMPLE / "circling.h5", *FAST, "--sensors", "right_thigh,left_shank")
+    assert run.returncode == 0, run.stderr
+    doc = json.loads(run.stdout)
+    assert doc["input"]["sensors"] == ["thigh", "shank"]
+    assert doc["input"]["units_in_file"]["thigh"] == {"gyr": "rad/s", "acc": "m/s^2"}
+    run = cli("axis", SAMPLE / "circling.h5", *FAST, "--sensors", "thigh,left_thigh")
     assert run.returncode == 2
-    assert "no sensor 'right_thigh' (did you mean 'thigh'?)" in run.stderr
+    assert "--sensors thigh,left_thigh both find sensor 'thigh'" in run.stderr
 
 
 def test_simulate_mounting_seed(tmp_path):

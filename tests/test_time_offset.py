@@ -38,6 +38,17 @@ def test_axis_finds_and_removes_a_clock_offset(motion, rate, late):
     assert max(axis_error_deg(ignored.j1, ignored.j2, truth["j1"], truth["j2"])) > 1.0
 
 
+def test_an_offset_applied_within_half_a_sample_of_the_search_end_keeps_its_sigma():
+    # 187.2 ms late at 40 Hz: the sub-sample pass finds 187.5 ms, within half a sample
+    # (12.5 ms) of the 200 ms end, and applies it; its 1-sigma is part of the estimate's
+    # uncertainty, so it must be reported (it was null, as for a bound at the end)
+    rec, _ = simulate(seed=5, rate=40.0, motion="circling", clock_offset={"shank": 0.1872})
+    found = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=40.0,
+                          seed=1).time_offset
+    assert found["applied"] and abs(found["time_offset_s"] - 0.1872) < 0.003, found
+    assert found["sigma_s"] is not None and 0 < found["sigma_s"] < 0.01
+
+
 def test_axis_without_an_offset_applies_none():
     rec, truth = simulated(4, rate=100.0, motion="walking", duration=30.0)
     r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=100.0, seed=1)
