@@ -76,9 +76,9 @@ ACC_AGREEMENT_DEG = 10.0
 #: trial that itself disagreed by 79 deg (real knees with wrong axes) would otherwise
 #: accept anything, even another recording's sensors (knee angles of -278 deg).
 FIT_MAX_DEG = FIT_FACTOR * ACC_AGREEMENT_DEG + FIT_FLOOR_DEG
-#: Flexion a knee (or elbow) can reach from its extended zero, deg. With the zero taken
-#: from the calibration or a standing posture, more than ``IMPLAUSIBLE_SHARE`` of the
-#: samples outside it means the zero or the axes do not carry over to this recording.
+#: Flexion a knee (or elbow) can reach from its extended zero, deg. Where the zero is an
+#: extended posture (see ``_one_joint``), more than ``IMPLAUSIBLE_SHARE`` of the samples
+#: outside it means the zero or the axes do not carry over to this recording.
 PLAUSIBLE_FLEXION_DEG = (-30.0, 180.0)
 IMPLAUSIBLE_SHARE = 0.01
 #: A calibration trial whose flexion (1st to 99th percentile) spans more than this, deg,
@@ -190,9 +190,10 @@ def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fu
     n = sig.theta_gyro.shape[0]
     w = sig.weight
     if not np.any(w > 0):
-        raise NotIdentifiableError("the joint centre's acceleration never lies in the joint plane "
-                         f"(in-plane part below {MIN_INPLANE_ACC:g} m/s^2 throughout): no "
-                         "accelerometer angle to correct the gyro drift")
+        raise NotIdentifiableError(
+            "the joint centre's acceleration never lies in the joint plane (in-plane part "
+            f"below {MIN_INPLANE_ACC:g} m/s^2 throughout): no accelerometer angle to correct "
+            "the gyro drift")
     s = smoothing_s * rate  # kernel sigma in samples
     raw = np.angle(np.exp(1j * (sig.theta_acc - sig.theta_gyro)))
     # The offset drifts through +-pi with a bias: unwrap a smoothed circular mean, then
@@ -770,8 +771,8 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
 
 def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray | None) -> dict:
     """Does the calibration still fit this recording? (docs/angles.md) ``flex``: the
-    flexion, deg, when its zero is an extended posture (None: a user's reference time,
-    from which any angle may be reached)."""
+    flexion, deg, when its zero is an extended posture and flexion positive (None: no
+    range to judge by, see ``_one_joint``)."""
     res = hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2)
     dis = math.degrees(fus.disagreement)
     # A calibration trial that never moved has no residual (NaN, null in its file): no

@@ -369,12 +369,12 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
         except ImucalError as err:  # e.g. a trial without acceleration across the axis
             jc.verdict = "not identifiable"
             jc.warnings.append(f"angle: {spec.name}: no angle calibration: {err}")
-            return jc, (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate)
-        if jc.angle["warnings"]:
-            jc.warnings += [f"angle: {w}" for w in jc.angle["warnings"]]
-            jc.verdict = _worst([jc.verdict, "use with care"])
-        if implausible_range(spec.name, jc.angle["flexion_range_deg"]):
-            jc.verdict = _worst([jc.verdict, "not identifiable"])
+        else:
+            if jc.angle["warnings"]:
+                jc.warnings += [f"angle: {w}" for w in jc.angle["warnings"]]
+                jc.verdict = _worst([jc.verdict, "use with care"])
+            if implausible_range(spec.name, jc.angle["flexion_range_deg"]):
+                jc.verdict = _worst([jc.verdict, "not identifiable"])
     window = (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate)
     return jc, window
 

@@ -36,7 +36,7 @@ from functools import cache
 import numpy as np
 
 from .errors import InputError
-from .recording import MAX_RATE_HZ, MIN_RATE_HZ, Recording, make_recording
+from .recording import Recording, _check_plausible_rate, make_recording
 
 MOTIONS = ("circling", "walking", "rigid-knee", "static", "gait", "protocol")
 SENSORS = ("thigh", "shank", "foot")
@@ -464,10 +464,9 @@ def _check_args(seed, rate, duration, snr, motion, gyr_noise=None, acc_noise=Non
         if not math.isfinite(value) or value <= 0:
             raise InputError(f"simulate: {label} must be a positive number, got {value}")
     rate, duration = float(rate), float(duration)
-    # checked before anything is simulated: 1e9 Hz would fill the memory first
-    if not MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
-        raise InputError(f"simulate: sample rate {rate:g} Hz is outside the {MIN_RATE_HZ:g} to "
-                         f"{MAX_RATE_HZ:g} Hz of body-worn IMUs")
+    # the recording's own check, before anything is simulated: 1e9 Hz would fill the
+    # memory first
+    _check_plausible_rate(rate, "simulate")
     physical = gyr_noise is not None or acc_noise is not None
     if isinstance(snr, str):
         if snr != "auto":
