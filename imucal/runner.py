@@ -111,7 +111,7 @@ def _process_calibrate(job, recording, outcome) -> None:
                       for j in cal.joints.values())
     outcome.headline = (f"imucal calibrate: {recording.source}: {names}; "
                         f"{recording.n_samples} samples at {recording.rate:g} Hz "
-                        f"({recording.duration:.1f} s)")
+                        f"({recording.duration:.1f} s){_window_text(job, cal.window_s)}")
     outcome.warnings.extend(f"{recording.source}: {w}" for w in recording.warnings)
     outcome.document, outcome.result = cal.to_document(), cal
     bad = [j for j in cal.joints.values() if j.verdict in ("not identifiable", "failed")]
@@ -122,6 +122,14 @@ def _process_calibrate(job, recording, outcome) -> None:
         outcome.error = (f"{recording.source}: {which}; the calibration is written with "
                          f"{'them' if len(bad) > 1 else 'it'} marked (--force: exit 0)")
         outcome.exception = NotIdentifiableError(outcome.error)
+
+
+def _window_text(job: Job, window) -> str:
+    """", window A-B s" for a headline when a window was asked for: the header describes
+    the file as a whole, and then the part fitted."""
+    if job.start is None and job.end is None:
+        return ""
+    return f", window {window[0]:g}-{window[1]:g} s"
 
 
 def _reason(joint) -> str:
@@ -337,13 +345,10 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
     doc = command.report(result, input_info=_input_info(recording, names, used, job),
                          trace=job.trace)
     what = f"{job.command} ({doc['joint']})" if "joint" in doc else job.command
-    w0, w1 = doc["input"]["window_s"]
-    # the file as a whole, then the window fitted when one was asked for
-    window_text = ("" if job.start is None and job.end is None
-                   else f", window {w0:g}-{w1:g} s")
     outcome.headline = (f"imucal {what}: {recording.source}: {names[0]} -> {names[1]}, "
                         f"{recording.n_samples} samples at {recording.rate:g} Hz "
-                        f"({recording.duration:.1f} s){window_text}")
+                        f"({recording.duration:.1f} s)"
+                        f"{_window_text(job, doc['input']['window_s'])}")
     if doc["quality"]["verdict"] == "not identifiable" and not job.force:
         # The first warning is the reason (blocking reasons come first); the others only
         # help a human reading along ("input: " ones were warnings at load already).

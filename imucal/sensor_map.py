@@ -62,6 +62,9 @@ def read_sensor_map(path: str | Path) -> dict[str, str]:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
         text = data.decode("latin-1")
+    if text.lstrip().startswith("["):  # JSON, but not the object a map is
+        raise InputError(f"{source}: a sensor map in JSON is one object, "
+                         '{"device name or serial": "name to use", ...}, not a list')
     if text.lstrip().startswith("{"):
         try:
             # pairs, not a dict: a key given twice is reported, not silently dropped

@@ -50,6 +50,7 @@ def test_map_file_json_and_text(tmp_path):
     ("= x\n", r"line 1: the device name or serial is empty"),
     ("a = x,y\n", r"contains a comma"),
     ("# nothing\n", r"the sensor map is empty"),
+    ("[1, 2]", r"a sensor map in JSON is one object, .* not a list"),  # was "KEY = NAME"
 ])
 def test_bad_map_files(tmp_path, text, message):
     path = tmp_path / "m.txt"
