@@ -410,8 +410,8 @@ def angles(
                 f"{recording.source} with {calibration}: {'; '.join(problems)}; nothing "
                 "written (--force writes the angles with these warnings)")
         if out is None:
-            _write_stdout(lambda stream: result.to_frame().to_csv(
-                stream, index=False, float_format="%.6g"))
+            result.to_frame().to_csv(sys.stdout, index=False, float_format="%.6g")
+            sys.stdout.flush()  # a reader gone shows here, inside the error handler
         else:
             result.write(out)
         if plot is not None:
@@ -420,18 +420,6 @@ def angles(
             plot_angles(result, plot)
         if not quiet:
             _angles_summary(result, out)
-
-
-def _write_stdout(write) -> None:
-    """``write(sys.stdout)``; a reader that stops early (``| head``) ends the command
-    quietly with the status a shell gives a process stopped by SIGPIPE (141)."""
-    try:
-        write(sys.stdout)
-        sys.stdout.flush()
-    except BrokenPipeError:
-        # Python would complain again when it flushes stdout at exit.
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        raise typer.Exit(141) from None
 
 
 def _reference(ctx: typer.Context, text: str | None):
@@ -784,6 +772,12 @@ class _errors:
     def __exit__(self, kind, err, tb):
         if err is None or isinstance(err, (typer.Exit, SystemExit, typer.BadParameter)):
             return False
+        if isinstance(err, BrokenPipeError):
+            # a reader that stopped early (| head), with --debug too: quiet, with the
+            # status of a process stopped by SIGPIPE; Python would complain again when it
+            # flushes stdout at exit
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            raise typer.Exit(141)
         if self.debug:
             return False
         if isinstance(err, KeyboardInterrupt):
@@ -792,12 +786,6 @@ class _errors:
         if isinstance(err, ImucalError):
             _err(f"imucal: error: {err}")
             raise typer.Exit(err.exit_code)
-        if isinstance(err, BrokenPipeError):
-            # a reader that stopped early (| head): quiet, with the status of a process
-            # stopped by SIGPIPE, as _write_stdout; Python would complain again when it
-            # flushes stdout at exit
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-            raise typer.Exit(141)
         if isinstance(err, OSError):
             where = f"{err.filename}: " if err.filename else ""
             _err(f"imucal: error: {where}{err.strerror or err}")
