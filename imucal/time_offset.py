@@ -313,6 +313,11 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     result.time_offset = offset_report(found, rate)
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(found, rate))
+    if found.at_edge:
+        # the estimate assumes synchronised clocks while the data say they are not, by
+        # more than was searched: simulated offsets of 220-400 ms left ankle centres
+        # 0.5-1.1 m and knee signs wrong under a usable verdict
+        result.blocking.append(offset_edge_reason(found))
     used = found.delta_s if applied else 0.0
     states = profile(result)(used + SENSITIVITY_STEP_S * np.array([-1.0, 1.0]))[1]
     per_s = {k: v / (2 * SENSITIVITY_STEP_S)
@@ -366,10 +371,9 @@ def at_search_end(found: Offset, rate: float) -> bool:
 
 
 def offset_warnings(found: Offset, rate: float) -> list[str]:
-    """What to say about an automatic offset that was not applied."""
-    if found.at_edge:
-        return [offset_edge_warning(found)]
-    if found.significant(rate):
+    """What to say about an automatic offset that was not applied (one beyond the search
+    is no warning but a reason the result is not identifiable, :func:`offset_edge_reason`)."""
+    if found.at_edge or found.significant(rate):
         return []
     where = (f"at least {1000 * found.delta_s:+.0f} ms later (the end of the search)"
              if at_search_end(found, rate)
@@ -387,11 +391,14 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
     return []
 
 
-def offset_edge_warning(found: Offset) -> str:
-    """The warning for an offset that may lie beyond the search range."""
+def offset_edge_reason(found: Offset) -> str:
+    """Why a result whose clock offset may lie beyond the search range is not
+    identifiable."""
     return (f"the clock offset between the sensors may exceed the +-{found.search_s:g} s "
-            "searched (the constraint's cost kept falling to the edge): none was applied; "
-            "align the recordings first or widen the search")
+            f"searched (the constraint's cost kept falling to the edge, {found.cost_ratio:.1f}"
+            " times lower there than in sync): an estimate that assumes synchronised clocks "
+            "would be wrong; align the recordings first, or pass the offset with "
+            "--time-offset")
 
 
 def _parabola_minimum(cost: np.ndarray, deltas: np.ndarray) -> tuple[float, bool]:

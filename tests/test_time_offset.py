@@ -82,14 +82,31 @@ def test_a_given_offset_is_applied_as_given():
     assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.3
 
 
-def test_an_offset_beyond_the_search_is_a_warning_not_an_answer():
+def test_an_offset_beyond_the_search_is_not_identifiable():
     rec, _ = simulated(4, rate=100.0, motion="circling", duration=30.0)
     thigh, shank = rec.sensor("thigh"), rec.sensor("shank")
     g2, _ = _late(shank, 100.0, 0.3)
     r = estimate_axis(thigh.gyr, g2, rate=100.0, seed=1, offset_search=0.1)
     assert r.time_offset["at_edge"] and not r.time_offset["applied"]
-    assert any("may exceed the +-0.1 s" in w for w in r.warnings)
-    assert r.verdict != "good"
+    assert r.verdict == "not identifiable"
+    assert any("may exceed the +-0.1 s" in b for b in r.blocking)
+    assert not any("may exceed" in w for w in r.warnings)
+
+
+def test_an_ankle_whose_offset_lies_beyond_the_search_is_refused_not_answered():
+    # shank clock 250 ms late, searched +-0.2 s: the centre came out 0.5-1.1 m off under
+    # "use with care" (seeds 19 and 20); searched wide enough, it is found
+    rec, truth = simulate(seed=19, motion="protocol", rate=100.0, duration=20.0,
+                          gyr_noise=0.01, acc_noise=0.05, clock_offset={"shank": 0.25})
+    shank, foot = rec.sensor("shank"), rec.sensor("foot")
+    r = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, rate=100.0, seed=1,
+                          restarts=30)
+    assert r.time_offset["at_edge"] and r.verdict == "not identifiable"
+    wide = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, rate=100.0, seed=1,
+                             restarts=30, offset_search=0.4)
+    assert wide.time_offset["applied"] and wide.verdict != "not identifiable"
+    true = np.concatenate([truth["ankle"]["o1"], truth["ankle"]["o2"]])
+    assert 1000 * np.abs(np.concatenate([wide.o1, wide.o2]) - true).max() < 5.0
 
 
 def test_real_knees_model_errors_are_not_taken_for_clock_offsets(real_recording):
