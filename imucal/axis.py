@@ -122,11 +122,14 @@ POOR_FIT_RESIDUAL = 0.1
 #: a knee that is not a perfect hinge), so a lower threshold would flag every real knee
 #: and separate nothing; what real data leave uncertain shows in the uncertainty.
 MAX_RELATIVE_RESIDUAL = 0.5
-#: Model-error bound per unit of smooth relative residual, deg: on imucal's simulator with
-#: soft tissue (1 deg / 2 mm and 2 deg / 3 mm, protocol, gait, circling; 21 fits) the
-#: axis error was 35-170 (median about 50) deg per unit relative residual, while neither
-#: the curvature nor the time blocks grew: 60 keeps every such error within 3 sigma.
-MODEL_DEG_PER_RESIDUAL = 60.0
+#: Model-error bound per unit of (smooth residual / smallest singular value), as a
+#: fraction of that turn (:func:`_model_term`): on imucal's simulator with soft tissue
+#: (0.5 deg / 1 mm to 2 deg / 3 mm; protocol, gait, circling; 50-200 Hz; 210 fits, clocks
+#: in sync) the axis error needed 0.07-0.20 (median) and 0.33 (95th percentile) of it to
+#: lie within 3 sigma; 0.5 puts 98 % there (the rest are gait at 2 deg / 3 mm, whose
+#: sigma of 2-6 deg already makes them "use with care"), and clean simulated knees get
+#: 0.05-0.08 deg.
+MODEL_FACTOR = 0.5
 #: A 1-sigma axis uncertainty above this is not good enough for joint angles, deg: the
 #: verdict is at best "use with care". With 5 deg, simulated soft tissue (2 deg / 3 mm,
 #: 1-sigma 2.7-4.8 deg) was called "good" with errors up to 3.6 sigma; clean simulated
@@ -441,7 +444,7 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
     sensitivity = _cutoff_sensitivity(p, x)
     # a smooth residual is a model error every time block shares (soft tissue moving the
     # sensors in step with the gait cycle): a bias bound in proportion to it
-    model = MODEL_DEG_PER_RESIDUAL * smooth_residual_rms(e) / scale if scale > 0 else 0.0
+    model = _model_term(e, sv, p.rate / (p.step * _sample_spacing(p.selection.index)))
     components = {
         "curvature": {"j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),
                       "j2": float(np.degrees(np.sqrt(cov[2, 2] + cov[3, 3])))},
@@ -467,6 +470,24 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
         "minima": equal_minima(fit.refined.x, fit.refined.final_cost, fit.best, fit.reached,
                                _axis_distance),
     }
+
+
+def _model_term(e: np.ndarray, sv: np.ndarray, rate: float) -> float:
+    """The model-error bound of the axes, deg: ``MODEL_FACTOR`` times the smooth residual
+    (:func:`imucal.quality.smooth_residual_rms`, samples ``rate`` Hz apart) over the
+    Jacobian's smallest singular value ``sv[-1]`` (per sqrt(sample)), i.e. the largest
+    turn of the axes a residual of that size could explain. Relative to the weakest
+    direction, not to the rates' size: gait excites the axes less than circling, and the
+    same smooth residual moved them several times as far there."""
+    if sv.size == 0 or not sv[-1] > 0:
+        return 0.0
+    return float(MODEL_FACTOR * np.degrees(smooth_residual_rms(e, rate) / sv[-1]))
+
+
+def _sample_spacing(index: np.ndarray) -> float:
+    """Median spacing of the selected samples, in (subsampled) samples: consecutive
+    selected samples are this far apart within a moving stretch."""
+    return float(np.median(np.diff(index))) if index.size > 1 else 1.0
 
 
 def _excitation(d1, d2, x) -> dict:

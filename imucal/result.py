@@ -38,8 +38,9 @@ class EstimateResult(Verdict):
         residuals, :func:`imucal.quality.robust_covariance`), "time_blocks"
         (delete-one-block jackknife over contiguous time blocks,
         :func:`imucal.quality.block_masks`), "cutoff_shift" (the largest shift of the
-        cut-off refits), "model" (the axis' bias bound in proportion to the smooth part
-        of the residual, :func:`imucal.quality.smooth_residual_rms`; 0 for a position)
+        cut-off refits), "model" (the axis' bias bound from the smooth part of the
+        residual, :func:`imucal.quality.smooth_residual_rms`, over the Jacobian's smallest
+        singular value; 0 for a position)
         and, with the automatic clock offset only, "time_offset" (the estimate's move
         per unit of offset times the offset's 1-sigma,
         :func:`imucal.time_offset.fit_with_offset`).
