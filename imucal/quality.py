@@ -164,9 +164,8 @@ def smooth_residual_rms(e: np.ndarray, rate: float) -> float:
         return 0.0
     low, gain = _zero_phase_lowpass(e, band / nyquist)
     # the white floor: the quietest octave above the band (model errors only add power)
-    noise, below, under = np.inf, low, gain
-    edge = band
-    while edge < nyquist:
+    noise, below, under, edge = np.inf, low, gain, band
+    while edge < 0.9 * nyquist:  # the last octave ends at Nyquist: the residual itself
         edge = 2 * edge
         above, over = (_zero_phase_lowpass(e, edge / nyquist) if edge < 0.9 * nyquist
                        else (e, np.ones_like(gain)))

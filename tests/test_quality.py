@@ -281,3 +281,12 @@ def test_soft_tissue_axis_error_is_covered_or_not_called_good(motion, seed, deg,
     ratio = max(e / r.uncertainty_deg[k] for e, k in zip(errors, ("j1", "j2"), strict=True))
     assert ratio < 3.0, (errors, r.uncertainty_deg, r.verdict)
     assert r.uncertainty_components["model"]["j1"] > 0.5
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize("rate", [20.0, 35.0, 36.0, 40.0, 100.0, 1000.0])
+def test_smooth_residual_at_any_rate_is_finite(rate):
+    # at 35 Hz the octave above 8 Hz ended between 0.9 and 1 x Nyquist, and the next one
+    # compared the residual with itself: 0 / 0 (the real recording's crash sweep)
+    e = np.random.default_rng(1).standard_normal(500)
+    assert 0.0 <= smooth_residual_rms(e, rate) < 0.3
