@@ -92,8 +92,9 @@ Plot = Annotated[Path | None, typer.Option(help="Write a convergence figure; the
 Trace = Annotated[bool, typer.Option(
     "--trace", help="Also write every restart's cost per iteration into the JSON "
     "(restarts[].cost_trace, refined_cost_trace); by default each restart is summarised.")]
-Rate = Annotated[float | None, typer.Option(help="Sample rate, Hz (CSV without a time column).",
-                                            show_default=False)]
+Rate = Annotated[float | None, typer.Option(
+    help="Sample rate, Hz (CSV without a time column). With time stamps in the file it must "
+         "agree with theirs within 10 %, and then wins.", show_default=False)]
 GyrUnits = Annotated[str | None, typer.Option(help="Gyroscope units of a CSV: rad/s or deg/s.",
                                               show_default=False)]
 AccUnits = Annotated[str | None, typer.Option(help="Accelerometer units of a CSV: m/s^2 or g.",
@@ -606,6 +607,7 @@ def info(
         from .provenance import sensor_table
 
         lines += sensor_table(recording)
+        lines += [f"note: {n}" for n in recording.provenance.get("notes", [])]
         for w in recording.warnings:
             lines.append(f"warning: {w}")
         sys.stdout.write("\n".join(lines) + "\n")

@@ -72,6 +72,7 @@ class _Clock:
     period: float        # s per sample
     dropped: int
     source_of_time: str  # "time stamps", "packet counter", "sample rate"
+    stamp_rate: float | None = None  # Hz, from the stamps when --rate replaced it
 
 
 def unwrap(values: np.ndarray, wrap: float | None) -> np.ndarray:
@@ -156,10 +157,20 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
                 "device's regular clock (a clock reset or a pause in logging); cut the file there"
             )
         a += t0
+        stamps = None
         if rate is not None:
-            period = 1.0 / rate  # --rate: the user knows better than the stamps
+            stamps = 1.0 / period
+            if abs(stamps - rate) > RATE_REFUSE * rate:
+                raise InputError(
+                    f"{what}: --rate {rate:g} Hz but its time stamps say {stamps:.4g} Hz; "
+                    "drop --rate (the stamps give the rate) or fix the file"
+                )
+            # Within the tolerance the user may know better than the stamps (a device
+            # clock that runs a little fast): the given rate spaces the samples.
+            period = 1.0 / rate
         origin = "time stamps"
     else:
+        stamps = None
         if s.counter is not None:
             c = unwrap(s.counter, s.counter_wrap)
             if not np.isfinite(c).all():
@@ -180,14 +191,15 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
         period = 1.0 / float(use)
         a = float(c[0]) * period  # the counters of one export are shared: align on them
     return _Clock(k=k, a=float(a), period=float(period), dropped=int(k[-1] + 1 - n),
-                  source_of_time=origin)
+                  source_of_time=origin, stamp_rate=stamps)
 
 
 def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> Aligned:
     """Put ``sensors`` on the first one's sample grid over the span they share.
 
     ``rate`` (Hz, optional) replaces the devices' own rate (for files without time
-    stamps or header rate). Raises :class:`InputError` for unusable clocks.
+    stamps or header rate); with time stamps it must agree with theirs within
+    :data:`RATE_REFUSE`. Raises :class:`InputError` for unusable clocks.
     """
     clocks, notes = {}, []
     for s in sensors:
@@ -197,20 +209,28 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
         clk = _clock(s, what, rate)
         dev_rate = 1.0 / clk.period
         if not MIN_RATE_HZ <= dev_rate <= MAX_RATE_HZ:
+            # "below"/"above" and enough digits: 0.99999 Hz printed as 1 Hz would seem to
+            # lie inside the range
+            side = f"below {MIN_RATE_HZ:g}" if dev_rate < MIN_RATE_HZ else f"above {MAX_RATE_HZ:g}"
             raise InputError(
-                f"{what}: sample rate {dev_rate:g} Hz from its {clk.source_of_time} is outside "
-                f"{MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz; check the time stamps' units"
+                f"{what}: sample rate {dev_rate:.6g} Hz from its {clk.source_of_time} is "
+                f"{side} Hz (imucal reads {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz); check the "
+                "time stamps' units"
             )
         if s.claimed_rate and clk.source_of_time == "time stamps" and rate is None:
             off = abs(dev_rate - s.claimed_rate) / s.claimed_rate
             if off > RATE_REFUSE:
                 raise InputError(
                     f"{what}: the header says {s.claimed_rate:g} Hz but the time stamps say "
-                    f"{dev_rate:.4g} Hz; one of them is wrong (give --rate to decide)"
+                    f"{dev_rate:.4g} Hz; one of them is wrong (if the stamps are right, give "
+                    f"--rate {dev_rate:.4g})"
                 )
             if off > RATE_WARN:
                 notes.append(f"sensor '{s.name}': the header says {s.claimed_rate:g} Hz, the "
                              f"time stamps {dev_rate:.4g} Hz; the time stamps are used")
+        if clk.stamp_rate and abs(clk.stamp_rate - rate) > RATE_WARN * rate:
+            notes.append(f"sensor '{s.name}': --rate {rate:g} Hz is used; its time stamps "
+                         f"say {clk.stamp_rate:.4g} Hz")
         clocks[s.name] = clk
 
     ref = clocks[sensors[0].name]

@@ -174,8 +174,12 @@ def _vendor(path: Path, source: str):
         return module
     try:
         found = sorted(p.name + ("/" if p.is_dir() else "") for p in path.iterdir())
+        files = [p for p in path.iterdir() if p.is_file() and not p.name.startswith(".")]
     except OSError as err:
         raise InputError(f"{source}: cannot read folder ({err.strerror or err})") from None
+    if files and all(formats.is_empty(p) for p in files):
+        raise InputError(f"{source}: every file in the folder is empty: "
+                         f"{_short_list(sorted(p.name for p in files), limit=8)}")
     raise InputError(
         f"{source}: is a folder, and not an export imucal reads ({formats.describe_formats()}); "
         f"it holds: {_short_list(found, limit=8) if found else 'nothing'}"
@@ -191,6 +195,7 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
     for kind, unit in (("gyr", gyr_units), ("acc", acc_units)):
         if unit is not None:
             check_units(kind, unit, f"{source}: --{kind}-units ({kind}_units=)")
+    milli = []
     for s in raw.sensors:
         if gyr_units is not None:
             s.gyr_units = gyr_units
@@ -198,7 +203,7 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
             s.acc_units = acc_units
         if s.acc_units == "mg":  # milli-g: not one of imucal's units, converted here
             s.acc, s.acc_units = s.acc * 1e-3, "g"
-            s.notes.append("acc read in mg and converted")
+            milli.append(s.name)
         finite = np.isfinite(s.gyr).all(axis=1) & np.isfinite(s.acc).all(axis=1)
         if finite.sum() > 1 and np.array_equal(s.gyr[finite], s.acc[finite]):
             raise InputError(
@@ -210,6 +215,10 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
     if dupes:
         raise InputError(f"{source}: two sensors are called {dupes[0]!r}; rename one")
     aligned = align(raw.sensors, source, rate=rate)
+    info = list(raw.info)
+    if milli:  # a declared unit converted is no problem: wrong scales are caught by size
+        info.append(f"acc of sensor {', '.join(repr(n) for n in milli)} read in mg and "
+                    "converted to g")
     units_read = {s.name: {"gyr": s.gyr_units, "acc": s.acc_units} for s in raw.sensors}
     notes = list(raw.notes) + [n for s in raw.sensors for n in s.notes] + aligned.notes
     recording = make_recording(
@@ -225,6 +234,7 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
         "time_origin": aligned.origin,
         "time_from": {n: i["time_from"] for n, i in aligned.info.items()},
         "dropped_samples": {n: i["dropped"] for n, i in aligned.info.items()},
+        "notes": info,
     }
     return replace(recording, sensor_info=aligned.info, provenance=provenance)
 

@@ -17,7 +17,14 @@ import numpy as np
 from scipy import signal
 
 from .errors import InputError
-from .recording import ACC_LOOKS_LIKE_G, MAX_LIMB_RATE, MAX_RATE_HZ, MIN_RATE_HZ
+from .recording import (
+    ACC_LOOKS_LIKE_G,
+    ACC_PLAUSIBLE,
+    MAX_LIMB_RATE,
+    MAX_RATE_HZ,
+    MIN_RATE_HZ,
+    acc_scale_doubt,
+)
 from .selection import Selection
 from .selection import select as select_samples
 from .time_offset import shifted
@@ -225,8 +232,9 @@ def unit_doubts(gyr: tuple, acc: tuple = ()) -> list[str]:
 
     A limb does not turn at more than :data:`imucal.recording.MAX_LIMB_RATE` rad/s for 1 %
     of the time (deg/s read as rad/s: 57 times faster), and at rest or in gait the median
-    specific force is about 1 g = 9.81 m/s^2, not 1 (g read as m/s^2). The rates' scale does
-    not change a hinge axis, but both scales enter the joint position.
+    specific force is about 1 g = 9.81 m/s^2, not 1 (g read as m/s^2), nor below 0.5 or
+    above 50 m/s^2 (:data:`imucal.recording.ACC_PLAUSIBLE`: a unit 100-1000 x off). The
+    rates' scale does not change a hinge axis, but both scales enter the joint position.
     """
     doubts = []
     for k, g in enumerate(gyr, start=1):
@@ -241,6 +249,8 @@ def unit_doubts(gyr: tuple, acc: tuple = ()) -> list[str]:
             doubts.append(f"sensor {k}'s specific force has a median norm of {median:.2f} "
                           "m/s^2, about 1 g in g units: the accelerometer data look like g "
                           "read as m/s^2")
+        elif not ACC_PLAUSIBLE[0] <= median <= ACC_PLAUSIBLE[1]:
+            doubts.append(f"sensor {k}'s specific force {acc_scale_doubt(median)}")
     return doubts
 
 

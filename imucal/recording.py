@@ -31,6 +31,10 @@ MAX_LIMB_RATE = 35.0
 #: A median accelerometer norm in this range (m/s^2 after conversion) is ~1 g expressed
 #: in g: the data are most likely in g, not m/s^2.
 ACC_LOOKS_LIKE_G = (0.5, 2.0)
+#: A median accelerometer norm below the first or above the second (m/s^2 after
+#: conversion) is far from the 1 g that gait and rest give: a unit 1000 or ~100 times off
+#: (m/s^2 or g declared as mg; m/s^2 or mg declared as g), or gravity removed.
+ACC_PLAUSIBLE = (0.5, 50.0)
 
 #: Plausible sample rates of body-worn IMUs, Hz.
 MIN_RATE_HZ = 1.0
@@ -295,7 +299,14 @@ class Recording:
         """The name of the sensor that ``name`` addresses (see :func:`match_sensor`)."""
         if name in self.sensors:
             return name
-        return match_sensor(name, list(self.sensors), self.sensor_info, self.source)
+        try:
+            return match_sensor(name, list(self.sensors), self.sensor_info, self.source)
+        except InputError as err:
+            # the sensor asked for may be one whose file was empty: say so at once
+            empty = [n for n in self.notes if "empty" in n and "not read" in n]
+            if not empty:
+                raise
+            raise InputError(f"{err}; {'; '.join(empty)}") from None
 
     def _lookup(self, name: str) -> SensorData:
         return self.sensors[self.resolve(name)]
@@ -486,7 +497,8 @@ def make_recording(
             "a few seconds of motion"
         )
 
-    rate_out, time_out = _check_timing(rate, time, n, source)
+    rate_out, time_out, timing = _check_timing(rate, time, n, source)
+    notes = list(notes) + timing
     gaps = _find_gaps(raw, time_out)
     converted = {name: SensorData(gyr=a["gyr"], acc=a["acc"]) for name, a in raw.items()}
     finite = {name: SensorData(gyr=s.gyr[_finite_rows(s)], acc=s.acc[_finite_rows(s)])
@@ -604,7 +616,22 @@ def _unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
                 f"sensor '{name}' acc has a median norm of {median:.2f} m/s^2, about 1 g in g "
                 "units: is it in g? (--acc-units g or a 'units' attribute)"
             )
+        elif not ACC_PLAUSIBLE[0] <= median <= ACC_PLAUSIBLE[1]:
+            notes.append(f"sensor '{name}' acc "
+                         f"{acc_scale_doubt(median)} (--acc-units or a 'units' attribute)")
     return notes
+
+
+def acc_scale_doubt(median: float) -> str:
+    """Why a median specific force (m/s^2) outside :data:`ACC_PLAUSIBLE` points to wrong
+    accelerometer units, naming the likely mistake."""
+    if median < ACC_PLAUSIBLE[0]:
+        return (f"has a median norm of {median:.3g} m/s^2, far below 1 g = 9.81 m/s^2: the "
+                "declared units look wrong (m/s^2 or g data declared as mg?), or gravity "
+                "was removed (free acceleration)")
+    return (f"has a median norm of {median:.4g} m/s^2 = {median / 9.80665:.3g} g, far above "
+            "1 g: the declared units look wrong (m/s^2 data declared as g, or mg data as g "
+            "or m/s^2?)")
 
 
 def _stuck_warnings(sensors: Mapping[str, SensorData]) -> list[str]:
@@ -653,7 +680,8 @@ def _check_plausible_rate(rate: float, source: str, origin: str = "") -> None:
         )
 
 
-def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray]:
+def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, list[str]]:
+    """The rate and time axis of a recording, and notes on how they were reconciled."""
     if rate is not None:
         try:
             rate = float(rate)
@@ -677,7 +705,7 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray]:
             time_out = np.arange(n) / rate
         if not np.isfinite(time_out).all():
             raise InputError(f"{source}: sample rate {rate:g} Hz is too small to be real")
-        return rate, time_out
+        return rate, time_out, []
 
     if np.iscomplexobj(time):
         raise InputError(f"{source}: 'time' holds complex numbers; expected seconds")
@@ -720,4 +748,13 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray]:
             f"{source}: 'sample_rate' says {rate:g} Hz but 'time' says {time_rate:g} Hz; "
             "fix one of them (or drop --rate)"
         )
-    return (rate if rate is not None else time_rate), time
+    if rate is None:
+        return time_rate, time, []
+    # The estimators space the samples by the rate; a time axis that drifts from it by
+    # over half a sample would put --start/--end and the reported span somewhere else.
+    if abs((time[-1] - time[0]) - (n - 1) / rate) <= 0.5 / rate:
+        return rate, time, []
+    note = (f"the sample rate {rate:g} Hz (given) and the 'time' steps ({time_rate:.6g} Hz) "
+            f"differ by {abs(time_rate - rate) / rate:.1%}; the rate is used, and the time "
+            f"axis is rebuilt from it (from t={time[0]:g} s)")
+    return rate, time[0] + np.arange(n) / rate, [note]

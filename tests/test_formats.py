@@ -7,6 +7,8 @@ file equal those from imucal's own HDF5 of the same simulated motion.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import vendor_writers as vw
@@ -403,3 +405,156 @@ def test_notes_about_an_unused_sensor_stay_out_of_the_selection(tmp_path):
     ankle = rec.select(["Shank", "Foot"]).warnings
     assert any(w.startswith("sensor 'Foot'") for w in ankle)
     assert not any("Thigh" in w for w in ankle)
+
+
+# ------------------------------------------------------ input-handling defects (trial)
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_rate_contradicting_the_time_stamps_refused(fmt, tmp_path):
+    # --rate used to replace the stamps silently: 100 Hz stamps read as 50 Hz
+    path = write(fmt, short(), tmp_path)
+    with pytest.raises(InputError, match=r"--rate 50 Hz but its time stamps say 100 Hz"):
+        load_recording(path, rate=50)
+
+
+def test_rate_contradicting_the_stamps_one_line_on_the_command_line(tmp_path):
+    path = vw.xsens(short(), tmp_path / "x")
+    run = run_cli("info", path, "--rate", "50")
+    assert run.returncode == 2
+    assert run.stdout == ""
+    assert run.stderr.strip().splitlines() == [
+        f"imucal: error: {path}: sensor '00B42D4F': --rate 50 Hz but its time stamps say "
+        "100 Hz; drop --rate (the stamps give the rate) or fix the file"]
+
+
+def test_rate_within_tolerance_of_the_stamps_is_used_with_a_warning(tmp_path):
+    rec = load_recording(vw.dot(short(), tmp_path / "d"), rate=95)
+    assert rec.rate == pytest.approx(95.0, rel=1e-9)
+    assert rec.time[-1] == pytest.approx((rec.n_samples - 1) / 95)
+    assert "sensor 'Foot': --rate 95 Hz is used; its time stamps say 100 Hz" in rec.warnings
+
+
+def test_acc_declared_mg_for_m_s2_data_is_doubted_and_refused_for_a_position(tmp_path):
+    # m/s^2 data declared mG are 1/102 of their size: the ankle centre came out ~1 mm
+    # from the sensor with exit 0
+    folder = vw.bids(simulated(3, rate=100.0, duration=20.0)[0], tmp_path / "b")
+    channels = next(folder.glob("*_channels.tsv"))
+    channels.write_text(channels.read_text().replace("m/s^2", "mG"))
+    rec = load_recording(folder)
+    doubt = [w for w in rec.warnings if w.startswith("sensor 'RightShank' acc has a median")]
+    assert len(doubt) == 1 and "far below 1 g" in doubt[0] and "declared as mg" in doubt[0]
+    # the conversion itself is a note, once, naming the sensors; no warning
+    assert rec.provenance["notes"] == [
+        "acc of sensor 'RightThigh', 'RightShank', 'RightFoot' read in mg and converted to g"]
+    assert not any("read in mg" in w for w in rec.warnings)
+    run = run_cli("position", folder, "--sensors", "shank,foot")
+    assert run.returncode == 1
+    assert run.stdout == ""
+    assert "the data cannot identify the position" in run.stderr
+    assert "sensor 1's specific force has a median norm of 0.0998 m/s^2, far below 1 g" \
+        in run.stderr
+
+
+def test_acc_m_s2_declared_as_g_is_doubted(tmp_path):
+    from imucal.preprocess import unit_doubts
+
+    rec = short()
+    path = tmp_path / "g.h5"
+    save_recording(rec, path)
+    with __import__("h5py").File(path, "a") as h5:
+        h5["thigh/acc"].attrs["units"] = "g"
+    loaded = load_recording(path)
+    doubt = [w for w in loaded.warnings if w.startswith("sensor 'thigh' acc has a median")]
+    assert len(doubt) == 1
+    median = float(np.median(np.linalg.norm(rec.sensors["thigh"].acc, axis=1))) * 9.80665
+    assert f"median norm of {median:.4g} m/s^2" in doubt[0]
+    assert median > 50 and "far above 1 g" in doubt[0] and "declared as g" in doubt[0]
+    a, g = rec.sensors["thigh"].acc, rec.sensors["thigh"].gyr
+    assert [d for d in unit_doubts((g, g), (a * 9.80665, a)) if "far above" in d] == [
+        f"sensor 1's specific force has a median norm of {median:.4g} m/s^2 = "
+        f"{median / 9.80665:.3g} g, far above 1 g: the declared units look wrong (m/s^2 "
+        "data declared as g, or mg data as g or m/s^2?)"]
+    assert unit_doubts((g, g), (a, a)) == []
+
+
+def test_apdm_format_note_is_not_a_warning(tmp_path):
+    path = vw.apdm(short(), tmp_path / "opal.h5")
+    rec = load_recording(path)
+    assert not any("APDM file format" in w for w in rec.warnings)
+    assert rec.provenance["notes"] == [
+        "APDM file format version 5 (v5 layout); time 0 of the clock = 1709287200000000 us "
+        "since 1970-01-01 UTC"]
+    run = run_cli("info", path)
+    assert "note: APDM file format version 5 (v5 layout)" in run.stdout
+    assert "warning: APDM" not in run.stdout
+    run = run_cli("axis", path, "--sensors", "thigh,shank", "--force", "--restarts", "3")
+    import json
+
+    quality = json.loads(run.stdout)["quality"]
+    assert not any(w.startswith("input:") for w in quality["warnings"]), quality["warnings"]
+
+
+@pytest.mark.parametrize("value", ["0", "-100", '"NaN"'])
+def test_bids_sampling_frequency_not_positive_refused(value, tmp_path):
+    folder = vw.bids(short(), tmp_path / "b")
+    sidecar = next(folder.glob("*_motion.json"))
+    sidecar.write_text(f'{{"SamplingFrequency": {value}}}\n')
+    run = run_cli("info", folder)
+    assert run.returncode == 2
+    shown = value.strip('"') if value != '"NaN"' else "'NaN'"
+    assert run.stderr.strip().splitlines() == [
+        f"imucal: error: {sidecar}: 'SamplingFrequency' must be a positive number (Hz), "
+        f"got {shown}"]
+
+
+def test_ximu3_empty_device_file_is_named(tmp_path):
+    folder = vw.ximu3(short(), tmp_path / "s")
+    (folder / "Foot 65577B4B (USB)" / "Inertial.csv").write_text("")
+    rec = load_recording(folder)
+    assert sorted(rec.sensors) == ["Shank", "Thigh"]
+    note = "device folders whose Inertial.csv is empty, not read: Foot 65577B4B (USB)"
+    assert note in rec.warnings
+    with pytest.raises(InputError, match=r"no sensor 'foot'; .*" + re.escape(note)):
+        rec.resolve("foot")
+    with pytest.raises(InputError, match=r"Inertial.csv: file is empty$"):
+        load_recording(folder / "Foot 65577B4B (USB)" / "Inertial.csv")
+
+
+def test_dot_empty_file_is_named_empty(tmp_path):
+    folder = vw.dot(short(), tmp_path / "d")
+    foot = next(folder.glob("Foot_*.csv"))
+    foot.write_text("")
+    rec = load_recording(folder)
+    assert sorted(rec.sensors) == ["Shank", "Thigh"]
+    assert f"empty files not read: {foot.name}" in rec.warnings
+    assert not any("not Movella DOT exports" in w for w in rec.warnings)
+    for f in folder.iterdir():
+        f.write_text("")
+    with pytest.raises(InputError, match=r"every file in the folder is empty: 'Foot_"):
+        load_recording(folder)
+
+
+def test_dot_file_without_its_metadata_lines_is_read_as_dot(tmp_path):
+    rec = short()
+    folder = vw.dot(rec, tmp_path / "d")
+    for f in folder.iterdir():
+        lines = f.read_bytes().split(b"\r\n")
+        f.write_bytes(b"\r\n".join(lines[11:]))  # from the PacketCounter header on
+    loaded = load_recording(folder)
+    assert loaded.provenance["source_format"] == "Movella DOT"
+    assert loaded.rate == pytest.approx(100.0)
+    same(loaded, rec, NAMES["dot"])
+
+
+def test_rate_below_one_hz_message_does_not_contradict_itself():
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+
+    s = RawSensor(name="a", gyr=np.zeros((5, 3)), acc=np.ones((5, 3)), gyr_units="rad/s",
+                  acc_units="m/s^2", time=np.arange(5) * 1.000001)
+    with pytest.raises(InputError) as err:
+        align([s], "f.txt")
+    assert str(err.value) == (
+        "f.txt: sensor 'a': sample rate 0.999999 Hz from its time stamps is below 1 Hz "
+        "(imucal reads 1 to 10000 Hz); check the time stamps' units")

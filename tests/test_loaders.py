@@ -1063,3 +1063,18 @@ def test_errors_page_states_the_tolerances_the_code_uses():
     assert f"| {recording.MAX_INTERPOLATED_GAP_S:g} s (5 samples at 100 Hz" in page
     assert f"| {recording.MAX_INTERPOLATED_FRACTION * 100:g} % |" in page
     assert f"above {recording.MAX_LIMB_RATE:g} rad/s" in page
+
+
+def test_rate_within_tolerance_wins_and_rebuilds_the_time_axis():
+    # circling_40hz.csv has a 'time' column at 40 Hz; --rate 41 used to be reported as
+    # "800 samples at 41 Hz (19.5 s, t = 0 to 19.975 s)": the rate and the axis disagreed.
+    path = Path(__file__).parent.parent / "sample_data" / "circling_40hz.csv"
+    rec = load_recording(path, rate=41)
+    assert rec.rate == 41.0
+    assert rec.time[0] == 0.0
+    assert rec.time[-1] == pytest.approx(799 / 41)
+    assert any("41 Hz (given) and the 'time' steps (40 Hz) differ by 2.4%" in w
+               for w in rec.warnings)
+    same = load_recording(path, rate=40)  # agrees: the file's time column is kept as it is
+    assert same.time[-1] == 19.975
+    assert not any("rebuilt" in w for w in same.warnings)

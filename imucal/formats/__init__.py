@@ -53,11 +53,17 @@ class RawSensor:
 
 @dataclass
 class RawRecording:
-    """What a format reader found: its name, the sensors and notes about the files."""
+    """What a format reader found: its name, the sensors and notes about the files.
+
+    ``notes`` are warnings (they reach a result's ``quality.warnings`` and its verdict);
+    ``info`` are facts about the file that are not problems (its format version), shown
+    by ``imucal info`` and kept in ``provenance["notes"]``.
+    """
 
     format: str
     sensors: list[RawSensor]
     notes: list[str] = field(default_factory=list)
+    info: list[str] = field(default_factory=list)
 
 
 def export_files(path: Path, is_export) -> list[Path]:
@@ -77,10 +83,15 @@ def read_export(path: Path, source: str, files: list[Path], read_file, format_na
         raise InputError(f"{source}: no {what} found")
     notes = []
     if path.is_dir():
-        others = [p.name for p in path.iterdir() if p.is_file() and p not in files
+        others = [p for p in path.iterdir() if p.is_file() and p not in files
                   and not p.name.startswith(".")]
+        # An empty file may well be a sensor's failed export: say so, not "not an export"
+        empty = sorted(p.name for p in others if is_empty(p))
+        others = sorted(p.name for p in others if p.name not in empty)
+        if empty:
+            notes.append(f"empty files not read: {', '.join(empty)}")
         if others:
-            notes.append(f"files not read (not {what}s): {', '.join(sorted(others))}")
+            notes.append(f"files not read (not {what}s): {', '.join(others)}")
     return RawRecording(format=format_name, sensors=[read_file(f, source, len(files) > 1)
                                                      for f in files], notes=notes)
 
@@ -130,6 +141,16 @@ def read_text(path: Path, source: str | None = None) -> str:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
         return data.decode("latin-1")
+
+
+def is_empty(path: Path) -> bool:
+    """Whether a file holds nothing but white space (an export that wrote no data)."""
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(4096)
+    except OSError:
+        return False
+    return len(data) < 4096 and not data.replace(b"\xef\xbb\xbf", b"").strip()
 
 
 def head_text(path: Path, limit: int = 8192) -> str:

@@ -85,9 +85,9 @@ def read(path: Path, source: str | None = None) -> RawRecording:
     epoch = min(int(s.time[0]) for s in sensors)
     for s in sensors:
         s.time = (s.time - epoch).astype(np.float64) / US_PER_S
-    notes.insert(0, f"APDM file format version {version} ({layout} layout); time 0 of the "
-                    f"clock = {epoch} us since 1970-01-01 UTC")
-    return RawRecording(format=f"{NAME} {layout}", sensors=sensors, notes=notes)
+    info = [f"APDM file format version {version} ({layout} layout); time 0 of the clock = "
+            f"{epoch} us since 1970-01-01 UTC"]
+    return RawRecording(format=f"{NAME} {layout}", sensors=sensors, notes=notes, info=info)
 
 
 def _read_v5(h5, source: str):

@@ -53,6 +53,9 @@ def read(path: Path, source: str | None = None) -> RawRecording:
         rate = float(meta["SamplingFrequency"])
     except (ValueError, KeyError, TypeError) as err:
         raise InputError(f"{json_path}: no usable 'SamplingFrequency' ({err})") from None
+    if not (np.isfinite(rate) and rate > 0):
+        raise InputError(f"{json_path}: 'SamplingFrequency' must be a positive number (Hz), "
+                         f"got {meta['SamplingFrequency']!r}")
     lines = [ln for ln in read_text(channels_path, str(channels_path)).splitlines() if ln.strip()]
     header = [h.strip().lower() for h in lines[0].split("\t")]
     missing = [c for c in ("name", "component", "type", "tracked_point") if c not in header]

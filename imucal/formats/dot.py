@@ -44,7 +44,23 @@ def _is_file(path: Path) -> bool:
         return False
     meta = any(ln.lower().startswith("devicetag") for ln in lines[:15])
     header = any(ln.startswith("PacketCounter") and "SampleTimeFine" in ln for ln in lines[:20])
-    return header and (meta or sep_line(lines[0]) == ",")
+    return header and (meta or sep_line(lines[0]) == "," or _bare_dot(lines))
+
+
+def _bare_dot(lines: list[str]) -> bool:
+    """A DOT file without its metadata lines has the columns of an Xsens MT Manager CSV;
+    only the unit of ``SampleTimeFine`` tells them apart: DOT microseconds step at least
+    5000 per sample (DOTs record at up to 120 Hz), Xsens 10 kHz ticks would then mean a
+    sample rate below 2 Hz, too slow for any motion imucal estimates."""
+    names = [c.strip() for c in lines[0].split(",")]
+    if names[:2] != ["PacketCounter", "SampleTimeFine"]:
+        return False
+    try:
+        stamps = [float(ln.split(",")[1]) for ln in lines[1:33]]
+    except (IndexError, ValueError):
+        return False
+    steps = sorted(b - a for a, b in zip(stamps, stamps[1:], strict=False))
+    return bool(steps) and steps[len(steps) // 2] >= 5000
 
 
 def _files(path: Path) -> list[Path]:
@@ -82,8 +98,10 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
             f"{', '.join(names[:12])}"
         )
     values, notes = parse_table(lines[start + 1:], ",", start + 2, where, names)
-    tag = meta.get("devicetag") or file.stem
     mac = _MAC.search(file.stem)
+    # without the metadata lines, the file name <tag>_<address>_<date> still holds the tag
+    tag = (meta.get("devicetag") or (mac and file.stem[:mac.start()].strip("_- "))
+           or file.stem)
     serial = re.sub(r"[-:_]", ":", mac.group(1)).upper() if mac else None
     rate = _RATE.search(meta.get("outputrate", ""))
     counter = values[:, col["PacketCounter"]] if "PacketCounter" in col else None

@@ -15,7 +15,16 @@ import re
 from pathlib import Path
 
 from ..errors import InputError
-from . import UNIT_RE, RawRecording, RawSensor, head_text, normalise_units, parse_table, read_text
+from . import (
+    UNIT_RE,
+    RawRecording,
+    RawSensor,
+    head_text,
+    is_empty,
+    normalise_units,
+    parse_table,
+    read_text,
+)
 
 NAME = "x-IMU3"
 _FOLDER = re.compile(r"^(?P<name>.+?) (?P<serial>[0-9A-Fa-f]{8}) \((?P<iface>[^)]*)\)$")
@@ -35,14 +44,36 @@ def _devices(path: Path) -> list[Path]:
                   and _is_inertial(p / "Inertial.csv"))
 
 
+def _empty(path: Path) -> list[Path]:
+    """The empty ``Inertial.csv`` of the device folder ``path`` or of the session folder
+    ``path``'s device folders (a device that logged nothing)."""
+    if path.is_file():
+        return [path] if path.name == "Inertial.csv" and is_empty(path) else []
+    if not path.is_dir():
+        return []
+    if (path / "Inertial.csv").is_file():
+        return [path / "Inertial.csv"] if is_empty(path / "Inertial.csv") else []
+    return sorted(p / "Inertial.csv" for p in path.iterdir()
+                  if _FOLDER.match(p.name) and (p / "Inertial.csv").is_file()
+                  and is_empty(p / "Inertial.csv"))
+
+
 def sniff(path: Path) -> bool:
-    return bool(_devices(path))
+    return bool(_devices(path) or _empty(path))
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
     source = source or str(path)
-    files = _devices(path)
+    files, empty = _devices(path), _empty(path)
+    if not files and path.is_file():
+        raise InputError(f"{source}: file is empty")
+    if not files:
+        raise InputError(f"{source}: Inertial.csv is empty in "
+                         f"{', '.join(repr(f.parent.name) for f in empty)}; no device to read")
     notes = []
+    if empty:
+        notes.append(f"device folders whose Inertial.csv is empty, not read: "
+                     f"{', '.join(f.parent.name for f in empty)}")
     if path.is_dir() and len(files) > 0 and files[0].parent != path:
         others = sorted(p.name for p in path.iterdir()
                         if p.is_dir() and not (p / "Inertial.csv").is_file())
