@@ -323,8 +323,9 @@ AXIS_QUAL_TEXT = """
 The 1-sigma (deg) is sqrt(max(curvature, time blocks)^2 + cut-off shift^2 + model^2)
 (docs/quality.md); its components follow, then the spread over restarts on random half
 subsets (not part of the sigma). Cut-off shift: the largest move when the fit is repeated
-with a 10 or 20 Hz low-pass. Model: 60 deg per unit of the residual's smooth (non-white)
-part relative to the signal, a bound for model errors every time block shares.
+with a 10 or 20 Hz low-pass. Model: half the turn of the axes that the residual below
+8 Hz (beyond the white noise's share) could explain in the motion's weakest direction, a
+bound for model errors every time block shares.
 
 """
 AXIS_QUAL_HEAD = [
@@ -416,14 +417,14 @@ FOOTER = """
   86 deg from the lateral reference, as the data README describes. The relative residual
   alone would not show it: 0.41-0.43 there against 0.37-0.39 in 0-55 s, all below the
   0.5 at which imucal warns of a poor fit (real knees leave 0.35-0.45).
-- **Uncertainty.** The knee axes in 0-55 s have a 1-sigma of 21.7-38.6 deg. Most of it is
-  now the model term (21-22 deg): the real knees' residual is large (0.37-0.39 of the
+- **Uncertainty.** The knee axes in 0-55 s have a 1-sigma of 18.8-40.4 deg. Most of it is
+  the model term (18-25 deg): the real knees' residual is large (0.37-0.39 of the
   signal) and mostly smooth, the signature of soft tissue and of a knee that is no
   perfect hinge, which no time block escapes. The cut-off shift (2.9-30.0 deg) is the
   largest part for the right knee's j2; curvature (2.4-5.2 deg) and time blocks
   (4.8-10.5 deg) are smaller. The warnings name the largest part ("uncertain (model)"
-  left, "uncertain (cut-off)" right). The ankles fitted as a hinge get 10.9-20.5 deg of
-  model term. For the joint centres the cut-off shift (refits at 0.75 and 1.5 x the
+  left, "uncertain (cut-off)" right). The ankles fitted as a hinge get 24.8-38.2 deg of
+  model term: they excite their weakest direction less than the knees do. For the joint centres the cut-off shift (refits at 0.75 and 1.5 x the
   cut-off) is the largest part almost everywhere: 12-96 mm, against 2-22 mm of curvature
   and 2-30 mm of time blocks; the answered centres have a 1-sigma of 25-99 mm, smaller
   than before the joint-centre filter changed (37-119 mm), and every one warns that it is
@@ -431,8 +432,8 @@ FOOTER = """
 - **Ankles fitted as a hinge.** They leave 0.26-0.38 of the signal, below the real knees,
   and their restarts agree (this ankle moves mostly in one plane), so imucal does not
   refuse them. The left ankle in 55-100 s, which came out `good` (1-sigma 3.6 / 4.9 deg)
-  before the model term, is now `use with care`: its smooth residual adds 10.9 deg, for a
-  1-sigma of 11.5 / 11.9 deg. Still no check here tells a real ankle from a hinge: choose
+  before the model term, is now `use with care`: its smooth residual adds 37.3 deg, for a
+  1-sigma of 37.5 / 37.6 deg. Still no check here tells a real ankle from a hinge: choose
   the joint model from anatomy. The right ankle in 55-100 s is the one row whose relative
   sign the data barely decide (1.31; plane and acc lean the other way).
 - **Joint centres.** They moved with the new joint-centre filter (a flat fourth-order
