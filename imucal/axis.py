@@ -444,7 +444,7 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
     sensitivity = _cutoff_sensitivity(p, x)
     # a smooth residual is a model error every time block shares (soft tissue moving the
     # sensors in step with the gait cycle): a bias bound in proportion to it
-    model = _model_term(e, sv, p.rate / (p.step * _sample_spacing(p.selection.index)))
+    model = _model_term(e, sv, p.selected_rate)
     components = {
         "curvature": {"j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),
                       "j2": float(np.degrees(np.sqrt(cov[2, 2] + cov[3, 3])))},
@@ -482,12 +482,6 @@ def _model_term(e: np.ndarray, sv: np.ndarray, rate: float) -> float:
     if sv.size == 0 or not sv[-1] > 0:
         return 0.0
     return float(MODEL_FACTOR * np.degrees(smooth_residual_rms(e, rate) / sv[-1]))
-
-
-def _sample_spacing(index: np.ndarray) -> float:
-    """Median spacing of the selected samples, in (subsampled) samples: consecutive
-    selected samples are this far apart within a moving stretch."""
-    return float(np.median(np.diff(index))) if index.size > 1 else 1.0
 
 
 def _excitation(d1, d2, x) -> dict:

@@ -292,6 +292,14 @@ class Prepared:
         return self.window.start + self.selection.index * self.step
 
     @property
+    def selected_rate(self) -> float:
+        """Rate of consecutive selected samples within a moving stretch, Hz: the
+        recording's rate over the subsampling step and the selection's median spacing."""
+        index = self.selection.index
+        spacing = float(np.median(np.diff(index))) if index.size > 1 else 1.0
+        return self.rate / (self.step * spacing)
+
+    @property
     def span_s(self) -> tuple[float, float]:
         """(start, end) of the window, s from the first sample."""
         return self.window.start / self.rate, self.window.stop / self.rate

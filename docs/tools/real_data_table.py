@@ -424,7 +424,8 @@ FOOTER = """
   largest part for the right knee's j2; curvature (2.4-5.2 deg) and time blocks
   (4.8-10.5 deg) are smaller. The warnings name the largest part ("uncertain (model)"
   left, "uncertain (cut-off)" right). The ankles fitted as a hinge get 24.8-38.2 deg of
-  model term: they excite their weakest direction less than the knees do. For the joint centres the cut-off shift (refits at 0.75 and 1.5 x the
+  model term: they excite their weakest direction less than the knees do. For the joint
+  centres the cut-off shift (refits at 0.75 and 1.5 x the
   cut-off) is the largest part almost everywhere: 12-96 mm, against 2-22 mm of curvature
   and 2-30 mm of time blocks; the answered centres have a 1-sigma of 25-99 mm, smaller
   than before the joint-centre filter changed (37-119 mm), and every one warns that it is
