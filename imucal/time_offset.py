@@ -59,6 +59,9 @@ OFFSET_STEPS = 5
 #: 1.5-3 on the noisiest (circling at 40 Hz) and 2.6-90 otherwise. An offset is applied
 #: only from this ratio on.
 MIN_COST_RATIO = 1.6
+#: A profile falling to the end of the search by at least this cost ratio makes the
+#: result not identifiable (:func:`refused_at_edge`).
+EDGE_REFUSAL_RATIO = 2.0
 #: A best shift this large, clear of its 1-sigma but not applied, is reported as a warning.
 SUSPICIOUS_S = 0.01
 #: Grid step of the first pass over the search range, samples.
@@ -179,7 +182,7 @@ def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
     # the profile falling to the end of the search (on the one-sample grid: a coarse
     # point at the end may have a lower neighbour inside) is evidence of a larger offset
     # only where it gains as much as an offset that would be applied: the real knees'
-    # model errors fall to the end at 1.16-1.28
+    # model errors fall to the end at 1.16-1.28 (1.67 in one calibrate window, 10-30 s)
     at_edge = bool(fine[np.argmin(whole)] in (-steps, steps) and ratio >= MIN_COST_RATIO)
     rough, edge = _parabola_minimum(whole, fine / rate)
     if at_edge or edge:
@@ -313,10 +316,7 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     result.time_offset = offset_report(found, rate)
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(found, rate))
-    if found.at_edge:
-        # the estimate assumes synchronised clocks while the data say they are not, by
-        # more than was searched: simulated offsets of 220-400 ms left ankle centres
-        # 0.5-1.1 m and knee signs wrong under a usable verdict
+    if refused_at_edge(found):
         result.blocking.append(offset_edge_reason(found))
     used = found.delta_s if applied else 0.0
     states = profile(result)(used + SENSITIVITY_STEP_S * np.array([-1.0, 1.0]))[1]
@@ -371,10 +371,13 @@ def at_search_end(found: Offset, rate: float) -> bool:
 
 
 def offset_warnings(found: Offset, rate: float) -> list[str]:
-    """What to say about an automatic offset that was not applied (one beyond the search
-    is no warning but a reason the result is not identifiable, :func:`offset_edge_reason`)."""
-    if found.at_edge or found.significant(rate):
+    """What to say about an automatic offset that was not applied (one clearly beyond the
+    search is no warning but a reason the result is not identifiable,
+    :func:`refused_at_edge`)."""
+    if refused_at_edge(found) or found.significant(rate):
         return []
+    if found.at_edge:
+        return [offset_edge_reason(found, refused=False)]
     where = (f"at least {1000 * found.delta_s:+.0f} ms later (the end of the search)"
              if at_search_end(found, rate)
              else f"{1000 * found.delta_s:+.0f} ms later (+-{1000 * found.sigma_s:.0f} ms)")
@@ -391,14 +394,26 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
     return []
 
 
-def offset_edge_reason(found: Offset) -> str:
-    """Why a result whose clock offset may lie beyond the search range is not
-    identifiable."""
+def refused_at_edge(found: Offset) -> bool:
+    """Whether the profile falls to the end of the search so steeply that the result is
+    not identifiable: the estimate assumes synchronised clocks while the data say they
+    are off by more than was searched (simulated shank clocks 220-400 ms late: ankle
+    centres 0.5-1.1 m off and knee signs wrong under a usable verdict, at cost ratios
+    3.5-5.4; circling with the shank 300 ms late and +-0.1 s searched: 2.04). A profile
+    falling to the end by less is a warning only: on the shared real recording,
+    synchronised, a right knee's profile reached 1.67 there (calibrate, 10-30 s)."""
+    return found.at_edge and found.cost_ratio >= EDGE_REFUSAL_RATIO
+
+
+def offset_edge_reason(found: Offset, refused: bool = True) -> str:
+    """Why a result whose clock offset may lie beyond the search range is not identifiable
+    (``refused``), or the warning when the profile falls there less steeply."""
+    consequence = ("an estimate that assumes synchronised clocks would be wrong" if refused
+                   else "none was applied, and the estimate assumes synchronised clocks")
     return (f"the clock offset between the sensors may exceed the +-{found.search_s:g} s "
             f"searched (the constraint's cost kept falling to the edge, {found.cost_ratio:.1f}"
-            " times lower there than in sync): an estimate that assumes synchronised clocks "
-            "would be wrong; align the recordings first, or pass the offset with "
-            "--time-offset")
+            f" times lower there than in sync): {consequence}; align the recordings first, "
+            "or pass the offset with --time-offset (Python: widen offset_search)")
 
 
 def _parabola_minimum(cost: np.ndarray, deltas: np.ndarray) -> tuple[float, bool]:
