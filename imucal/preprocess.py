@@ -270,6 +270,9 @@ class Prepared:
     step : subsampling step k.
     window : the recording's window as a slice of samples.
     selection : the informative samples chosen, indices into the subsampled window.
+    moving : the arrays of ``data`` at every informative sample before the thinning to
+        ``max_samples`` (``selection.moving``; ``data`` itself when nothing was thinned),
+        for what needs the residual as a time series at ``rate / step``.
     """
 
     first: tuple
@@ -280,6 +283,7 @@ class Prepared:
     step: int
     window: slice
     selection: Selection
+    moving: tuple
 
     @property
     def samples(self) -> int:
@@ -290,14 +294,6 @@ class Prepared:
     def sample_index(self) -> np.ndarray:
         """(M,) index of each sample used in the recording passed in."""
         return self.window.start + self.selection.index * self.step
-
-    @property
-    def selected_rate(self) -> float:
-        """Rate of consecutive selected samples within a moving stretch, Hz: the
-        recording's rate over the subsampling step and the selection's median spacing."""
-        index = self.selection.index
-        spacing = float(np.median(np.diff(index))) if index.size > 1 else 1.0
-        return self.rate / (self.step * spacing)
 
     @property
     def span_s(self) -> tuple[float, float]:
@@ -346,10 +342,12 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *,
                          max_samples=settings.max_samples, min_samples=min_samples,
                          enabled=settings.select)
     data = tuple(x[sel.index] for x in (*parts[0], *parts[1]))
+    moving = (data if sel.moving.size == sel.index.size
+              else tuple(x[sel.moving] for x in (*parts[0], *parts[1])))
     n = data[0].shape[0]
     if n < min_samples:
         raise InputError(
             f"only {n} samples left after window and subsampling; the {what} needs at least "
             f"{min_samples} (about {min_samples * step / rate:.1f} s of motion)"
         )
-    return Prepared(first, second, data, rate, cutoff, step, win, sel)
+    return Prepared(first, second, data, rate, cutoff, step, win, sel, moving)

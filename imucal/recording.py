@@ -44,6 +44,9 @@ MAX_RATE_HZ = 10_000.0
 #: Beyond it loading stops: imucal never resamples, because a resampled gap would be
 #: invented data that the estimate then fits.
 TIME_JITTER_TOLERANCE = 0.1
+#: A given rate this close to the 'time' steps' (relative) rebuilds the time axis without
+#: a warning (:func:`make_recording`'s time check).
+TIME_REBUILD_QUIET = 0.01
 
 #: Longest run of non-finite samples (NaN or Inf: a dropped packet) inside a recording that
 #: is filled by linear interpolation, s. Human limb motion has almost no energy above
@@ -754,7 +757,12 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
     # over half a sample would put --start/--end and the reported span somewhere else.
     if abs((time[-1] - time[0]) - (n - 1) / rate) <= 0.5 / rate:
         return rate, time, []
-    note = (f"the sample rate {rate:g} Hz (given) and the 'time' steps ({time_rate:.6g} Hz) "
-            f"differ by {abs(time_rate - rate) / rate:.1%}; the rate is used, and the time "
-            f"axis is rebuilt from it (from t={time[0]:g} s)")
-    return rate, time[0] + np.arange(n) / rate, [note]
+    rebuilt = time[0] + np.arange(n) / rate
+    # a clock a little off (a crystal's 100 ppm) is no problem worth a warning, and a
+    # warning costs the result its "good"; past 1 % one of the two is wrong
+    if abs(time_rate - rate) <= TIME_REBUILD_QUIET * rate:
+        return rate, rebuilt, []
+    note = (f"the sample rate {rate:g} Hz ('sample_rate' or --rate) and the 'time' steps "
+            f"({time_rate:.6g} Hz) differ by {abs(time_rate - rate) / rate:.2%}; the rate "
+            f"is used, and the time axis is rebuilt from it (from t={time[0]:g} s)")
+    return rate, rebuilt, [note]

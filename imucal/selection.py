@@ -43,12 +43,16 @@ class Selection:
     Attributes
     ----------
     index : (M,) sorted sample indices into the signals passed to :func:`select`.
+    moving : (K,) every informative sample before the thinning to ``max_samples`` (the
+        same as ``index`` when nothing was thinned): consecutive samples, for what needs
+        the residual as a time series (:func:`imucal.quality.smooth_residual_rms`).
     ranges : (K, 2) start and end of each used stretch, s from the first sample passed
         (``start`` inclusive, ``end`` exclusive).
     """
 
     index: np.ndarray
     ranges: np.ndarray
+    moving: np.ndarray
 
 
 def select(
@@ -68,17 +72,18 @@ def select(
     n = gyr1.shape[0]
     everything = np.arange(n)
     if not enabled or n == 0:
-        return Selection(everything, _ranges(np.ones(n, bool), rate))
+        return Selection(everything, _ranges(np.ones(n, bool), rate), everything)
     energy = 0.5 * (np.sum(gyr1 * gyr1, axis=1) + np.sum(gyr2 * gyr2, axis=1))
     width = max(1, int(round(WINDOW_S * rate)))
     windowed = uniform_filter1d(energy, size=width, mode="nearest")
     moving = windowed >= np.radians(MIN_RATE_DEG_S) ** 2
     if int(moving.sum()) < max(min_samples, 1):
-        return Selection(everything, _ranges(np.ones(n, bool), rate))
-    index = np.flatnonzero(moving)
+        return Selection(everything, _ranges(np.ones(n, bool), rate), everything)
+    informative = np.flatnonzero(moving)
+    index = informative
     if max_samples is not None and index.size > max_samples:
         index = index[::int(np.ceil(index.size / max_samples))]
-    return Selection(index, _ranges(moving, rate))
+    return Selection(index, _ranges(moving, rate), informative)
 
 
 def _ranges(mask: np.ndarray, rate: float) -> np.ndarray:

@@ -290,3 +290,20 @@ def test_smooth_residual_at_any_rate_is_finite(rate):
     # compared the residual with itself: 0 / 0 (the real recording's crash sweep)
     e = np.random.default_rng(1).standard_normal(500)
     assert 0.0 <= smooth_residual_rms(e, rate) < 0.3
+
+
+def test_model_term_of_a_long_thinned_recording_is_judged_on_every_moving_sample():
+    # 180 s of gait thins the fit's samples to every third: there the residual's smooth
+    # part aliased into its noise, the term was 0 and the axis 1.5 deg off was "good" at
+    # 18 sigma; the first 60 s (not thinned) gave 1.5 deg of model term
+    rec, truth = simulate(seed=2, motion="gait", rate=100.0, duration=180.0, gyr_noise=0.01,
+                          acc_noise=0.05, soft_tissue_deg=1.0, soft_tissue_mm=2.0)
+    a, b = rec.sensor("thigh"), rec.sensor("shank")
+    runs = [estimate_axis(a.gyr, b.gyr, rate=100.0, seed=1, restarts=10, time_offset=0.0,
+                          end=end) for end in (None, 60.0)]
+    whole, first = (r.uncertainty_components["model"]["j1"] for r in runs)
+    assert runs[0].sample_index.size <= 3000 < 180 * 100 * 0.5  # thinned
+    assert whole > 1.0 and abs(whole - first) < 0.3 * first
+    errors = axis_error_deg(runs[0].j1, runs[0].j2, truth["j1"], truth["j2"])
+    assert max(e / runs[0].uncertainty_deg[k]
+               for e, k in zip(errors, ("j1", "j2"), strict=True)) < 3.0
