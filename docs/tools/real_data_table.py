@@ -423,7 +423,7 @@ FOOTER = """
   perfect hinge, which no time block escapes. The cut-off shift (2.9-30.0 deg) is the
   largest part for the right knee's j2; curvature (2.4-5.2 deg) and time blocks
   (4.8-10.5 deg) are smaller. The warnings name the largest part ("uncertain (model)"
-  left, "uncertain (cut-off)" right). The ankles fitted as a hinge get 24.8-38.2 deg of
+  left, "uncertain (cut-off)" right). The ankles fitted as a hinge get 24.8-40.6 deg of
   model term: they excite their weakest direction less than the knees do. For the joint
   centres the cut-off shift (refits at 0.75 and 1.5 x the
   cut-off) is the largest part almost everywhere: 12-96 mm, against 2-22 mm of curvature
@@ -433,8 +433,8 @@ FOOTER = """
 - **Ankles fitted as a hinge.** They leave 0.26-0.38 of the signal, below the real knees,
   and their restarts agree (this ankle moves mostly in one plane), so imucal does not
   refuse them. The left ankle in 55-100 s, which came out `good` (1-sigma 3.6 / 4.9 deg)
-  before the model term, is now `use with care`: its smooth residual adds 37.3 deg, for a
-  1-sigma of 37.5 / 37.6 deg. Still no check here tells a real ankle from a hinge: choose
+  before the model term, is now `use with care`: its smooth residual adds 40.6 deg, for a
+  1-sigma of 40.8 / 40.9 deg. Still no check here tells a real ankle from a hinge: choose
   the joint model from anatomy. The right ankle in 55-100 s is the one row whose relative
   sign the data barely decide (1.31; plane and acc lean the other way).
 - **Joint centres.** They moved with the new joint-centre filter (a flat fourth-order
