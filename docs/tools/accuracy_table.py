@@ -365,7 +365,7 @@ qmt's gyroscope-only estimator, fitting the same residual without the bias, is 0
 off (0.53 median): imucal fits constant gyroscope biases with the axis and removes them
 when they clearly lower the residual with a size a gyroscope can have
 ([method.md](method.md#gyroscope-bias)); the joint fit's widening of the 1-sigma keeps
-those errors within 1.1 sigma (1.6 in the coverage run). The ankle centre: 1.2 mm worst
+those errors within 1.1 sigma (1.7 in the coverage run). The ankle centre: 1.2 mm worst
 on the protocol at 40 Hz (target 5), 1.6 mm at 100 Hz (target 3), 1.3 mm (100 Hz) and
 1.0 mm (40 Hz) with the foot 20 ms late (target 10; offsets within 0.1 ms), 3.1 mm with
 gyro bias (target 10). On gait alone every seed warns that the ankle centre is only known
