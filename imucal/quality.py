@@ -141,7 +141,7 @@ def jackknife_sigma(deviation: np.ndarray) -> float:
 #: more closely (relative to the excitation, see the estimators) than below 3 or 5 Hz.
 SMOOTH_BAND_HZ = 8.0
 #: The band never reaches above this fraction of the samples' own Nyquist frequency
-#: (subsampled long recordings): the rest of the band estimates the white noise.
+#: (low rates, or a coarse subsampling step): the rest estimates the white noise.
 SMOOTH_BAND_FRACTION = 0.5
 
 
@@ -149,9 +149,10 @@ def smooth_residual_rms(e: np.ndarray, rate: float) -> float:
     """RMS of the part of the residuals ``e`` (M,), samples ``rate`` Hz apart, that is not
     white noise: the part below ``SMOOTH_BAND_HZ`` less the white noise's share there.
 
-    The residual is low-passed (Butterworth order 2, zero phase); the octave above the
-    band, where a smooth model error hardly reaches, measures the white noise's density,
-    and its share of the low band is taken off. Not the whole rest of the band: soft
+    The residual is low-passed (Butterworth order 2, zero phase); the quietest octave
+    above the band (band to 2 x band, 2 x to 4 x, ..., the last up to Nyquist), where a
+    smooth model error hardly reaches, measures the white noise's density, and its share
+    of the low band is taken off. Not simply the whole rest of the band: soft
     tissue rings at tens of Hz after each heel strike, far above the noise (simulated
     gait, 2 deg / 3 mm: 20 times the noise's density at 30-45 Hz). Before,
     ``var(e) - mean(diff(e)^2) / 2`` (a lag-1 autocovariance) stood for the smooth part:
