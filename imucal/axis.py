@@ -447,7 +447,8 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
     # every moving sample, not the fit's thinned ones: thinned (a long recording) they
     # are tenths of a second apart, where gait and soft tissue alias into each other
     # (180 s of simulated gait: 0 deg, "good" 18 sigma off)
-    smooth = e if p.moving is p.data else _residual_and_jacobian(*p.moving, x)[0]
+    moving = p.moving
+    smooth = e if moving is p.data else _residual_and_jacobian(*moving, x)[0]
     model = _model_term(smooth, sv, p.rate / p.step)
     components = {
         "curvature": {"j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),

@@ -39,12 +39,12 @@ import numpy as np
 
 from .errors import InputError
 from .formats import RawSensor
-from .recording import MAX_RATE_HZ, MIN_RATE_HZ
+from .recording import MAX_RATE_HZ, MIN_RATE_HZ, RATE_WARN
 
 #: A header's claimed rate that differs from the time stamps' by more than this share
-#: is refused (one of them is wrong); more than RATE_WARN gives a warning.
+#: is refused (one of them is wrong); more than :data:`imucal.recording.RATE_WARN` gives
+#: a warning.
 RATE_REFUSE = 0.10
-RATE_WARN = 0.01
 #: Grid points this close to a device sample (in sample periods) are taken as that
 #: sample: float rounding of the time stamps must not turn a copy into an interpolation.
 SNAP = 1e-6

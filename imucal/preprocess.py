@@ -270,9 +270,8 @@ class Prepared:
     step : subsampling step k.
     window : the recording's window as a slice of samples.
     selection : the informative samples chosen, indices into the subsampled window.
-    moving : the arrays of ``data`` at every informative sample before the thinning to
-        ``max_samples`` (``selection.moving``; ``data`` itself when nothing was thinned),
-        for what needs the residual as a time series at ``rate / step``.
+    windowed : the arrays of ``data`` at every sample of the window (filtered and
+        subsampled, before the selection), for :attr:`moving`.
     """
 
     first: tuple
@@ -283,12 +282,22 @@ class Prepared:
     step: int
     window: slice
     selection: Selection
-    moving: tuple
+    windowed: tuple
 
     @property
     def samples(self) -> int:
         """M, the number of samples entering the fit."""
         return self.data[0].shape[0]
+
+    @property
+    def moving(self) -> tuple:
+        """The arrays of ``data`` at every informative sample before the thinning to
+        ``max_samples`` (``selection.moving``; ``data`` itself when nothing was thinned),
+        for what needs the residual as a time series at ``rate / step``. Gathered on
+        demand: only the axis' model term reads it."""
+        if self.selection.moving.size == self.selection.index.size:
+            return self.data
+        return tuple(x[self.selection.moving] for x in self.windowed)
 
     @property
     def sample_index(self) -> np.ndarray:
@@ -341,13 +350,12 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *,
     sel = select_samples(parts[0][0], parts[1][0], rate / step,
                          max_samples=settings.max_samples, min_samples=min_samples,
                          enabled=settings.select)
-    data = tuple(x[sel.index] for x in (*parts[0], *parts[1]))
-    moving = (data if sel.moving.size == sel.index.size
-              else tuple(x[sel.moving] for x in (*parts[0], *parts[1])))
+    windowed = (*parts[0], *parts[1])
+    data = tuple(x[sel.index] for x in windowed)
     n = data[0].shape[0]
     if n < min_samples:
         raise InputError(
             f"only {n} samples left after window and subsampling; the {what} needs at least "
             f"{min_samples} (about {min_samples * step / rate:.1f} s of motion)"
         )
-    return Prepared(first, second, data, rate, cutoff, step, win, sel, moving)
+    return Prepared(first, second, data, rate, cutoff, step, win, sel, windowed)

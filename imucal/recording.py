@@ -44,9 +44,10 @@ MAX_RATE_HZ = 10_000.0
 #: Beyond it loading stops: imucal never resamples, because a resampled gap would be
 #: invented data that the estimate then fits.
 TIME_JITTER_TOLERANCE = 0.1
-#: A given rate this close to the 'time' steps' (relative) rebuilds the time axis without
-#: a warning (:func:`make_recording`'s time check).
-TIME_REBUILD_QUIET = 0.01
+#: A given rate that differs from the time stamps' by more than this share gets a
+#: warning (a clock's ordinary drift stays below it); within it, a time column is rebuilt
+#: from the rate silently. Vendor exports' header rates use it too (:mod:`imucal.clock`).
+RATE_WARN = 0.01
 
 #: Longest run of non-finite samples (NaN or Inf: a dropped packet) inside a recording that
 #: is filled by linear interpolation, s. Human limb motion has almost no energy above
@@ -760,7 +761,7 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
     rebuilt = time[0] + np.arange(n) / rate
     # a clock a little off (a crystal's 100 ppm) is no problem worth a warning, and a
     # warning costs the result its "good"; past 1 % one of the two is wrong
-    if abs(time_rate - rate) <= TIME_REBUILD_QUIET * rate:
+    if abs(time_rate - rate) <= RATE_WARN * rate:
         return rate, rebuilt, []
     note = (f"the sample rate {rate:g} Hz ('sample_rate' or --rate) and the 'time' steps "
             f"({time_rate:.6g} Hz) differ by {abs(time_rate - rate) / rate:.2%}; the rate "
