@@ -363,7 +363,8 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
                              settings=replace(s, time_offset=seconds))
     return fit_with_offset(again, _offset_profile(g1, g2, rate, s.offset_search), rate,
                            s.offset_search,
-                           _offset_moved, "deg", MAX_UNCERTAINTY_DEG)
+                           _offset_moved, "deg", MAX_UNCERTAINTY_DEG,
+                           lambda r: np.concatenate([r.j1, r.j2]))
 
 
 def _lowpassed_rates(sensors, rate, cutoff) -> list[tuple]:

@@ -313,7 +313,8 @@ def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> Positi
         return estimate_position(g1, a1, g2, a2, rate=rate, axis=axis,
                                  settings=replace(s, time_offset=seconds))
     return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate, s.offset_search), rate,
-                           s.offset_search, _offset_moved, "mm", MAX_UNCERTAINTY_MM)
+                           s.offset_search, _offset_moved, "mm", MAX_UNCERTAINTY_MM,
+                           lambda r: np.concatenate([r.o1, r.o2]))
 
 
 def _axis_line(p: Prepared, s: PositionSettings, axis):

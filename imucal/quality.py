@@ -228,7 +228,8 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
         "cutoff_shift": "it moves with the low-pass cut-off of the refits",
         "model": "the residuals are systematic (soft tissue, a joint that is no hinge)",
         "gyr_bias": "a gyroscope bias was estimated with it",
-        "time_offset": "it moves with the uncertain clock offset between the sensors",
+        "time_offset": "it moves with the clock offset between the sensors (uncertain, "
+                       "or mimicked by soft tissue)",
     }[main]
     extra = {"model": "model", "gyr_bias": "gyroscope bias", "time_offset": "clock offset"}
     return (f"{UNCERTAIN_PREFIX}: 1-sigma {total[name]:.1f} {unit} for {name}, mostly "

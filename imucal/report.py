@@ -113,7 +113,8 @@ UNCERTAINTY_METHOD = (
     "20 Hz low-pass, or the cut-off halved and doubled; position: the cut-off x 0.75 and "
     "x 1.5), and for the axis a model-error bound from the residual's smooth part and the "
     "widening by a removed gyroscope bias, and with an automatic clock offset the "
-    "estimate's move per ms of offset times the offset's 1-sigma (see "
+    "estimate's move per ms of offset times the offset's 1-sigma (for the axis, with "
+    "an applied offset, also its move from offset 0, capped at 3 x model; see "
     "uncertainty_components and docs/quality.md)"
 )
 SPREAD_METHOD = (

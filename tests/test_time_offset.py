@@ -16,6 +16,7 @@ from imucal import estimate_axis, estimate_position
 from imucal.errors import InputError
 from imucal.simulate import simulate
 from imucal.time_offset import (
+    OFFSET_MODEL_CAP,
     Offset,
     check_time_offset,
     delayed,
@@ -225,10 +226,37 @@ def test_only_an_applied_offset_adds_to_the_uncertainty():
     g2, _ = _late(shank, 100.0, 0.02)
     late = estimate_axis(thigh.gyr, g2, rate=100.0, seed=1)
     off, part = late.time_offset, late.uncertainty_components["time_offset"]
+    model = late.uncertainty_components["model"]
     assert off["applied"]
     for k in ("j1", "j2"):
-        assert part[k] == pytest.approx(off["sensitivity_per_ms"][k] * 1000 * off["sigma_s"])
+        clock = off["sensitivity_per_ms"][k] * 1000 * off["sigma_s"]
+        # and its choice: the move from offset 0 (degrees here), capped at 3 x the model
+        # term, which clean data keep at a fraction of a degree
+        choice = min(off["moved_from_zero"][k], OFFSET_MODEL_CAP * model[k])
+        assert off["moved_from_zero"][k] > 0 and choice < 0.5
+        assert part[k] == pytest.approx(np.hypot(clock, choice))
         assert part[k] > 0
+
+
+def test_an_offset_soft_tissue_mimics_widens_the_axes_uncertainty():
+    # Walking with soft tissue and synchronised clocks: shifting the shank by +12 ms
+    # lowers the residual 1.72 x, as a late clock would, and the offset is applied; the
+    # axes move about 1 deg and are off by 2.3 deg. Their 1-sigma was 0.68 deg, "good"
+    # at 3.4 sigma; the move from offset 0 (capped at 3 x the model term) now joins it.
+    rec, truth = simulate(seed=21, rate=100.0, duration=20.0, motion="gait",
+                          soft_tissue_deg=1.0, soft_tissue_mm=2.0, gyr_noise=0.01,
+                          acc_noise=0.05)
+    thigh, shank = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(thigh.gyr, shank.gyr, rate=100.0, seed=1, acc1=thigh.acc,
+                      acc2=shank.acc)
+    off, model = r.time_offset, r.uncertainty_components["model"]
+    assert off["applied"] and 0.005 < off["time_offset_s"] < 0.02, off
+    error = axis_error_deg(r.j1, r.j2, truth["knee"]["j1"], truth["knee"]["j2"])
+    for k, e in zip(("j1", "j2"), error, strict=True):
+        assert 0.5 < off["moved_from_zero"][k] < 2.0
+        assert r.uncertainty_components["time_offset"][k] >= min(
+            off["moved_from_zero"][k], OFFSET_MODEL_CAP * model[k])
+        assert e < 3 * r.uncertainty_deg[k], (error, r.uncertainty_deg)
 
 
 def test_soft_tissue_lag_is_not_taken_for_a_clock_offset():
