@@ -157,6 +157,7 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
         units=units,
         source=source,
         notes=warnings,
+        rate_name="--rate" if rate is not None else "the 'sample_rate' attribute",
     )
     return recording
 
@@ -236,7 +237,9 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
         "dropped_samples": {n: i["dropped"] for n, i in aligned.info.items()},
         "notes": info,
     }
-    return replace(recording, sensor_info=aligned.info, provenance=provenance)
+    # imucal info details it per device (imucal.provenance.rate_origin)
+    return replace(recording, sensor_info=aligned.info, provenance=provenance,
+                   rate_from="--rate" if rate is not None else "the first device's clock")
 
 
 # ---------------------------------------------------------------------------------- reading

@@ -1091,3 +1091,24 @@ def test_a_time_column_a_crystal_off_is_rebuilt_without_a_warning(tmp_path):
     rec = load_recording(out)
     assert rec.rate == src.rate and rec.time[-1] == pytest.approx(src.time[-1])
     assert not any("rebuilt" in w for w in rec.warnings)
+
+
+def test_a_drifting_time_column_says_both_rates(tmp_path):
+    # every step within the jitter tolerance, but 40 % of them 8 % long: `imucal info`
+    # said "1000 samples at 100 Hz (10.0 s, t = 0 to 10.3092 s)" without a word, and the
+    # estimators spaced the samples 3 % off the time column's average
+    src = load_recording(Path(__file__).parent.parent / "sample_data" / "circling.h5")
+    n = 1000
+    step = np.where(np.arange(n - 1) < 600, 0.01, 0.0108)
+    time = np.concatenate([[0.0], np.cumsum(step)])
+    sensors = {k: {"gyr": s.gyr[:n], "acc": s.acc[:n]} for k, s in src.sensors.items()}
+    rec = make_recording(sensors, time=time, source="drift.csv")
+    assert rec.rate == pytest.approx(100.0)
+    assert rec.rate_from == "the median step of 'time'"
+    assert ("the 'time' steps drift: their median gives 100 Hz, their span (10.3092 s for "
+            "1000 samples) 96.9037 Hz, 3.10% apart; the estimators use 100 Hz, so resample "
+            "the recording to a constant rate") in rec.warnings
+    # it concerns every estimate on the file, whichever sensors
+    assert any("steps drift" in w for w in rec.select(["thigh", "shank"]).warnings)
+    steady = make_recording(sensors, time=np.arange(n) * 0.01, source="steady.csv")
+    assert not any("drift" in w for w in steady.warnings)
