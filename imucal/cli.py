@@ -341,7 +341,8 @@ def angles(
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", show_default=False,
         help="Write the table here instead of CSV on stdout: .csv, or .h5/.hdf5 (one "
-        "dataset per column, the JSON summary as the root attribute 'imucal').")] = None,
+        "dataset per column with its units and, for a joint, its sensors and frame as "
+        "attributes; the JSON summary as the root attribute 'imucal').")] = None,
     plot: Annotated[Path | None, typer.Option(
         show_default=False, help="Write the figure (flexion over time with its 2-sigma "
         "band, gait cycles when walking): .png, .pdf or .svg.")] = None,
