@@ -406,12 +406,17 @@ def _parse_csv(data: bytes, source: str):
         raise InputError(f"{source}: not a valid CSV file: {_parser_detail(err)}") from None
     header = [str(h).strip() for h in header_row.iloc[0].tolist()]
     columns = _map_columns(header, source)
+    _check_short_rows(text, len(header), source)
 
     try:
         table = pd.read_csv(io.StringIO(text), skiprows=1, na_values=list(_NAN_TEXT), **options)
     except pd.errors.EmptyDataError:
         table = pd.DataFrame()
     except (pd.errors.ParserError, ValueError) as err:
+        long = _LONG_ROW_RE.search(str(err))
+        if long:  # the parser's "line" counts the file's lines, header included
+            raise InputError(f"{source}: row {long['line']} has {long['saw']} fields, the "
+                             f"header {len(header)}; remove the extra fields") from None
         raise InputError(f"{source}: not a valid CSV file: {_parser_detail(err)}") from None
     if table.shape[0] == 0:
         raise InputError(f"{source}: has a header but no data rows")
@@ -430,6 +435,42 @@ def _parse_csv(data: bytes, source: str):
     if columns["ignored"]:
         warnings.append(f"ignored columns: {_short_list(columns['ignored'])}")
     return sensors, None, time, units, warnings
+
+
+#: pandas' message for a row longer than the rows before it.
+_LONG_ROW_RE = re.compile(r"Expected \d+ fields in line (?P<line>\d+), saw (?P<saw>\d+)")
+
+
+def _check_short_rows(text: str, n_header: int, source: str) -> None:
+    """Refuse the first row with fewer fields than the header, naming it: the parser would
+    fill the missing fields as empty cells, and a file cut off mid-row (a copy or a
+    logger stopped while writing) then read as "column 'x' is empty"."""
+    buf = np.frombuffer(text.encode("utf-8"), dtype=np.uint8)
+    ends = np.flatnonzero(buf == ord("\n"))
+    commas = np.flatnonzero(buf == ord(","))
+    # commas before each line's end, less those before its start
+    before_end = np.searchsorted(commas, np.append(ends, buf.size))
+    fields = np.diff(before_end, prepend=0) + 1
+    if fields[0] != n_header:  # quoted commas in the header: the parser's count rules
+        return
+    short = fields < n_header
+    # cut right after a comma: all fields there, the last one empty
+    short[-1] |= fields.size > 1 and fields[-1] == n_header and text.endswith(",")
+    if not short.any():
+        return
+    i = int(np.argmax(short))
+    start = 0 if i == 0 else ends[i - 1] + 1
+    stop = ends[i] if i < ends.size else buf.size
+    if not buf[start:stop].tobytes().strip():  # blank: reported as such with the cells
+        return
+    what = f"row {i + 1} has {fields[i]} of the header's {n_header} fields"
+    if i == fields.size - 1:
+        if fields[i] == n_header:
+            what = f"row {i + 1} ends with a comma, its last field empty"
+        raise InputError(f"{source}: {what}: the file ends in the middle of its last row "
+                         "(cut short while written or copied?); delete that row or get the "
+                         "whole file")
+    raise InputError(f"{source}: {what}; complete or delete that row")
 
 
 def _parser_detail(err: Exception) -> str:
