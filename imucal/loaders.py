@@ -211,10 +211,7 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
                 f"{source}: sensor '{s.name}': the gyroscope columns repeat the "
                 "accelerometer columns (the export mapped the same data twice)"
             )
-    names = [s.name for s in raw.sensors]
-    dupes = sorted({n for n in names if names.count(n) > 1})
-    if dupes:
-        raise InputError(f"{source}: two sensors are called {dupes[0]!r}; rename one")
+    _check_one_file_per_sensor(raw.sensors, source)
     aligned = align(raw.sensors, source, rate=rate)
     info = list(raw.info)
     if milli:  # a declared unit converted is no problem: wrong scales are caught by size
@@ -240,6 +237,30 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
     # imucal info details it per device (imucal.provenance.rate_origin)
     return replace(recording, sensor_info=aligned.info, provenance=provenance,
                    rate_from="--rate" if rate is not None else "the first device's clock")
+
+
+def _check_one_file_per_sensor(sensors, source: str) -> None:
+    """Two devices read as one sensor name (two takes of one device in a folder, the same
+    export as .txt and .csv, two files without a device ID of one base name): refused,
+    naming the files, since which one is meant cannot be guessed."""
+    names = [s.name for s in sensors]
+    dupes = [n for i, n in enumerate(names) if n in names[:i]]
+    if not dupes:
+        return
+    name = dupes[0]
+    same = [s for s in sensors if s.name == name]
+    files = [f for s in same for f in (s.files or ["?"])]
+    if len(set(files)) < len(files):  # several devices in one file (Shimmer)
+        raise InputError(f"{source}: {files[0]} holds {len(files)} devices called {name!r}; "
+                         "a sensor name must be unique")
+    head = (f"{source}: {' and '.join(files)} are {'both' if len(files) == 2 else 'all'} "
+            f"read as sensor {name!r}")
+    serials = {s.serial for s in same}
+    if None not in serials and len(serials) == len(same):
+        raise InputError(f"{head}, devices {', '.join(sorted(serials))}; give each device "
+                         "its own name (its file or folder name, or the name set on it)")
+    raise InputError(f"{head}; a recording is one file per sensor: move the other take (or "
+                     "copy) out of the folder")
 
 
 # ---------------------------------------------------------------------------------- reading
