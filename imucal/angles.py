@@ -566,9 +566,33 @@ class JointAngles:
             "warnings": self.warnings,
         })
 
+    def _column_attrs(self) -> dict[str, dict]:
+        """Per column of the table, the HDF5 attributes that say what it holds: ``units``
+        and ``description``; a joint's columns also ``joint``, ``sensors`` and (flexion)
+        ``frame``, the rotation it measures."""
+        attrs = {"time": {"units": "s", "description": "sample times on the recording's "
+                          "time axis"}}
+        for name, j in self.joints.items():
+            first, second = j.sensors
+            about = {"joint": name, "sensors": [first, second]}
+            attrs[FLEXION_COLUMN.format(joint=name)] = {
+                **about, "units": "deg",
+                "description": f"flexion of joint '{name}', positive = flexion; 0: "
+                               f"{j.zero['method']} (docs/angles.md)",
+                "frame": f"rotation of sensor '{second}' relative to sensor '{first}' about "
+                         f"the calibration's hinge axis (j1 in the '{first}' sensor frame, "
+                         f"j2 in the '{second}' sensor frame); flexion is the "
+                         f"{'right' if j.sign > 0 else 'left'}-handed rotation about it"}
+            attrs[SIGMA_COLUMN.format(joint=name)] = {
+                **about, "units": "deg",
+                "description": f"1-sigma of {FLEXION_COLUMN.format(joint=name)} per sample"}
+        return attrs
+
     def write(self, path) -> None:
-        """The table to ``.csv`` (one row per sample) or ``.h5`` (one dataset per column,
-        the summary document as the root attribute ``imucal``), atomically."""
+        """The table to ``.csv`` (one row per sample) or ``.h5`` (one dataset per column
+        with its ``units``, ``description`` and, for a joint, ``joint``, ``sensors`` and
+        ``frame`` attributes; the summary document as the root attribute ``imucal``),
+        atomically."""
         from pathlib import Path
 
         from .atomic import write_atomic
@@ -582,10 +606,14 @@ class JointAngles:
         elif suffix in (".h5", ".hdf5"):
             import h5py
 
+            attrs = self._column_attrs()
+
             def write_h5(tmp):
-                with h5py.File(tmp, "w") as f:
+                # creation order: a reader lists the columns as the CSV has them
+                with h5py.File(tmp, "w", track_order=True) as f:
                     for col in frame.columns:
-                        f.create_dataset(col, data=frame[col].to_numpy())
+                        f.create_dataset(col, data=frame[col].to_numpy()).attrs.update(
+                            attrs[col])
                     f.attrs["imucal"] = dumps(self.to_document())
 
             write_atomic(path, write_h5)

@@ -341,7 +341,8 @@ def angles(
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", show_default=False,
         help="Write the table here instead of CSV on stdout: .csv, or .h5/.hdf5 (one "
-        "dataset per column, the JSON summary as the root attribute 'imucal').")] = None,
+        "dataset per column with its units and, for a joint, its sensors and frame as "
+        "attributes; the JSON summary as the root attribute 'imucal').")] = None,
     plot: Annotated[Path | None, typer.Option(
         show_default=False, help="Write the figure (flexion over time with its 2-sigma "
         "band, gait cycles when walking): .png, .pdf or .svg.")] = None,
@@ -574,7 +575,9 @@ def info(
     sensor_map: SensorMap = None,
     debug: Debug = False,
 ) -> None:
-    """Sensors, sample rate, duration, units, and how much each sensor moves."""
+    """Sensors, sample rate (Hz, and where it came from), duration, units, and how much
+    each sensor moves (gyro rms and peak in deg/s, |acc| - g rms in m/s^2); for a vendor
+    export also every device's own rate, serial, start and dropped samples."""
     with _errors(debug):
         from .loaders import load_recording
         from .report import clean
@@ -589,20 +592,22 @@ def info(
         if as_json:
             sys.stdout.write(json.dumps(doc, indent=2) + "\n")
             return
+        # "rate" alone would read as the sample rate: the gyro columns say what they are
         lines = [
             f"{doc['path']}: {doc['samples']} samples at {doc['sample_rate_hz']:g} Hz "
             f"({doc['duration_s']:.1f} s, t = {doc['time_s'][0]:g} to {doc['time_s'][1]:g} s)",
-            f"{'sensor':<16}{'file units':<18}{'rms rate':>12}{'peak rate':>12}"
-            f"{'rms |acc|-g':>14}  motion",
+            f"sample rate from {doc['sample_rate_from']}",
+            f"{'sensor':<16}{'file units':<18}{'gyro rms deg/s':>16}{'gyro peak deg/s':>17}"
+            f"{'|acc|-g rms m/s^2':>19}  motion",
         ]
         for name, s in doc["sensors"].items():
             units = f"{s['units']['gyr']}, {s['units']['acc']}"
             if s["gyr_rms_deg_s"] is None:
-                lines.append(f"{name:<16}{units:<18}{'-':>12}{'-':>12}{'-':>14}  {s['motion']}")
+                lines.append(f"{name:<16}{units:<18}{'-':>16}{'-':>17}{'-':>19}  {s['motion']}")
                 continue
             lines.append(
-                f"{name:<16}{units:<18}{s['gyr_rms_deg_s']:>8.1f} d/s{s['gyr_peak_deg_s']:>8.1f}"
-                f" d/s{s['acc_dynamic_rms_m_s2']:>9.2f} m/s2  {s['motion']}"
+                f"{name:<16}{units:<18}{s['gyr_rms_deg_s']:>16.1f}{s['gyr_peak_deg_s']:>17.1f}"
+                f"{s['acc_dynamic_rms_m_s2']:>19.2f}  {s['motion']}"
             )
         from .provenance import sensor_table
 
@@ -751,9 +756,12 @@ def _describe(recording) -> dict:
             "acc_dynamic_rms_m_s2": float(np.sqrt(np.mean(acc_dyn**2))),
             "motion": "still" if rms < STILL_RATE_DEG_S else "moves",
         }
+    from .provenance import rate_origin
+
     return {
         "path": recording.source,
         "sample_rate_hz": recording.rate,
+        "sample_rate_from": rate_origin(recording),
         "samples": recording.n_samples,
         "duration_s": recording.duration,
         "time_s": [recording.time[0], recording.time[-1]],

@@ -157,6 +157,7 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
         units=units,
         source=source,
         notes=warnings,
+        rate_name="--rate" if rate is not None else "the 'sample_rate' attribute",
     )
     return recording
 
@@ -210,10 +211,7 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
                 f"{source}: sensor '{s.name}': the gyroscope columns repeat the "
                 "accelerometer columns (the export mapped the same data twice)"
             )
-    names = [s.name for s in raw.sensors]
-    dupes = sorted({n for n in names if names.count(n) > 1})
-    if dupes:
-        raise InputError(f"{source}: two sensors are called {dupes[0]!r}; rename one")
+    _check_one_file_per_sensor(raw.sensors, source)
     aligned = align(raw.sensors, source, rate=rate)
     info = list(raw.info)
     if milli:  # a declared unit converted is no problem: wrong scales are caught by size
@@ -236,7 +234,33 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
         "dropped_samples": {n: i["dropped"] for n, i in aligned.info.items()},
         "notes": info,
     }
-    return replace(recording, sensor_info=aligned.info, provenance=provenance)
+    # imucal info details it per device (imucal.provenance.rate_origin)
+    return replace(recording, sensor_info=aligned.info, provenance=provenance,
+                   rate_from="--rate" if rate is not None else "the first device's clock")
+
+
+def _check_one_file_per_sensor(sensors, source: str) -> None:
+    """Two devices read as one sensor name (two takes of one device in a folder, the same
+    export as .txt and .csv, two files without a device ID of one base name): refused,
+    naming the files, since which one is meant cannot be guessed."""
+    names = [s.name for s in sensors]
+    dupes = [n for i, n in enumerate(names) if n in names[:i]]
+    if not dupes:
+        return
+    name = dupes[0]
+    same = [s for s in sensors if s.name == name]
+    files = [f for s in same for f in (s.files or ["?"])]
+    if len(set(files)) < len(files):  # several devices in one file (Shimmer)
+        raise InputError(f"{source}: {files[0]} holds {len(files)} devices called {name!r}; "
+                         "a sensor name must be unique")
+    head = (f"{source}: {' and '.join(files)} are {'both' if len(files) == 2 else 'all'} "
+            f"read as sensor {name!r}")
+    serials = {s.serial for s in same}
+    if None not in serials and len(serials) == len(same):
+        raise InputError(f"{head}, devices {', '.join(sorted(serials))}; give each device "
+                         "its own name (its file or folder name, or the name set on it)")
+    raise InputError(f"{head}; a recording is one file per sensor: move the other take (or "
+                     "copy) out of the folder")
 
 
 # ---------------------------------------------------------------------------------- reading
@@ -403,12 +427,17 @@ def _parse_csv(data: bytes, source: str):
         raise InputError(f"{source}: not a valid CSV file: {_parser_detail(err)}") from None
     header = [str(h).strip() for h in header_row.iloc[0].tolist()]
     columns = _map_columns(header, source)
+    _check_short_rows(text, len(header), source)
 
     try:
         table = pd.read_csv(io.StringIO(text), skiprows=1, na_values=list(_NAN_TEXT), **options)
     except pd.errors.EmptyDataError:
         table = pd.DataFrame()
     except (pd.errors.ParserError, ValueError) as err:
+        long = _LONG_ROW_RE.search(str(err))
+        if long:  # the parser's "line" counts the file's lines, header included
+            raise InputError(f"{source}: row {long['line']} has {long['saw']} fields, the "
+                             f"header {len(header)}; remove the extra fields") from None
         raise InputError(f"{source}: not a valid CSV file: {_parser_detail(err)}") from None
     if table.shape[0] == 0:
         raise InputError(f"{source}: has a header but no data rows")
@@ -427,6 +456,42 @@ def _parse_csv(data: bytes, source: str):
     if columns["ignored"]:
         warnings.append(f"ignored columns: {_short_list(columns['ignored'])}")
     return sensors, None, time, units, warnings
+
+
+#: pandas' message for a row longer than the rows before it.
+_LONG_ROW_RE = re.compile(r"Expected \d+ fields in line (?P<line>\d+), saw (?P<saw>\d+)")
+
+
+def _check_short_rows(text: str, n_header: int, source: str) -> None:
+    """Refuse the first row with fewer fields than the header, naming it: the parser would
+    fill the missing fields as empty cells, and a file cut off mid-row (a copy or a
+    logger stopped while writing) then read as "column 'x' is empty"."""
+    buf = np.frombuffer(text.encode("utf-8"), dtype=np.uint8)
+    ends = np.flatnonzero(buf == ord("\n"))
+    commas = np.flatnonzero(buf == ord(","))
+    # commas before each line's end, less those before its start
+    before_end = np.searchsorted(commas, np.append(ends, buf.size))
+    fields = np.diff(before_end, prepend=0) + 1
+    if fields[0] != n_header:  # quoted commas in the header: the parser's count rules
+        return
+    short = fields < n_header
+    # cut right after a comma: all fields there, the last one empty
+    short[-1] |= fields.size > 1 and fields[-1] == n_header and text.endswith(",")
+    if not short.any():
+        return
+    i = int(np.argmax(short))
+    start = 0 if i == 0 else ends[i - 1] + 1
+    stop = ends[i] if i < ends.size else buf.size
+    if not buf[start:stop].tobytes().strip():  # blank: reported as such with the cells
+        return
+    what = f"row {i + 1} has {fields[i]} of the header's {n_header} fields"
+    if i == fields.size - 1:
+        if fields[i] == n_header:
+            what = f"row {i + 1} ends with a comma, its last field empty"
+        raise InputError(f"{source}: {what}: the file ends in the middle of its last row "
+                         "(cut short while written or copied?); delete that row or get the "
+                         "whole file")
+    raise InputError(f"{source}: {what}; complete or delete that row")
 
 
 def _parser_detail(err: Exception) -> str:

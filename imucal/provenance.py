@@ -1,9 +1,10 @@
 """What ``imucal info`` and ``imucal convert`` say about where a recording came from.
 
-For vendor exports (``imucal.formats``) every sensor has its label, serial, rate (from its
-time stamps), start (s on the recording's time axis; negative: it started before the span
-all sensors share), duration (s, its own samples), sample count, units as read and dropped
-samples; imucal's own layouts have none of this and get an empty table.
+For vendor exports (``imucal.formats``) every sensor has its label, serial, own rate (Hz,
+from its time stamps, before it was put on the common grid), start (s on the recording's
+time axis; negative: it started before the span all sensors share), duration (s, its own
+samples), sample count, units as read and dropped samples; imucal's own layouts have none
+of this and get an empty table.
 """
 
 from __future__ import annotations
@@ -11,6 +12,27 @@ from __future__ import annotations
 import json
 
 from .recording import Recording
+
+#: How a device's clock gave its period (``sensor_info[...]["time_from"]``).
+_CLOCKS = {"time stamps": "its time stamps", "packet counter": "its packet counter at the "
+           "header's rate", "sample rate": "the header's rate"}
+
+
+def rate_origin(recording: Recording) -> str:
+    """Where the recording's sample rate came from, as a phrase: for a vendor export the
+    device whose samples form the common grid, and the devices interpolated onto it at
+    rates of their own (Hz)."""
+    info = recording.sensor_info
+    if not info:
+        return recording.rate_from
+    first, head = next(iter(info.items()))
+    how = "--rate" if recording.rate_from == "--rate" else _CLOCKS.get(head["time_from"],
+                                                                        head["time_from"])
+    text = f"the samples of sensor '{first}' ({how}), the common grid"
+    moved = [f"'{n}' ({i['rate_hz']:.6g} Hz)" for n, i in info.items() if i["interpolated"]]
+    if moved:
+        text += f"; interpolated onto it: {', '.join(moved)}"
+    return text
 
 
 def sensor_table(recording: Recording) -> list[str]:
@@ -20,12 +42,12 @@ def sensor_table(recording: Recording) -> list[str]:
         return []
     fmt = recording.provenance.get("source_format", "")
     lines = [f"format: {fmt}",
-             f"{'sensor':<18}{'serial':<20}{'rate Hz':>10}{'start s':>10}{'length s':>10}"
+             f"{'sensor':<18}{'serial':<20}{'own rate Hz':>12}{'start s':>10}{'length s':>10}"
              f"{'samples':>9}  {'units read':<16}{'dropped':>8}"]
     for name, i in info.items():
         units = f"{i['units_read']['gyr']}, {i['units_read']['acc']}"
         lines.append(
-            f"{name:<18}{str(i.get('serial') or '-'):<20}{i['rate_hz']:>10.4f}"
+            f"{name:<18}{str(i.get('serial') or '-'):<20}{i['rate_hz']:>12.4f}"
             f"{i['start_s']:>10.3f}{i['duration_s']:>10.2f}{i['samples']:>9}  {units:<16}"
             f"{i['dropped']:>8}"
         )

@@ -126,6 +126,9 @@ class Recording:
     provenance : Mapping[str, object]
         Where the data came from: ``format``, ``files``, ``serials``, original rates and
         how the clocks were aligned. Empty for imucal's own layouts.
+    rate_from : str
+        Where ``rate`` came from, as a phrase for ``imucal info`` ("the median step of
+        'time'", "--rate, checked against 'time'", the common grid of a vendor export).
     """
 
     rate: float
@@ -139,6 +142,7 @@ class Recording:
     window: tuple[int, int] | None = None
     sensor_info: Mapping[str, Mapping] = field(default_factory=dict)
     provenance: Mapping[str, object] = field(default_factory=dict)
+    rate_from: str = ""
 
     @property
     def n_samples(self) -> int:
@@ -296,7 +300,7 @@ class Recording:
             warnings=notes + _unit_warnings(checked, units) + _stuck_warnings(checked),
             notes=self.notes, window=(a0 - c0, a1 - c0),
             sensor_info={n: self.sensor_info[n] for n in names if n in self.sensor_info},
-            provenance=self.provenance,
+            provenance=self.provenance, rate_from=self.rate_from,
         )
 
     def resolve(self, name: str) -> str:
@@ -428,6 +432,7 @@ def make_recording(
     units: Mapping[str, Mapping[str, str]] | None = None,
     source: str = "<memory>",
     notes: list[str] | tuple[str, ...] = (),
+    rate_name: str = "the rate given",
 ) -> Recording:
     """Check raw arrays and build a :class:`Recording` in SI units.
 
@@ -449,6 +454,9 @@ def make_recording(
     notes
         Warnings about the file as a whole (ignored CSV columns), kept by every
         :meth:`Recording.select`.
+    rate_name
+        What ``rate`` is called where it came from (``"--rate"``, ``"the 'sample_rate'
+        attribute"``), for :attr:`Recording.rate_from`.
 
     Non-finite samples (NaN or Inf, e.g. dropped packets) are kept: they are listed in
     ``Recording.gaps`` and, one line per signal, in ``Recording.warnings``. Only the
@@ -502,6 +510,12 @@ def make_recording(
         )
 
     rate_out, time_out, timing = _check_timing(rate, time, n, source)
+    if time is None:
+        rate_from = rate_name
+    elif rate is None:
+        rate_from = "the median step of 'time'"
+    else:
+        rate_from = f"{rate_name}, checked against 'time'"
     notes = list(notes) + timing
     gaps = _find_gaps(raw, time_out)
     converted = {name: SensorData(gyr=a["gyr"], acc=a["acc"]) for name, a in raw.items()}
@@ -511,7 +525,7 @@ def make_recording(
         rate=rate_out, sensors=converted, time=time_out, source=source, units=units,
         warnings=(list(notes) + _gap_warnings(gaps, raw, rate_out, n)
                   + _unit_warnings(finite, units) + _stuck_warnings(finite)),
-        gaps=gaps, notes=tuple(notes),
+        gaps=gaps, notes=tuple(notes), rate_from=rate_from,
     )
 
 
@@ -753,7 +767,7 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
             "fix one of them (or drop --rate)"
         )
     if rate is None:
-        return time_rate, time, []
+        return time_rate, time, _drift_notes(time, time_rate)
     # The estimators space the samples by the rate; a time axis that drifts from it by
     # over half a sample would put --start/--end and the reported span somewhere else.
     if abs((time[-1] - time[0]) - (n - 1) / rate) <= 0.5 / rate:
@@ -767,3 +781,20 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
             f"({time_rate:.6g} Hz) differ by {abs(time_rate - rate) / rate:.2%}; the rate "
             f"is used, and the time axis is rebuilt from it (from t={time[0]:g} s)")
     return rate, rebuilt, [note]
+
+
+def _drift_notes(time: np.ndarray, rate: float) -> list[str]:
+    """A warning when a time column's span says another rate than its median step.
+
+    Every step may be within the jitter tolerance while the steps drift (or a run of them
+    is longer): the estimators space the samples by the median step, so past
+    :data:`RATE_WARN` the span's rate is not what they assume.
+    """
+    n, span = time.shape[0], float(time[-1] - time[0])
+    span_rate = (n - 1) / span
+    if abs(span_rate - rate) <= RATE_WARN * rate:
+        return []
+    return [f"the 'time' steps drift: their median gives {rate:.6g} Hz, their span "
+            f"({span:g} s for {n} samples) {span_rate:.6g} Hz, {abs(span_rate - rate) / rate:.2%}"
+            f" apart; the estimators use {rate:.6g} Hz, so resample the recording to a "
+            "constant rate"]

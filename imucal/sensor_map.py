@@ -164,7 +164,8 @@ def apply_sensor_map(recording: Recording, names: Mapping[str, str] | str | Path
                 f"{source}: no sensor {alternatives} (mapped to {value!r}) in "
                 f"{recording.source}; sensors there: {_present(sensors, info)}")
         if len(found) > 1:
-            which = ", ".join(f"{k!r} ({n})" for n, k in found.items())
+            which = ", ".join(f"{k!r} (sensor '{n}'{_files_of(n, info, ' in {}')})"
+                              for n, k in found.items())
             raise InputError(
                 f"{source}: {which} are all mapped to {value!r} and are all in "
                 f"{recording.source}; map each sensor to its own name")
@@ -178,9 +179,17 @@ def apply_sensor_map(recording: Recording, names: Mapping[str, str] | str | Path
     for sensor in sensors:
         if sensor not in renamed and sensor in targets:
             raise InputError(
-                f"{source}: the name {sensor!r} is already a sensor of {recording.source} "
-                "that the map leaves as it is; map that sensor too, or choose another name")
+                f"{source}: the name {sensor!r} is already a sensor of {recording.source}"
+                f"{_files_of(sensor, info, ' (in {})')} that the map leaves as it is; map "
+                "that sensor too, or choose another name")
     return _rename(recording, renamed, source, claimed_by)
+
+
+def _files_of(name: str, info, form: str) -> str:
+    """``form`` filled with the files of a vendor export's sensor ``name`` ("" for imucal's
+    own layouts, one file): a clash names the files to look at, not only the sensors."""
+    files = info.get(name, {}).get("files") or []
+    return form.format(", ".join(files)) if files else ""
 
 
 def _present(sensors, info) -> str:

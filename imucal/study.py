@@ -25,9 +25,11 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -258,6 +260,7 @@ def process_recordings(
 
 
 def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
+    import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
@@ -266,16 +269,18 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
     pending = list(tasks)
     workers = jobs
     while pending:
+        before = {p.pid for p in multiprocessing.active_children()}
         executor = ProcessPoolExecutor(max_workers=min(workers, len(pending)),
                                        mp_context=context)
         broken = False
         futures = []
         try:
-            for task in pending:
-                futures.append(executor.submit(work, task))
-        except BrokenProcessPool:  # a worker died while the rest were being queued
-            broken = True
-        try:
+            with _children_ignore_sigint(context):
+                try:
+                    for task in pending:
+                        futures.append(executor.submit(_pool_work, task))
+                except BrokenProcessPool:  # a worker died while the rest were being queued
+                    broken = True
             waiting = set(futures)
             while waiting:
                 finished, waiting = wait(waiting, timeout=PROGRESS_REFRESH_S,
@@ -287,6 +292,15 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
                         broken = True
                 order.report()
                 yield from order.release()
+        except KeyboardInterrupt:
+            # Ctrl-C: a worker that started after it (held, _children_ignore_sigint) has
+            # not seen it, and the shutdown below would wait for its recording; SIGINT
+            # ends a worker only inside a recording (_pool_work), where that is safe.
+            # SIGTERM could cut a result off mid-write and hang the pool.
+            for process in multiprocessing.active_children():
+                if process.pid not in before:
+                    os.kill(process.pid, signal.SIGINT)
+            raise
         finally:
             executor.shutdown(wait=True, cancel_futures=True)
         pending = [t for t in pending if t[0] not in order.ready and t[0] >= order.next_index]
@@ -337,6 +351,35 @@ class InOrder:
             self.next_index += 1
 
 
+@contextmanager
+def _children_ignore_sigint(context):
+    """SIGINT blocked while the worker processes start: they (and the fork server, whose
+    module preloading takes a second) inherit the block and never see Ctrl-C, which the
+    terminal sends to the whole process group and which would print each child's
+    KeyboardInterrupt traceback; a worker lets it through only while it runs a recording,
+    and then quits (:func:`_pool_work`). A Ctrl-C meanwhile reaches this process when the
+    workers are up (at most the preloading later), which passes it on to them
+    (:func:`_parallel`). Stopping earlier is no cure: the fork server would go on to
+    start the workers asked for, which then fail to attach to this process's gone
+    semaphores, with a traceback.
+    """
+    if not hasattr(signal, "pthread_sigmask"):  # not POSIX: children start without it
+        yield
+        return
+    if context.get_start_method() != "fork":
+        # Starting multiprocessing's resource tracker (the fork server and spawn do)
+        # unblocks SIGINT here afterwards (Python 3.11-3.13): started first, it leaves
+        # the block below alone.
+        from multiprocessing import resource_tracker
+
+        resource_tracker.ensure_running()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 def _context(start_method):
     """The multiprocessing context for the workers (see :func:`process_recordings`)."""
     import importlib
@@ -368,6 +411,26 @@ def _limit_threads() -> None:
     """
     for name in THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
+
+
+def _pool_work(task: tuple[int, Job, str]) -> Entry:
+    """:func:`work` in a pool worker, which starts with SIGINT blocked
+    (:func:`_children_ignore_sigint`). Ctrl-C is let through only while a recording
+    runs, and then ends the worker at once, without a word: a KeyboardInterrupt could
+    surface in a finaliser ("Exception ignored ..."), and between recordings, in the
+    pool's own code, as a traceback or a result cut off mid-write that hangs the pool."""
+    if not hasattr(signal, "pthread_sigmask"):
+        return work(task)
+    signal.signal(signal.SIGINT, _end_worker)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    try:
+        return work(task)
+    finally:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+
+
+def _end_worker(signum, frame) -> None:
+    os._exit(128 + signum)
 
 
 def work(task: tuple[int, Job, str]) -> Entry:

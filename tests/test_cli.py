@@ -230,3 +230,25 @@ def test_the_summary_names_the_window_fitted():
     cal = run_imucal("calibrate", sample, "--restarts", "5", "--seed", "1", "--start", "2",
                      text=True)
     assert cal.stderr.splitlines()[0].endswith("(20.0 s), window 2-20 s")
+
+
+def test_info_says_where_the_rate_came_from_and_the_columns_units(tmp_path):
+    # the table's "rms rate" / "peak rate" (angular rates, units only in the cells as
+    # "d/s") read as sample rates, and nothing said where the sample rate came from
+    sample = ROOT / "sample_data" / "circling_40hz.csv"
+    text = sample.read_bytes()
+    piped = imucal("info", "-", stdin=text).stdout.decode().splitlines()
+    assert piped[0].startswith("<stdin>: 800 samples at 40 Hz (20.0 s, t = 0 to 19.975 s)")
+    assert piped[1] == "sample rate from the median step of 'time'"
+    assert piped[2].split() == ["sensor", "file", "units", "gyro", "rms", "deg/s", "gyro",
+                                "peak", "deg/s", "|acc|-g", "rms", "m/s^2", "motion"]
+    assert "d/s " not in "\n".join(piped[3:])
+    given = imucal("info", sample, "--rate", "40").stdout.decode().splitlines()
+    assert given[1] == "sample rate from --rate, checked against 'time'"
+    no_time = tmp_path / "no_time.csv"
+    no_time.write_text("\n".join(line.split(",", 1)[1] for line in
+                                 text.decode().splitlines()) + "\n")
+    run = imucal("info", no_time, "--rate", "40", "--json")
+    assert json.loads(run.stdout)["sample_rate_from"] == "--rate"
+    h5 = imucal("info", ROOT / "sample_data" / "circling.h5").stdout.decode().splitlines()
+    assert h5[1] == "sample rate from the 'sample_rate' attribute, checked against 'time'"

@@ -101,6 +101,18 @@ def test_angles_to_h5_with_a_figure(cal_file, tmp_path):
     with h5py.File(out) as f:
         assert f["knee_flexion_deg"].shape == (1000,)
         doc = json.loads(f.attrs["imucal"])
+        # the datasets said nothing of their units (CSV's column names and the JSON do)
+        assert list(f) == ["time", "knee_flexion_deg", "knee_flexion_sigma_deg"]
+        assert f["time"].attrs["units"] == "s"
+        flexion, sigma = f["knee_flexion_deg"].attrs, f["knee_flexion_sigma_deg"].attrs
+        assert flexion["units"] == "deg" and sigma["units"] == "deg"
+        assert flexion["joint"] == "knee" and list(flexion["sensors"]) == ["thigh", "shank"]
+        handed = "right" if doc["joints"]["knee"]["flexion_sign"] > 0 else "left"
+        assert flexion["frame"] == (
+            "rotation of sensor 'shank' relative to sensor 'thigh' about the calibration's "
+            "hinge axis (j1 in the 'thigh' sensor frame, j2 in the 'shank' sensor frame); "
+            f"flexion is the {handed}-handed rotation about it")
+        assert sigma["description"] == "1-sigma of knee_flexion_deg per sample"
     assert doc["command"] == "angles" and doc["fits"] is True
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

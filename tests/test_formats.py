@@ -558,3 +558,24 @@ def test_rate_below_one_hz_message_does_not_contradict_itself():
     assert str(err.value) == (
         "f.txt: sensor 'a': sample rate 0.999999 Hz from its time stamps is below 1 Hz "
         "(imucal reads 1 to 10000 Hz); check the time stamps' units")
+
+
+def test_info_names_the_grid_and_the_devices_interpolated_onto_it(tmp_path):
+    # a 60 Hz thigh next to a 120 Hz shank: info said "at 120.005 Hz" with nothing about
+    # whose rate that was, next to a "rate Hz" column of the devices' own rates
+    fast = vw.dot(simulated(3, rate=120.0, duration=5.0)[0], tmp_path / "fast")
+    slow = vw.dot(simulated(3, rate=60.0, duration=5.0)[0], tmp_path / "slow")
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    for folder, tag in ((fast, "Shank"), (slow, "Thigh")):
+        (f,) = folder.glob(f"{tag}_*.csv")
+        (mixed / f.name).write_bytes(f.read_bytes())
+    run = run_cli("info", mixed)
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert lines[0] == f"{mixed}: 599 samples at 120.005 Hz (5.0 s, t = 0 to 4.98313 s)"
+    assert lines[1] == ("sample rate from the samples of sensor 'Shank' (its time stamps), "
+                        "the common grid; interpolated onto it: 'Thigh' (59.9988 Hz)")
+    assert "own rate Hz" in run.stdout
+    thigh = [ln for ln in lines if ln.startswith("Thigh ")][-1]
+    assert thigh.split()[2] == "59.9988"

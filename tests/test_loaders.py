@@ -468,9 +468,47 @@ def test_csv_blank_line_inside_data(tmp_path):
 
 
 def test_csv_row_with_extra_fields(tmp_path):
+    # was "not a valid CSV file: Expected 7 fields in line 7, saw 8"
     path = tmp_path / "long.csv"
     path.write_text(csv_text(good_rows()) + "0.05,1,2,3,4,5,6,7\n")
-    expect_error(path, "not a valid CSV file")
+    message = expect_error(path, "row 7 has 8 fields, the header 7; remove the extra fields")
+    assert "Expected" not in message
+
+
+def test_csv_row_with_too_few_fields(tmp_path):
+    # a row of 4 fields read as "row 3, column 't_acc_y' is empty"
+    rows = good_rows()
+    rows[1] = rows[1][:4]
+    path = tmp_path / "short.csv"
+    path.write_text(csv_text(rows))
+    expect_error(path, "row 3 has 4 of the header's 7 fields; complete or delete that row")
+    rows = good_rows()
+    rows[1][5] = ""  # an empty cell among all seven fields is still an empty cell
+    path.write_text(csv_text(rows))
+    expect_error(path, "row 3, column 't_acc_y' is empty")
+
+
+CUT = ("the file ends in the middle of its last row (cut short while written or copied?); "
+       "delete that row or get the whole file")
+
+
+@pytest.mark.parametrize("keep, what", [
+    (-5, "row 6 has 5 of the header's 7 fields"),  # cut inside the row
+    (-2, "row 6 ends with a comma, its last field empty"),  # cut right after a comma
+])
+def test_csv_cut_in_its_last_row_is_one_line_exit_2(tmp_path, keep, what):
+    # was "row 6, column 't_acc_y' is empty": no word of a truncated file
+    text = csv_text(good_rows())[:keep]
+    path = tmp_path / "cut.csv"
+    path.write_text(text)
+    assert expect_error(path, what) == f"{path}: {what}: {CUT}"
+    out = tmp_path / "out.json"
+    for args in (["axis", path, "--out", out], ["convert", path, tmp_path / "c.h5"],
+                 ["info", "-"]):
+        result = cli(*args, stdin=text.encode())
+        assert_one_line_error(result, "<stdin>" if "-" in args else str(path), what)
+        assert result.stderr.strip().endswith(CUT)
+    assert not out.exists() and not (tmp_path / "c.h5").exists()
 
 
 def test_csv_nan_text_is_read_as_a_non_finite_number(tmp_path):
@@ -1091,3 +1129,24 @@ def test_a_time_column_a_crystal_off_is_rebuilt_without_a_warning(tmp_path):
     rec = load_recording(out)
     assert rec.rate == src.rate and rec.time[-1] == pytest.approx(src.time[-1])
     assert not any("rebuilt" in w for w in rec.warnings)
+
+
+def test_a_drifting_time_column_says_both_rates(tmp_path):
+    # every step within the jitter tolerance, but 40 % of them 8 % long: `imucal info`
+    # said "1000 samples at 100 Hz (10.0 s, t = 0 to 10.3092 s)" without a word, and the
+    # estimators spaced the samples 3 % off the time column's average
+    src = load_recording(Path(__file__).parent.parent / "sample_data" / "circling.h5")
+    n = 1000
+    step = np.where(np.arange(n - 1) < 600, 0.01, 0.0108)
+    time = np.concatenate([[0.0], np.cumsum(step)])
+    sensors = {k: {"gyr": s.gyr[:n], "acc": s.acc[:n]} for k, s in src.sensors.items()}
+    rec = make_recording(sensors, time=time, source="drift.csv")
+    assert rec.rate == pytest.approx(100.0)
+    assert rec.rate_from == "the median step of 'time'"
+    assert ("the 'time' steps drift: their median gives 100 Hz, their span (10.3092 s for "
+            "1000 samples) 96.9037 Hz, 3.10% apart; the estimators use 100 Hz, so resample "
+            "the recording to a constant rate") in rec.warnings
+    # it concerns every estimate on the file, whichever sensors
+    assert any("steps drift" in w for w in rec.select(["thigh", "shank"]).warnings)
+    steady = make_recording(sensors, time=np.arange(n) * 0.01, source="steady.csv")
+    assert not any("drift" in w for w in steady.warnings)

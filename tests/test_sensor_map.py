@@ -274,3 +274,57 @@ def test_info_and_convert_with_map(study, tmp_path):
         assert json.loads(h5.attrs["sensor_map"])["file"] == str(m)
         assert json.loads(h5.attrs["serials"])["left_thigh"] == "00B42D4F"
     check_axis(cli_json("axis", out, "--sensors", "left_thigh,left_shank"), truth, ref["axis"])
+
+
+def test_a_sensor_mapped_twice_names_the_files(tmp_path):
+    # "'00B42D4F' (00B42D4F), '00B42D50' (00B42D50) are all mapped to 'thigh'": which
+    # files to look at was left to the reader
+    folder = vw.xsens(short(), tmp_path / "x")
+    thigh, shank = (f"MT_012005D6_031-000_{d}.txt" for d in ("00B42D4F", "00B42D50"))
+    clash = tmp_path / "clash.txt"
+    clash.write_text("00B42D4F = thigh\n00B42D50 = thigh\n")
+    run = run_cli("info", folder, "--map", clash)
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr.splitlines() == [
+        f"imucal: error: {clash}: '00B42D4F' (sensor '00B42D4F' in {thigh}), '00B42D50' "
+        f"(sensor '00B42D50' in {shank}) are all mapped to 'thigh' and are all in {folder}; "
+        "map each sensor to its own name"]
+    taken = tmp_path / "taken.txt"
+    taken.write_text("00B42D4F = 00B42D50\n")
+    run = run_cli("info", folder, "--map", taken)
+    assert run.returncode == 2
+    assert run.stderr.splitlines() == [
+        f"imucal: error: {taken}: the name '00B42D50' is already a sensor of {folder} (in "
+        f"{shank}) that the map leaves as it is; map that sensor too, or choose another name"]
+
+
+@pytest.mark.parametrize("copy, expect", [
+    # a second take of one device in the same folder
+    ("MT_012005D6_031-001_00B42D4F.txt", "MT_012005D6_031-000_00B42D4F.txt and "
+     "MT_012005D6_031-001_00B42D4F.txt are both"),
+    # the same export as .txt and .csv: one base name
+    ("MT_012005D6_031-000_00B42D4F.csv", "MT_012005D6_031-000_00B42D4F.csv and "
+     "MT_012005D6_031-000_00B42D4F.txt are both"),
+])
+def test_two_files_of_one_sensor_are_named(tmp_path, copy, expect):
+    # was "two sensors are called '00B42D4F'; rename one", naming no file
+    folder = vw.xsens(short(), tmp_path / "x")
+    text = (folder / "MT_012005D6_031-000_00B42D4F.txt").read_text()
+    (folder / copy).write_text(text.replace("\t", ",") if copy.endswith(".csv") else text)
+    run = run_cli("info", folder)
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr.splitlines() == [
+        f"imucal: error: {folder}: {expect} read as sensor '00B42D4F'; a recording is one "
+        "file per sensor: move the other take (or copy) out of the folder"]
+
+
+def test_two_ximu3_devices_of_one_name_name_their_folders(tmp_path):
+    # every x-IMU3 device file is called Inertial.csv: the folders tell them apart
+    folder = vw.ximu3(short(), tmp_path / "s")
+    (folder / "Foot 65577B4B (USB)").rename(folder / "Shank 65577B4C (USB)")
+    with pytest.raises(InputError) as err:
+        load_recording(folder)
+    assert str(err.value) == (
+        f"{folder}: Shank 65577B4A (USB)/Inertial.csv and Shank 65577B4C (USB)/Inertial.csv "
+        "are both read as sensor 'Shank', devices 65577B4A, 65577B4C; give each device its "
+        "own name (its file or folder name, or the name set on it)")

@@ -196,3 +196,60 @@ def test_resolve_jobs():
     assert study_module.resolve_jobs(0, 1000) >= 1
     with pytest.raises(study_module.InputError):
         study_module.resolve_jobs(-1, 3)
+
+
+def _preloading(pid: int) -> bool:
+    """Whether a child of ``pid`` is a fork server that has loaded numpy, the first of
+    the workers' modules it preloads (scipy and imucal take most of a second more);
+    Linux /proc."""
+    for entry in Path("/proc").iterdir():
+        try:
+            # the name may hold spaces and parentheses: the fields after its ')' count
+            fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            if not entry.name.isdigit() or int(fields[1]) != pid:
+                continue
+            if b"multiprocessing.forkserver" not in (entry / "cmdline").read_bytes():
+                continue
+            return "numpy" in (entry / "maps").read_text()
+        except (OSError, IndexError, ValueError):
+            continue  # not a process, or it ended meanwhile
+    return False
+
+
+@pytest.mark.parametrize("when", ["fork server starting", "workers running"])
+def test_ctrl_c_in_a_study_exits_130_without_a_traceback(tmp_path, when):
+    # Ctrl-C in the first second of `imucal axis a b c --jobs 2` printed the fork
+    # server's KeyboardInterrupt traceback (it was importing numpy and scipy for the
+    # workers), or the workers'. The terminal signals the whole process group, so does
+    # this test; it waits for a moment it can see instead of guessing a delay: the fork
+    # server in the middle of its preloading, or the first recording's line written.
+    import signal
+    import time
+
+    sample = str(Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5")
+    out = tmp_path / "knees.jsonl"
+    # many recordings: still running, whatever the load, when the signal comes
+    proc = subprocess.Popen(
+        [sys.executable, "-c", "from imucal.cli import main; main()", "axis",
+         *[sample] * 64, "--jobs", "2", "-q"] + (["--out", str(out)] if when !=
+                                                  "workers running" else []),
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        if when == "workers running":
+            first = proc.stdout.readline()
+            assert json.loads(first)["exit_code"] == 0
+        else:
+            deadline = time.monotonic() + 60
+            while not _preloading(proc.pid):
+                assert proc.poll() is None and time.monotonic() < deadline, \
+                    "no fork server seen preloading"
+                time.sleep(0.005)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130, err
+    assert b"Traceback" not in err, err.decode()
+    assert err in (b"", b"imucal: interrupted\n")
+    assert not out.exists()  # --out: complete or not at all
