@@ -373,9 +373,16 @@ def _widen(result, part: dict, unit: str, limit: float) -> None:
     components["time_offset"] = {k: float(v) for k, v in part.items()}
     total = uncertainty_totals(components)
     setattr(result, f"uncertainty_{unit}", total)
-    if (max(total.values()) > limit
-            and not any(w.startswith(UNCERTAIN_PREFIX) for w in result.warnings)):
-        result.warnings.append(uncertainty_warning(total, components, unit))
+    if max(total.values()) <= limit:
+        return
+    # the fit's own warning, if any, gave the total without this part: its numbers and
+    # its main cause would contradict the reported 1-sigma
+    fresh = uncertainty_warning(total, components, unit)
+    stale = [i for i, w in enumerate(result.warnings) if w.startswith(UNCERTAIN_PREFIX)]
+    if stale:
+        result.warnings[stale[0]] = fresh
+    else:
+        result.warnings.append(fresh)
 
 
 def offset_report(found: Offset, rate: float) -> dict:

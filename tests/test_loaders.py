@@ -511,6 +511,21 @@ def test_csv_cut_in_its_last_row_is_one_line_exit_2(tmp_path, keep, what):
     assert not out.exists() and not (tmp_path / "c.h5").exists()
 
 
+@pytest.mark.parametrize("end", ["\n", ""])
+def test_csv_with_a_trailing_comma_on_every_row_is_read(tmp_path, end):
+    # an export that ends every line with a comma, header too: read before the cut-row
+    # check, then refused as "row 6 ends with a comma ... ends in the middle of its last row"
+    lines = csv_text(good_rows()).splitlines()
+    path = tmp_path / "trailing.csv"
+    path.write_text("\n".join(line + "," for line in lines) + end)
+    rec = load_recording(path)
+    assert rec.n_samples == 5 and rec.rate == pytest.approx(RATE)
+    np.testing.assert_array_equal(rec.sensors["t"].gyr[-1], [1, 2, 3])
+    # one cut short (a field less than its header) is still a cut file
+    path.write_text("\n".join(line + "," for line in lines)[:-2])
+    expect_error(path, "row 6 has 7 of the header's 8 fields: the file ends in the middle")
+
+
 def test_csv_nan_text_is_read_as_a_non_finite_number(tmp_path):
     rows = good_rows(100)
     rows[40][4] = "nan"  # one sample of a 100 Hz recording: a short gap, interpolated

@@ -17,6 +17,7 @@ from imucal.errors import InputError
 from imucal.simulate import simulate
 from imucal.time_offset import (
     OFFSET_MODEL_CAP,
+    UNCERTAIN_PREFIX,
     Offset,
     check_time_offset,
     delayed,
@@ -340,3 +341,21 @@ def test_a_search_shorter_than_one_sample_is_refused_not_widened(estimator):
     with pytest.raises(InputError, match="shorter than one sample at 100 Hz"):
         call(offset_search=0.5 / rec.rate)
     assert call(offset_search=1 / rec.rate).time_offset["search_s"] == 0.01
+
+
+def test_the_uncertain_warning_gives_the_total_with_the_offsets_part():
+    # legacy walking, shank 150 ms late: 66 ms is applied (the periodic gait's next
+    # minimum) and the axis is 33 deg off; its 1-sigma rose from 3.8 to 11.9 deg with the
+    # move from offset 0, but the warning kept the fit's own "1-sigma 3.8 deg for j1,
+    # mostly because the residuals are systematic", contradicting the reported total
+    rec, _ = simulate(seed=4, motion="walking", rate=100.0, duration=20.0,
+                      clock_offset={"shank": 0.15})
+    thigh, shank = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(thigh.gyr, shank.gyr, rate=100.0, acc1=thigh.acc, acc2=shank.acc,
+                      seed=1, restarts=10)
+    assert r.time_offset["applied"]
+    assert r.uncertainty_deg["j1"] == pytest.approx(11.88, abs=0.05)
+    uncertain = [w for w in r.warnings if w.startswith(UNCERTAIN_PREFIX)]
+    assert len(uncertain) == 1
+    assert uncertain[0].startswith(f"{UNCERTAIN_PREFIX}: 1-sigma 11.9 deg for j1, mostly "
+                                   "because it moves with the clock offset")
