@@ -796,5 +796,6 @@ def _drift_notes(time: np.ndarray, rate: float) -> list[str]:
         return []
     return [f"the 'time' steps drift: their median gives {rate:.6g} Hz, their span "
             f"({span:g} s for {n} samples) {span_rate:.6g} Hz, {abs(span_rate - rate) / rate:.2%}"
-            f" apart; the estimators use {rate:.6g} Hz, so resample the recording to a "
-            "constant rate"]
+            f" apart; the estimators use {rate:.6g} Hz. If the samples are evenly spaced "
+            "and only their stamps rounded (a 64 Hz sensor stamped in whole ms), pass the "
+            "true rate with --rate; otherwise resample the recording to a constant rate"]

@@ -1159,8 +1159,10 @@ def test_a_drifting_time_column_says_both_rates(tmp_path):
     assert rec.rate == pytest.approx(100.0)
     assert rec.rate_from == "the median step of 'time'"
     assert ("the 'time' steps drift: their median gives 100 Hz, their span (10.3092 s for "
-            "1000 samples) 96.9037 Hz, 3.10% apart; the estimators use 100 Hz, so resample "
-            "the recording to a constant rate") in rec.warnings
+            "1000 samples) 96.9037 Hz, 3.10% apart; the estimators use 100 Hz. If the "
+            "samples are evenly spaced and only their stamps rounded (a 64 Hz sensor "
+            "stamped in whole ms), pass the true rate with --rate; otherwise resample the "
+            "recording to a constant rate") in rec.warnings
     # it concerns every estimate on the file, whichever sensors
     assert any("steps drift" in w for w in rec.select(["thigh", "shank"]).warnings)
     steady = make_recording(sensors, time=np.arange(n) * 0.01, source="steady.csv")
