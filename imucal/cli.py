@@ -593,20 +593,22 @@ def info(
             sys.stdout.write(json.dumps(doc, indent=2) + "\n")
             return
         # "rate" alone would read as the sample rate: the gyro columns say what they are
+        w = max([16] + [len(n) + 2 for n in doc["sensors"]])  # long names keep the columns
         lines = [
             f"{doc['path']}: {doc['samples']} samples at {doc['sample_rate_hz']:g} Hz "
             f"({doc['duration_s']:.1f} s, t = {doc['time_s'][0]:g} to {doc['time_s'][1]:g} s)",
             f"sample rate from {doc['sample_rate_from']}",
-            f"{'sensor':<16}{'file units':<18}{'gyro rms deg/s':>16}{'gyro peak deg/s':>17}"
+            f"{'sensor':<{w}}{'file units':<18}{'gyro rms deg/s':>16}{'gyro peak deg/s':>17}"
             f"{'|acc|-g rms m/s^2':>19}  motion",
         ]
         for name, s in doc["sensors"].items():
             units = f"{s['units']['gyr']}, {s['units']['acc']}"
             if s["gyr_rms_deg_s"] is None:
-                lines.append(f"{name:<16}{units:<18}{'-':>16}{'-':>17}{'-':>19}  {s['motion']}")
+                lines.append(f"{name:<{w}}{units:<18}{'-':>16}{'-':>17}{'-':>19}  "
+                             f"{s['motion']}")
                 continue
             lines.append(
-                f"{name:<16}{units:<18}{s['gyr_rms_deg_s']:>16.1f}{s['gyr_peak_deg_s']:>17.1f}"
+                f"{name:<{w}}{units:<18}{s['gyr_rms_deg_s']:>16.1f}{s['gyr_peak_deg_s']:>17.1f}"
                 f"{s['acc_dynamic_rms_m_s2']:>19.2f}  {s['motion']}"
             )
         from .provenance import sensor_table

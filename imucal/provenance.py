@@ -41,13 +41,14 @@ def sensor_table(recording: Recording) -> list[str]:
     if not info:
         return []
     fmt = recording.provenance.get("source_format", "")
+    w = max([18] + [len(n) + 2 for n in info])  # long names keep the columns in line
     lines = [f"format: {fmt}",
-             f"{'sensor':<18}{'serial':<20}{'own rate Hz':>12}{'start s':>10}{'length s':>10}"
+             f"{'sensor':<{w}}{'serial':<20}{'own rate Hz':>12}{'start s':>10}{'length s':>10}"
              f"{'samples':>9}  {'units read':<16}{'dropped':>8}"]
     for name, i in info.items():
         units = f"{i['units_read']['gyr']}, {i['units_read']['acc']}"
         lines.append(
-            f"{name:<18}{str(i.get('serial') or '-'):<20}{i['rate_hz']:>12.4f}"
+            f"{name:<{w}}{str(i.get('serial') or '-'):<20}{i['rate_hz']:>12.4f}"
             f"{i['start_s']:>10.3f}{i['duration_s']:>10.2f}{i['samples']:>9}  {units:<16}"
             f"{i['dropped']:>8}"
         )

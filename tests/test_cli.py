@@ -252,3 +252,15 @@ def test_info_says_where_the_rate_came_from_and_the_columns_units(tmp_path):
     assert json.loads(run.stdout)["sample_rate_from"] == "--rate"
     h5 = imucal("info", ROOT / "sample_data" / "circling.h5").stdout.decode().splitlines()
     assert h5[1] == "sample rate from the 'sample_rate' attribute, checked against 'time'"
+
+
+def test_info_keeps_its_columns_in_line_for_long_sensor_names(tmp_path):
+    # names longer than the name column (an Xsens file copied with its serial) pushed the
+    # rest of their row to the right of the header
+    text = (ROOT / "sample_data" / "circling_40hz.csv").read_text()
+    long = tmp_path / "long.csv"
+    long.write_text(text.replace("thigh_", "thigh_sensor_00B42D4F_copy_"))
+    lines = imucal("info", long).stdout.decode().splitlines()
+    header, rows = lines[2], lines[3:6]
+    units_at = header.index("file units")
+    assert [r.index("rad/s") for r in rows] == [units_at] * 3, lines
