@@ -477,7 +477,7 @@ def _check_short_rows(text: str, n_header: int, source: str) -> None:
     short = fields < n_header
     # cut right after a comma: all fields there, the last one empty
     # (unless every row ends so: a header with a trailing comma)
-    trailing = text[:ends[0] if ends.size else buf.size].rstrip("\r").endswith(",")
+    trailing = buf[:ends[0] if ends.size else buf.size].tobytes().rstrip(b"\r").endswith(b",")
     short[-1] |= (fields.size > 1 and fields[-1] == n_header and text.endswith(",")
                   and not trailing)
     if not short.any():
