@@ -1,5 +1,21 @@
-"""``python -m imucal`` runs the command line."""
+"""The ``imucal`` command and ``python -m imucal``: the command line, Ctrl-C included."""
 
-from .cli import main
+from .signals import raise_on_signals, report
 
-main()
+
+def run() -> None:
+    """Console-script entry point: :func:`imucal.cli.main`, after loading it.
+
+    Loading the command line (typer, click) takes the first 0.1-0.2 s; a Ctrl-C or
+    SIGTERM then ends with the same line and status as later, not Python's traceback.
+    """
+    raise_on_signals()
+    try:
+        from .cli import main
+    except KeyboardInterrupt as err:
+        raise SystemExit(report(err)) from None
+    main()
+
+
+if __name__ == "__main__":
+    run()

@@ -22,6 +22,9 @@ import typer
 from . import __version__
 from .atomic import check_not_inputs, check_writable, write_atomic, write_text_atomic
 from .errors import ImucalError, InputError, NotIdentifiableError
+from .signals import raise_on_signals
+from .signals import report as report_interruption
+from .signals import unreported as unreported_interruption
 
 
 def _examples(*lines: str) -> str:
@@ -792,9 +795,8 @@ class _errors:
             raise typer.Exit(141)
         if self.debug:
             return False
-        if isinstance(err, KeyboardInterrupt):
-            _err("imucal: interrupted")
-            raise typer.Exit(130)
+        if isinstance(err, KeyboardInterrupt):  # Ctrl-C, SIGTERM, SIGHUP: imucal.signals
+            raise typer.Exit(report_interruption(err))
         if isinstance(err, ImucalError):
             _err(f"imucal: error: {err}")
             raise typer.Exit(err.exit_code)
@@ -940,11 +942,13 @@ def main() -> None:
     # parallel work is done across recordings (--jobs). A setting in the environment wins.
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")
+    raise_on_signals()
     try:
         code = app(standalone_mode=False)
-    except typer.Abort:
-        _err("imucal: interrupted")
-        code = 130
+    except typer.Abort:  # end of input at a prompt
+        code = report_interruption(KeyboardInterrupt())
+    except KeyboardInterrupt as err:  # while typer builds the command, before it parses
+        code = report_interruption(err)
     except Exception as err:
         # Usage errors (unknown option, unparsable value, missing argument) come from the
         # click layer typer builds on; they carry exit_code 2 and format_message().
@@ -957,4 +961,7 @@ def main() -> None:
             command = ctx.command_path if ctx is not None else "imucal"
             _err(f"imucal: error: {err.format_message()} (see '{command} --help')")
         code = 2
+    interruption = unreported_interruption()  # one that came while typer parsed
+    if interruption is not None:
+        code = report_interruption(interruption)
     sys.exit(code if isinstance(code, int) else 0)

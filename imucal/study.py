@@ -36,6 +36,7 @@ from pathlib import Path
 from .atomic import check_not_inputs, check_writable, write_atomic
 from .errors import InputError
 from .runner import INTERNAL_ERROR, Job, run
+from .signals import ENDING, restore_defaults
 
 __all__ = ["Entry", "run_study", "process_recordings", "resolve_jobs", "entry"]
 
@@ -270,12 +271,13 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
     workers = jobs
     while pending:
         before = {p.pid for p in multiprocessing.active_children()}
+        _start_resource_tracker(context)
         executor = ProcessPoolExecutor(max_workers=min(workers, len(pending)),
-                                       mp_context=context)
+                                       mp_context=context, initializer=restore_defaults)
         broken = False
         futures = []
         try:
-            with _children_ignore_sigint(context):
+            with _children_hold_signals():
                 try:
                     for task in pending:
                         futures.append(executor.submit(_pool_work, task))
@@ -293,8 +295,10 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
                 order.report()
                 yield from order.release()
         except KeyboardInterrupt:
-            # Ctrl-C: a worker that started after it (held, _children_ignore_sigint) has
-            # not seen it, and the shutdown below would wait for its recording; SIGINT
+            # Ctrl-C, or SIGTERM / SIGHUP turned into one (imucal.signals): a worker that
+            # started after a Ctrl-C (held, _children_hold_signals) has not seen it, nor
+            # has any worker a signal sent to this process alone, and the shutdown below
+            # would wait for their recordings; SIGINT
             # ends a worker only inside a recording (_pool_work), where that is safe.
             # SIGTERM could cut a result off mid-write and hang the pool.
             for process in multiprocessing.active_children():
@@ -352,30 +356,46 @@ class InOrder:
 
 
 @contextmanager
-def _children_ignore_sigint(context):
-    """SIGINT blocked while the worker processes start: they (and the fork server, whose
-    module preloading takes a second) inherit the block and never see Ctrl-C, which the
-    terminal sends to the whole process group and which would print each child's
-    KeyboardInterrupt traceback; a worker lets it through only while it runs a recording,
-    and then quits (:func:`_pool_work`). A Ctrl-C meanwhile reaches this process when the
-    workers are up (at most the preloading later), which passes it on to them
-    (:func:`_parallel`). Stopping earlier is no cure: the fork server would go on to
-    start the workers asked for, which then fail to attach to this process's gone
-    semaphores, with a traceback.
+def _children_hold_signals():
+    """Ctrl-C (and SIGTERM, SIGHUP) held while the worker processes start: they (and the
+    fork server, whose module preloading takes a second) inherit the block and never see
+    Ctrl-C, which the terminal sends to the whole process group and which would print each
+    child's KeyboardInterrupt traceback; a worker lets it through only while it runs a
+    recording, and then quits (:func:`_pool_work`). A Ctrl-C meanwhile reaches this process
+    when the workers are up (at most the preloading later), which passes it on to them
+    (:func:`_parallel`). Stopping earlier is no cure: the fork server would go on to start
+    the workers asked for, which then fail to attach to this process's gone semaphores, with
+    a traceback.
     """
     if not hasattr(signal, "pthread_sigmask"):  # not POSIX: children start without it
         yield
         return
-    if context.get_start_method() != "fork":
-        # Starting multiprocessing's resource tracker (the fork server and spawn do)
-        # unblocks SIGINT here afterwards (Python 3.11-3.13): started first, it leaves
-        # the block below alone.
-        from multiprocessing import resource_tracker
-
-        resource_tracker.ensure_running()
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    # SIGTERM and SIGHUP to this command (imucal.signals) are held too: acted on before
+    # the workers are up, they would strand the fork server in the same way.
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING))
     try:
         yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _start_resource_tracker(context) -> None:
+    """Start multiprocessing's resource tracker (the fork server and spawn need one) with
+    the ending signals held, before the pool's queues would start it without.
+
+    It ignores Ctrl-C and SIGTERM but not a hang-up, which reaches the whole process
+    group: killed by it, it is started again, told of semaphores it never saw, and
+    prints a KeyError traceback for each. Holding SIGHUP at its start keeps it blocked
+    there for good. Starting it unblocks SIGINT and SIGTERM in this process afterwards
+    (Python 3.11-3.13), so it must come before :func:`_children_hold_signals`.
+    """
+    if context.get_start_method() == "fork" or not hasattr(signal, "pthread_sigmask"):
+        return
+    from multiprocessing import resource_tracker
+
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING))
+    try:
+        resource_tracker.ensure_running()
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
@@ -415,7 +435,7 @@ def _limit_threads() -> None:
 
 def _pool_work(task: tuple[int, Job, str]) -> Entry:
     """:func:`work` in a pool worker, which starts with SIGINT blocked
-    (:func:`_children_ignore_sigint`). Ctrl-C is let through only while a recording
+    (:func:`_children_hold_signals`). Ctrl-C is let through only while a recording
     runs, and then ends the worker at once, without a word: a KeyboardInterrupt could
     surface in a finaliser ("Exception ignored ..."), and between recordings, in the
     pool's own code, as a traceback or a result cut off mid-write that hangs the pool."""

@@ -4,6 +4,7 @@ real interpreter, see :func:`conftest.run_imucal`)."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -264,3 +265,52 @@ def test_info_keeps_its_columns_in_line_for_long_sensor_names(tmp_path):
     header, rows = lines[2], lines[3:6]
     units_at = header.index("file units")
     assert [r.index("rad/s") for r in rows] == [units_at] * 3, lines
+
+
+def test_sigterm_ends_a_command_with_its_status_and_no_half_written_file(tmp_path):
+    # SIGTERM (what `kill` and job schedulers send) ended imucal on the spot, leaving the
+    # output's temporary copy beside the target; now it cleans up as Ctrl-C does.
+    import signal
+    import time
+
+    out = tmp_path / "long.csv"  # CSV: seconds of writing to hit
+    proc = subprocess.Popen([sys.executable, "-m", "imucal", "simulate", str(out),
+                             "--duration", "3000", "--seed", "1"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 60
+        while not list(tmp_path.iterdir()):  # the temporary file is being written
+            assert proc.poll() is None and time.monotonic() < deadline, "no file started"
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert (proc.returncode, err) == (143, b"imucal: terminated (SIGTERM)\n"), err.decode()
+    # no temporary copy left (a signal handled just after the rename leaves the
+    # recording complete, without its truth file)
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_the_first_ending_signal_raises_and_later_ones_are_ignored():
+    import signal
+    import time
+
+    from imucal import signals
+
+    saved = {s: signal.getsignal(s) for s in signals.ENDING}
+    try:
+        signals.raise_on_signals()
+        with pytest.raises(signals.Terminated) as caught:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.1)  # the handler runs between bytecodes
+        assert (caught.value.exit_code, str(caught.value)) == (143, "SIGTERM")
+        assert signals.unreported() is caught.value
+        os.kill(os.getpid(), signal.SIGINT)  # during the clean-up: no KeyboardInterrupt
+        time.sleep(0.1)
+        assert signals.report(caught.value) == 143
+        assert signals.unreported() is None
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler)

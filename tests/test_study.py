@@ -253,3 +253,68 @@ def test_ctrl_c_in_a_study_exits_130_without_a_traceback(tmp_path, when):
     assert b"Traceback" not in err, err.decode()
     assert err in (b"", b"imucal: interrupted\n")
     assert not out.exists()  # --out: complete or not at all
+
+
+def _in_session(sid: int) -> list[int]:
+    """Processes of session ``sid`` still alive (not zombies); Linux /proc."""
+    alive = []
+    for entry in Path("/proc").iterdir():
+        try:
+            fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            if entry.name.isdigit() and int(fields[3]) == sid and fields[0] != "Z":
+                alive.append(int(entry.name))
+        except (OSError, IndexError, ValueError):
+            continue
+    return alive
+
+
+def _children(pid: int) -> int:
+    try:
+        return len((Path("/proc") / str(pid) / "task" / str(pid) / "children")
+                   .read_text().split())
+    except OSError:
+        return 0
+
+
+@pytest.mark.parametrize("signals", [("TERM",), ("INT", "INT")])
+def test_a_study_ended_by_a_signal_stops_its_workers_and_leaves_no_file(tmp_path, signals):
+    # SIGTERM to the command alone ended it on the spot: its --out's temporary file
+    # stayed beside the target, and the workers went on with their recordings. A second
+    # Ctrl-C during the clean-up could end it with Python's default status (-2).
+    import signal
+    import time
+
+    sample = str(Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5")
+    out = tmp_path / "knees.jsonl"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "imucal", "axis", *[sample] * 64, "--jobs", "2", "-q",
+         "--out", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        # the temporary file exists and the workers run (the fork server's, or forked)
+        while not (list(tmp_path.iterdir()) and _children(proc.pid) >= 1
+                   and len(_in_session(proc.pid)) >= 3):
+            assert proc.poll() is None and time.monotonic() < deadline, "no workers seen"
+            time.sleep(0.01)
+        time.sleep(0.3)
+        for name in signals:
+            if name == "TERM":
+                os.kill(proc.pid, signal.SIGTERM)  # the command alone, as `kill` does
+            else:
+                os.killpg(proc.pid, signal.SIGINT)
+            time.sleep(0.05)
+        _, err = proc.communicate(timeout=60)
+        deadline = time.monotonic() + 10
+        while _in_session(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        left = _in_session(proc.pid)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL) if proc.poll() is None else None
+        for pid in _in_session(proc.pid):
+            os.kill(pid, signal.SIGKILL)
+    expected = (143, b"imucal: terminated (SIGTERM)\n") if signals == ("TERM",) else \
+        (130, b"imucal: interrupted\n")
+    assert (proc.returncode, err) == expected, err.decode()
+    assert left == [], "worker processes outlived the command"
+    assert list(tmp_path.iterdir()) == []  # --out: complete or not at all
