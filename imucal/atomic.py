@@ -6,14 +6,12 @@ A failure or Ctrl-C therefore leaves either the old file or none, never half a f
 from __future__ import annotations
 
 import os
-import signal
 import tempfile
 from collections.abc import Callable
-from contextlib import contextmanager
 from pathlib import Path
 
 from .errors import InputError
-from .signals import ENDING
+from .signals import held
 
 
 def check_writable(path: str | Path) -> Path:
@@ -49,7 +47,7 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     try:
-        with _signals_held():  # an interruption here would leave a file nobody removes
+        with held():  # an interruption here would leave a file nobody removes
             fd, name = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.",
                                         suffix=path.suffix)
             os.close(fd)
@@ -68,19 +66,6 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
         if isinstance(err, OSError):
             raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
         raise
-
-
-@contextmanager
-def _signals_held():
-    """Ctrl-C, SIGTERM and SIGHUP held (POSIX), delivered when the block ends."""
-    if not hasattr(signal, "pthread_sigmask"):
-        yield
-        return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING))
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:

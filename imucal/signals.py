@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import signal
 import sys
+from contextlib import contextmanager
 
 #: The signals the command line ends on; SIGHUP does not exist on Windows.
 ENDING = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
@@ -91,6 +92,20 @@ def unreported() -> KeyboardInterrupt | None:
     """The interruption :func:`raise_on_signals` raised, if :func:`report` has not
     written its line yet."""
     return _unreported[0] if _unreported else None
+
+
+@contextmanager
+def held():
+    """Ctrl-C, SIGTERM and SIGHUP held in this thread (POSIX), delivered when the block
+    ends; child processes started meanwhile inherit the block."""
+    if not hasattr(signal, "pthread_sigmask"):  # not POSIX: nothing to hold with
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING))
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def restore_defaults() -> None:

@@ -36,7 +36,7 @@ from pathlib import Path
 from .atomic import check_not_inputs, check_writable, write_atomic
 from .errors import InputError
 from .runner import INTERNAL_ERROR, Job, run
-from .signals import ENDING, restore_defaults
+from .signals import held, restore_defaults
 
 __all__ = ["Entry", "run_study", "process_recordings", "resolve_jobs", "entry"]
 
@@ -367,16 +367,10 @@ def _children_hold_signals():
     the workers asked for, which then fail to attach to this process's gone semaphores, with
     a traceback.
     """
-    if not hasattr(signal, "pthread_sigmask"):  # not POSIX: children start without it
-        yield
-        return
     # SIGTERM and SIGHUP to this command (imucal.signals) are held too: acted on before
     # the workers are up, they would strand the fork server in the same way.
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING))
-    try:
+    with held():
         yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _start_resource_tracker(context) -> None:
@@ -393,11 +387,8 @@ def _start_resource_tracker(context) -> None:
         return
     from multiprocessing import resource_tracker
 
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING))
-    try:
+    with held():
         resource_tracker.ensure_running()
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _context(start_method):
