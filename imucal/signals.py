@@ -85,7 +85,8 @@ def _unraisable(unraisable) -> None:
 
 
 def _raise_again(signum, frame) -> None:
-    raise _unreported[0]
+    if _unreported:  # not yet written up by report(): the command is still running
+        raise _unreported[0]
 
 
 def unreported() -> KeyboardInterrupt | None:
