@@ -113,7 +113,7 @@ def restore_defaults() -> None:
     """Default SIGTERM in a study's worker process, and let it through.
 
     Forked from the command, a worker inherits :func:`_raise`, and the ending signals
-    held while it started (``imucal.study._children_hold_signals``); its pool stops a
+    held while it started (``imucal.study._parallel``); its pool stops a
     broken worker with SIGTERM, which must end it quietly, not raise inside the pool's
     code. Ctrl-C and SIGHUP, which reach the whole process group, stay held: the command
     passes them on as Ctrl-C, which a worker takes only inside a recording

@@ -29,7 +29,6 @@ import signal
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -277,7 +276,14 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
         broken = False
         futures = []
         try:
-            with _children_hold_signals():
+            # Ctrl-C, SIGTERM and SIGHUP held while the workers start: they (and the fork
+            # server, whose preloading takes a second) inherit the block and never print
+            # a KeyboardInterrupt traceback for the terminal's Ctrl-C to the whole group;
+            # a worker lets Ctrl-C through only inside a recording (_pool_work). A signal
+            # meanwhile reaches this process once the workers are up, and is passed on
+            # below. Stopping earlier is no cure: the fork server would go on to start
+            # workers that then fail to attach to this process's gone semaphores.
+            with held():
                 try:
                     for task in pending:
                         futures.append(executor.submit(_pool_work, task))
@@ -296,7 +302,7 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
                 yield from order.release()
         except KeyboardInterrupt:
             # Ctrl-C, or SIGTERM / SIGHUP turned into one (imucal.signals): a worker that
-            # started after a Ctrl-C (held, _children_hold_signals) has not seen it, nor
+            # started after a Ctrl-C (held above) has not seen it, nor
             # has any worker a signal sent to this process alone, and the shutdown below
             # would wait for their recordings; SIGINT
             # ends a worker only inside a recording (_pool_work), where that is safe.
@@ -355,24 +361,6 @@ class InOrder:
             self.next_index += 1
 
 
-@contextmanager
-def _children_hold_signals():
-    """Ctrl-C (and SIGTERM, SIGHUP) held while the worker processes start: they (and the
-    fork server, whose module preloading takes a second) inherit the block and never see
-    Ctrl-C, which the terminal sends to the whole process group and which would print each
-    child's KeyboardInterrupt traceback; a worker lets it through only while it runs a
-    recording, and then quits (:func:`_pool_work`). A Ctrl-C meanwhile reaches this process
-    when the workers are up (at most the preloading later), which passes it on to them
-    (:func:`_parallel`). Stopping earlier is no cure: the fork server would go on to start
-    the workers asked for, which then fail to attach to this process's gone semaphores, with
-    a traceback.
-    """
-    # SIGTERM and SIGHUP to this command (imucal.signals) are held too: acted on before
-    # the workers are up, they would strand the fork server in the same way.
-    with held():
-        yield
-
-
 def _start_resource_tracker(context) -> None:
     """Start multiprocessing's resource tracker (the fork server and spawn need one) with
     the ending signals held, before the pool's queues would start it without.
@@ -381,7 +369,7 @@ def _start_resource_tracker(context) -> None:
     group: killed by it, it is started again, told of semaphores it never saw, and
     prints a KeyError traceback for each. Holding SIGHUP at its start keeps it blocked
     there for good. Starting it unblocks SIGINT and SIGTERM in this process afterwards
-    (Python 3.11-3.13), so it must come before :func:`_children_hold_signals`.
+    (Python 3.11-3.13), so it must come before the pool's start in :func:`_parallel`.
     """
     if context.get_start_method() == "fork" or not hasattr(signal, "pthread_sigmask"):
         return
@@ -426,7 +414,7 @@ def _limit_threads() -> None:
 
 def _pool_work(task: tuple[int, Job, str]) -> Entry:
     """:func:`work` in a pool worker, which starts with SIGINT blocked
-    (:func:`_children_hold_signals`). Ctrl-C is let through only while a recording
+    (:func:`_parallel`). Ctrl-C is let through only while a recording
     runs, and then ends the worker at once, without a word: a KeyboardInterrupt could
     surface in a finaliser ("Exception ignored ..."), and between recordings, in the
     pool's own code, as a traceback or a result cut off mid-write that hangs the pool."""
