@@ -38,12 +38,13 @@ class EstimateResult(Verdict):
         residuals, :func:`imucal.quality.robust_covariance`), "time_blocks"
         (delete-one-block jackknife over contiguous time blocks,
         :func:`imucal.quality.block_masks`), "cutoff_shift" (the largest shift of the
-        cut-off refits), "model" (the axis' bias bound from the smooth part of the
-        residual, :func:`imucal.quality.smooth_residual_rms`, over the Jacobian's smallest
-        singular value; 0 for a position)
-        and, with the automatic clock offset only, "time_offset" (the estimate's move
-        per unit of offset times the offset's 1-sigma,
-        :func:`imucal.time_offset.fit_with_offset`).
+        cut-off refits), "model" (systematic model errors: for the axis a bias bound
+        from the smooth part of the residual, :func:`imucal.quality.smooth_residual_rms`,
+        over the Jacobian's smallest singular value; for a position 3 x the move of a
+        refit weighing the samples by (|r1| + |r2|)^2, ``position.MODEL_MOVE_FACTOR``),
+        for the axis "gyr_bias" (the widening by a removed gyroscope bias) and, with
+        the automatic clock offset only, "time_offset" (the estimate's move per unit of
+        offset times the offset's 1-sigma, :func:`imucal.time_offset.fit_with_offset`).
     excitation : how much the joint moved over the samples used (per estimator).
     sensitivity : cut-offs of the two refits from the estimate, "cutoffs_hz", and how far
         each vector moved (":math:`v`\\_shift_deg" or "..._shift_mm", and the maximum).

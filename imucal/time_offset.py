@@ -300,7 +300,7 @@ def profile_samples(sample_index: np.ndarray, n: int, rate: float,
 
 
 def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
-                    limit: float, state):
+                    limit: float, state=None):
     """The "auto" clock offset around any estimator.
 
     ``fit(seconds)`` runs the estimator with the second sensor read at
@@ -320,12 +320,12 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
 
     An applied offset is also a choice: a model error (soft tissue moving the sensor on
     its segment in step with the stride) lowers the cost of a shift as a late clock does,
-    by as much, and the two cannot be told apart from the residual. Where the fit has a
-    model-error term (the axis' ``model`` component), the estimate's move from the fit at
-    offset 0 (``state(result)`` (6,) of each), capped at ``OFFSET_MODEL_CAP`` times that
-    term, joins the ``time_offset`` entry in quadrature and is reported as
-    ``time_offset.moved_from_zero``; on clean data the term is a fraction of a degree, so
-    a real offset's estimate keeps its verdict.
+    by as much, and the two cannot be told apart from the residual. Where ``state`` is
+    given (the axis) and the fit has a model-error term (its ``model`` component), the
+    estimate's move from the fit at offset 0 (``state(result)`` (6,) of each), capped at
+    ``OFFSET_MODEL_CAP`` times that term, joins the ``time_offset`` entry in quadrature
+    and is reported as ``time_offset.moved_from_zero``; on clean data the term is a
+    fraction of a degree, so a real offset's estimate keeps its verdict.
     """
     check_search(search, rate)
     first = fit(0.0)
@@ -348,7 +348,7 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     sigma = found.sigma_s if applied and np.isfinite(found.sigma_s) else 0.0
     part = {k: v * sigma for k, v in per_s.items()}
     model = result.uncertainty_components.get("model")
-    if applied and model is not None:
+    if applied and model is not None and state is not None:
         shift = moved(result, state(first), state(result))
         result.time_offset["moved_from_zero"] = shift
         part = {k: float(np.hypot(v, min(shift[k], OFFSET_MODEL_CAP * model[k])))

@@ -283,6 +283,37 @@ def test_soft_tissue_axis_error_is_covered_or_not_called_good(motion, seed, deg,
     assert r.uncertainty_components["model"]["j1"] > 0.5
 
 
+@pytest.mark.parametrize(("seed", "deg", "mm"), [(15, 1.0, 2.0), (19, 2.0, 3.0), (6, 0.5, 1.0)])
+def test_soft_tissue_joint_centre_error_is_covered_or_not_called_good(seed, deg, mm):
+    # circling ankles with soft tissue were "good" at 4.7, 3.9 and 3.0 sigma (o1 off by
+    # 9.4, 27.7 and 3.9 mm): every time block shares the error, and the joint centre had
+    # no model term
+    rec, truth = simulate(seed=seed, motion="circling", rate=100.0, duration=20.0,
+                          gyr_noise=0.01, acc_noise=0.05, soft_tissue_deg=deg,
+                          soft_tissue_mm=mm)
+    a, b = rec.sensor("shank"), rec.sensor("foot")
+    r = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=100.0, seed=1, time_offset=0.0)
+    error = {k: 1000 * np.linalg.norm(getattr(r, k) - truth["ankle"][k]) for k in ("o1", "o2")}
+    ratio = max(error[k] / r.uncertainty_mm[k] for k in error)
+    assert ratio < 3.0 or r.verdict != "good", (error, r.uncertainty_mm, r.verdict)
+    assert r.uncertainty_components["model"]["o1"] > 0.5 * error["o1"] / 3
+
+
+def test_clean_joint_centre_gets_a_small_model_term_and_keeps_its_verdict():
+    rec, _ = simulated(seed=3)
+    a, b = rec.sensor("shank"), rec.sensor("foot")
+    r = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=rec.rate, seed=1, time_offset=0.0)
+    model = r.uncertainty_components["model"]
+    assert r.verdict == "good"
+    assert 0.0 < max(model.values()) < 1.5  # mm; the curvature's 1-sigma is about 0.5-1
+    # the term enters the reported 1-sigma in quadrature
+    c = r.uncertainty_components
+    for k in ("o1", "o2"):
+        expected = np.sqrt(max(c["curvature"][k], c["time_blocks"][k])**2
+                           + c["cutoff_shift"][k]**2 + model[k]**2)
+        assert r.uncertainty_mm[k] == pytest.approx(expected)
+
+
 @pytest.mark.filterwarnings("error::RuntimeWarning")
 @pytest.mark.parametrize("rate", [20.0, 35.0, 36.0, 40.0, 100.0, 1000.0])
 def test_smooth_residual_at_any_rate_is_finite(rate):

@@ -205,10 +205,12 @@ def test_the_ankle_at_40_hz_finds_the_offset_and_carries_its_uncertainty():
         assert 2.0 < off["sensitivity_per_ms"][k] < 20.0  # mm per ms: 4.2 and 3.0 here
         assert part[k] == pytest.approx(off["sensitivity_per_ms"][k] * 1000 * off["sigma_s"])
         others = {c: v[k] for c, v in r.uncertainty_components.items() if c != "time_offset"}
-        without = np.hypot(max(others["curvature"], others["time_blocks"]),
-                           others["cutoff_shift"])
+        without = np.linalg.norm([max(others["curvature"], others["time_blocks"]),
+                                  others["cutoff_shift"], others["model"]])
         assert r.uncertainty_mm[k] == pytest.approx(np.hypot(without, part[k]))
         assert error[k] < 3 * r.uncertainty_mm[k]
+    # unlike the axis, no move from offset 0 (hundreds of mm per 20 ms) joins it
+    assert "moved_from_zero" not in off
 
 
 def test_only_an_applied_offset_adds_to_the_uncertainty():

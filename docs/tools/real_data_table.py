@@ -204,7 +204,8 @@ def position_rows(rec):
                     f"{np.round(1000 * p.o2).astype(int).tolist()} | "
                     f"{p.relative_residual:.2f} | {pair(p.uncertainty_mm, '.0f')} | "
                     f"{pair(c['curvature'], '.0f')} | {pair(c['time_blocks'], '.0f')} | "
-                    f"{pair(c['cutoff_shift'], '.0f')} | {pair(p.spread_mm, '.0f')} | "
+                    f"{pair(c['cutoff_shift'], '.0f')} | {pair(c['model'], '.0f')} | "
+                    f"{pair(p.spread_mm, '.0f')} | "
                     f"{minima} | {p.verdict} | {short(p.blocking + p.warnings)} |"
                 )
     return rows
@@ -341,7 +342,8 @@ Knee: `--joint hinge` (the point of the axis closest to both sensors; the axis i
 estimated from the same window, and its warnings are prefixed "axis:"); ankle and hip:
 spheroidal. o1, o2 in mm (from the joint centre to each sensor, own frame); sigma, its
 components, and spread in mm (the low-pass cut-off comes from the recording's spectrum,
-`settings.cutoff_hz`; cut-off shift: refits at 0.75 and 1.5 x that cut-off). Equal
+`settings.cutoff_hz`; cut-off shift: refits at 0.75 and 1.5 x that cut-off; model:
+3 x the move of a refit that weighs the samples by (|r1| + |r2|)^2). Equal
 minima: restarts that ended elsewhere at an RMS residual within 1.05 x the best, and the
 farthest one's distance. qmt has no joint-position estimator to compare with.
 
@@ -349,8 +351,8 @@ farthest one's distance. qmt has no joint-position estimator to compare with.
 POS_HEAD = [
     "| joint (model) | sensors | window s | o1 mm | o2 mm | relative residual | "
     "sigma o1 / o2 | curvature o1 / o2 | time blocks o1 / o2 | cut-off shift o1 / o2 | "
-    "spread o1 / o2 | equal minima | verdict | warnings |",
-    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    "model o1 / o2 | spread o1 / o2 | equal minima | verdict | warnings |",
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
 ]
 OFFSET_TEXT = """
 ## Clock offsets between the sensors
@@ -425,11 +427,14 @@ FOOTER = """
   (4.8-10.5 deg) are smaller. The warnings name the largest part ("uncertain (model)"
   left, "uncertain (cut-off)" right). The ankles fitted as a hinge get 24.8-40.6 deg of
   model term: they excite their weakest direction less than the knees do. For the joint
-  centres the cut-off shift (refits at 0.75 and 1.5 x the
-  cut-off) is the largest part almost everywhere: 12-96 mm, against 2-22 mm of curvature
-  and 2-30 mm of time blocks; the answered centres have a 1-sigma of 25-99 mm, smaller
-  than before the joint-centre filter changed (37-119 mm), and every one warns that it is
-  uncertain. The split-half table shows these sigmas are what the data support.
+  centres the two largest parts are the cut-off shift (refits at 0.75 and 1.5 x the
+  cut-off; 12-96 mm) and the model term (1-155 mm; the largest part of five of the
+  twelve, the left hip in 55-100 s at its poor fit most of all), against 2-22 mm of
+  curvature and 2-30 mm of time blocks. The answered centres have a 1-sigma of 26-184 mm
+  (25-99 mm before the joint centre's model term) and every one warns that it is
+  uncertain. The split halves agree well within these sigmas; a model error that both
+  halves share (soft tissue, a joint that is no ball) cannot show there, and that is
+  what the model term is for.
 - **Ankles fitted as a hinge.** They leave 0.26-0.38 of the signal, below the real knees,
   and their restarts agree (this ankle moves mostly in one plane), so imucal does not
   refuse them. The left ankle in 55-100 s, which came out `good` (1-sigma 3.6 / 4.9 deg)
@@ -441,14 +446,14 @@ FOOTER = """
   low-pass at a cut-off from the spectrum instead of a second-order one at 10 Hz, and an
   8th-order difference for `gdot`; [method.md](method.md#the-joint-centre-filter)): the
   knees and ankles by 15-35 mm, within their sigmas. The knee
-  centres (`--joint hinge`, 0-55 s) lie 80-92 mm from each sensor, with 1-sigma 47-52
+  centres (`--joint hinge`, 0-55 s) lie 80-92 mm from each sensor, with 1-sigma 66-68
   mm; in 55-100 s they inherit the axis' refusal. The ankle centres lie 147-180 mm from
-  the shank sensor and 95-109 mm from the foot sensor in both windows, with 1-sigma 29-78
+  the shank sensor and 95-109 mm from the foot sensor in both windows, with 1-sigma 31-92
   mm. The hip (pelvis - thigh) fits the spheroidal model with a relative residual of
   0.09-0.25 (the left hip in 55-100 s at the 0.25 where imucal warns of a poor fit);
   in 55-100 s the right hip has a second centre 241 mm away within 1.05 x the best RMS
   residual, reached by 61 restarts: refused. The left hip in 55-100 s shows no such
-  second minimum with this seed and is answered with a 1-sigma of 99 mm.
+  second minimum with this seed and is answered with a 1-sigma of 184 mm.
 - **Clock offsets.** No fit applied one: every cost ratio is 1.00-1.51, below the 1.6 at
   which imucal aligns the sensors. What the profiles prefer is not a clock. The left knee
   axis' residual keeps falling to the end of the +-0.2 s search (+200 ms, at a cost
@@ -466,16 +471,17 @@ FOOTER = """
   -19 to +8 ms at 1.00-1.19 (the right ankle fitted as a hinge in 55-100 s: -113 ms at
   1.46). On simulated data a real 20 ms offset gives cost ratios of 1.5-3 (circling at
   40 Hz) to 90 and is found within 0.2 ms at 40-200 Hz ([accuracy.md](accuracy.md)).
-- **Split halves.** Wherever neither half is refused, the halves agree within 2.1
+- **Split halves.** Wherever neither half is refused, the halves agree within 1.4
   combined sigma (worst: the left hip, 0-50 / 50-100 s, whose o1 moves 276 mm between the
-  halves against a combined sigma of 129 mm). Before issue 10, with the curvature alone,
+  halves against a combined sigma of 200 mm; 2.1 and 129 mm before the joint centre's
+  model term). Before issue 10, with the curvature alone,
   the same splits disagreed by up to 15.3 combined sigma (left knee), 13.4 (right
   knee), 14.5 and 13.6 (left and right hip):
   [quality.md](quality.md#how-the-uncertainty-is-computed-and-why). The knee axis has
   only one split with both halves answered (right knee, 0-55 s: 0.3): the left knee's
   0-27.5 s half is refused (restarts disagree and the hinge fits poorly), and every half
   that contains most of 55-100 s spans more than a knee can. A refused half makes no
-  claim, so the right hip's 3.0 (55-77.5 / 77.5-100 s) and 3.2 (0-50 / 50-100 s) do not
+  claim, so the right hip's 2.5 (55-77.5 / 77.5-100 s) and 2.5 (0-50 / 50-100 s) do not
   count.
 
 See [quality.md](quality.md) for what every field means.
