@@ -846,9 +846,9 @@ def _filtered_sensors(sensors, rate, cutoff) -> list[tuple]:
 
 
 def _refits(data, x, line, size, max_iterations) -> tuple[dict, dict]:
-    """({"o1", "o2"} time blocks, {"o1", "o2"} model term), mm, from one batch of refits
-    that start at the estimate ``x``: the delete-one-block jackknife (each leaves out one
-    contiguous time block of the samples used) and the model term.
+    """({"o1", "o2"} time blocks, {"o1", "o2"} model term), mm, from refits that start at
+    the estimate ``x``: the delete-one-block jackknife (each leaves out one contiguous
+    time block of the samples used) and the model term.
 
     The model term is ``MODEL_MOVE_FACTOR`` times the move of a refit whose samples are
     weighed by ``size**2``, ``size`` (N,) being |r1| + |r2| at the estimate: the
@@ -858,11 +858,10 @@ def _refits(data, x, line, size, max_iterations) -> tuple[dict, dict]:
     makes every weighting find its own compromise, an error the time blocks miss when
     every block shares it. The move is a size for that error, not a bound: the factor was
     set on imucal's simulator (see ``MODEL_MOVE_FACTOR``)."""
-    weights = size**2
-    weights = weights / weights.mean() if weights.mean() > 0 else np.ones_like(weights)
-    masks = np.vstack([block_masks(data[0].shape[0]), weights[None, :]])
-    y = SPHEROIDAL.refit(data, masks, np.repeat(x[None, :], masks.shape[0], axis=0),
-                         max_iterations)
+    masks = block_masks(data[0].shape[0])
+    starts = np.repeat(x[None, :], masks.shape[0] + 1, axis=0)
+    y = np.vstack([SPHEROIDAL.refit(data, masks, starts[1:], max_iterations),
+                   SPHEROIDAL.refit(_weighted(data, size), None, starts[:1], max_iterations)])
     if line is not None:
         y = closest_point_on_axis(y, line)
     moved = {k: 1000 * np.linalg.norm(y[:, sl] - x[sl], axis=1)
@@ -871,6 +870,21 @@ def _refits(data, x, line, size, max_iterations) -> tuple[dict, dict]:
             # a refit that failed leaves the model error unknown: infinite, like the blocks'
             {k: float(MODEL_MOVE_FACTOR * d[-1]) if np.isfinite(d[-1]) else float("inf")
              for k, d in moved.items()})
+
+
+def _weighted(data, size) -> tuple:
+    """``data`` (g1, gdot1, a1, g2, gdot2, a2) scaled per sample so that eq. (3) on it
+    weighs each sample's squared residual by ``size**2`` (normalised to mean 1).
+
+    The problem's subset weights are 0/1 (its normal equations multiply them in twice);
+    a weight is a scaling instead: ``Gamma(g, gdot)`` is quadratic in g and linear in
+    gdot, so with g scaled by sqrt(c), gdot and a by c, every |a - Gamma o| and the
+    residual scale by c, and the squared residual by c^2."""
+    mean = float(np.mean(size**2))
+    c = (size / np.sqrt(mean) if mean > 0 else np.ones_like(size))[:, None]
+    g1, gdot1, a1, g2, gdot2, a2 = data
+    root = np.sqrt(c)
+    return g1 * root, gdot1 * c, a1 * c, g2 * root, gdot2 * c, a2 * c
 
 
 def _position_distance(x: np.ndarray, y: np.ndarray) -> np.ndarray:

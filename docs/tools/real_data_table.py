@@ -428,7 +428,7 @@ FOOTER = """
   left, "uncertain (cut-off)" right). The ankles fitted as a hinge get 24.8-40.6 deg of
   model term: they excite their weakest direction less than the knees do. For the joint
   centres the two largest parts are the cut-off shift (refits at 0.75 and 1.5 x the
-  cut-off; 12-96 mm) and the model term (1-155 mm; the largest part of five of the
+  cut-off; 12-96 mm) and the model term (1-156 mm; the largest part of five of the
   twelve, the left hip in 55-100 s at its poor fit most of all), against 2-22 mm of
   curvature and 2-30 mm of time blocks. The answered centres have a 1-sigma of 26-184 mm
   (25-99 mm before the joint centre's model term) and every one warns that it is
