@@ -1,6 +1,6 @@
 """The ``imucal`` command and ``python -m imucal``: the command line, Ctrl-C included."""
 
-from .signals import raise_on_signals, report
+from .signals import finish, raise_on_signals, report
 
 
 def run() -> None:
@@ -14,7 +14,10 @@ def run() -> None:
         from .cli import main
     except KeyboardInterrupt as err:
         raise SystemExit(report(err)) from None
-    main()
+    try:
+        main()
+    finally:
+        finish()
 
 
 if __name__ == "__main__":

@@ -46,23 +46,27 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
     """
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
+    tmp = None
     try:
-        with held():  # an interruption here would leave a file nobody removes
-            fd, name = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.",
-                                        suffix=path.suffix)
-            os.close(fd)
+        # held, so that the file cannot be created without its name being kept; a signal
+        # meanwhile is raised when the block ends, and removes it below
+        with held():
+            try:
+                fd, name = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.",
+                                            suffix=path.suffix)
+            except OSError as err:
+                raise InputError(f"{path}: cannot write to folder '{folder}' "
+                                 f"({err.strerror or err})") from None
             tmp = Path(name)
-    except OSError as err:
-        raise InputError(f"{path}: cannot write to folder '{folder}' ({err.strerror or err})") \
-            from None
-    try:
+            os.close(fd)
         write(tmp)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException as err:
-        tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
         if isinstance(err, OSError):
             raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
         raise

@@ -559,6 +559,9 @@ def simulate(
             soft_tissue_mm=soft_tissue_mm, clock_offset=offsets, gyr_bias=bias,
             mounting_seed=mounting_seed,
         )
+        # an old truth file must not outlive the recording it described: a signal between
+        # the two writes would pair the new recording with it
+        truth_path.unlink(missing_ok=True)
         save_recording(recording, out)
         write_text_atomic(truth_path, json.dumps(clean(truth), indent=2) + "\n")
         if not quiet:
@@ -797,6 +800,9 @@ class _errors:
             return False
         if isinstance(err, KeyboardInterrupt):  # Ctrl-C, SIGTERM, SIGHUP: imucal.signals
             raise typer.Exit(report_interruption(err))
+        interruption = unreported_interruption()
+        if interruption is not None:  # one that the code it hit turned into another error
+            raise typer.Exit(report_interruption(interruption))
         if isinstance(err, ImucalError):
             _err(f"imucal: error: {err}")
             raise typer.Exit(err.exit_code)

@@ -159,7 +159,13 @@ def _client(distributed, address: str, timeout: float):
                            f"within {timeout + HANDSHAKE_GRACE_S:g} s (the dashboard's "
                            "port? the scheduler's is usually 8786)")
     if "error" in made:
-        raise made["error"]
+        err = made["error"]
+        if isinstance(err, (OSError, TimeoutError, ValueError)):
+            raise err
+        # another protocol's bytes read as a Dask message: a frame length of exabytes
+        # (MemoryError), or whatever else the parser makes of them
+        raise ValueError(f"something answers at {address} but not as a Dask scheduler "
+                         f"({type(err).__name__}: {err})") from err
     return made["client"]
 
 

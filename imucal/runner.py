@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import ImucalError, InputError, NotIdentifiableError
+from .signals import unreported
 
 __all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors"]
 
@@ -287,6 +288,11 @@ def run(job: Job, file: str) -> Outcome:
     try:
         _run(job, file, outcome)
     except Exception as err:  # every failure becomes an outcome, bugs too
+        interruption = unreported()
+        if interruption is not None:
+            # the command line's Ctrl-C or SIGTERM, turned into another error by the
+            # code it hit (a module being imported: "initialization failed")
+            raise interruption from err
         outcome.exception = err
         outcome.exit_code, outcome.error = error_of(err, file)
         outcome.document = outcome.result = None

@@ -4,11 +4,14 @@ Python's default for SIGTERM and SIGHUP ends the process on the spot, which leav
 temporary copy of an ``--out`` file (``.knees.jsonl.x1y2.jsonl``) beside the target and
 a study's worker processes running on. Raised as exceptions instead, they run the same
 clean-up as Ctrl-C: temporary files removed, workers stopped, one stderr line, the
-status a shell gives a process ended by that signal. The first such signal wins; later
-ones are ignored, so a second Ctrl-C cannot cut the clean-up short.
+status a shell gives a process ended by that signal. The first such signal handled wins
+(signals that arrive together, or while held, are handled lowest number first: SIGHUP 1,
+SIGINT 2, SIGTERM 15); later ones are ignored, so a second Ctrl-C cannot cut the
+clean-up short. A signal the command was started with ignored (``nohup``, a background
+job of a script) stays ignored.
 
 Only the command line installs this (:func:`raise_on_signals`); a Python caller keeps
-its own handlers.
+its own handlers, and nothing is held (:func:`held`) for it.
 """
 
 from __future__ import annotations
@@ -20,6 +23,19 @@ from contextlib import contextmanager
 #: The signals the command line ends on; SIGHUP does not exist on Windows.
 ENDING = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
                if hasattr(signal, name))
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT) as raised by :func:`raise_on_signals`.
+
+    A subclass, not KeyboardInterrupt itself: CPython marks a plain KeyboardInterrupt
+    that leaves code run by ``eval`` (``collections.namedtuple`` while a module loads,
+    say) as unhandled even when it is caught, and at exit then kills itself with SIGINT
+    (status -2 to a parent process) after imucal has written its line and chosen 130.
+    """
+
+    signum = signal.SIGINT
+    exit_code = 130
 
 
 class Terminated(KeyboardInterrupt):
@@ -40,13 +56,52 @@ class Terminated(KeyboardInterrupt):
 
 
 def raise_on_signals() -> None:
-    """Make the first of Ctrl-C, SIGTERM and SIGHUP raise (KeyboardInterrupt or
-    :class:`Terminated`) and every later one be ignored. Call from the main thread."""
-    for signum in ENDING:
+    """Make the first of Ctrl-C, SIGTERM and SIGHUP raise (:class:`Interrupted` or
+    :class:`Terminated`) and every later one be ignored; one that is ignored already
+    (``nohup``) stays so. Call from the main thread."""
+    if not _installed:
+        _previous.update({s: signal.getsignal(s) for s in (*ENDING, *_ALARM)})
+    _installed[:] = [s for s in ENDING if _previous[s] is not signal.SIG_IGN]
+    for signum in _installed:
         signal.signal(signum, _raise)
     if sys.unraisablehook is not _unraisable:
         _hooks[:] = [sys.unraisablehook]
         sys.unraisablehook = _unraisable
+
+
+def uninstall() -> None:
+    """Undo :func:`raise_on_signals`: the handlers and unraisable hook from before it, for
+    a caller that runs the command line in its own process (the test suite)."""
+    for signum, handler in _previous.items():
+        signal.signal(signum, handler)
+    _previous.clear()
+    _installed.clear()
+    _unreported.clear()
+    _pending.clear()
+    if sys.unraisablehook is _unraisable and _hooks:
+        sys.unraisablehook = _hooks[0]
+
+
+def installed() -> bool:
+    """Whether :func:`raise_on_signals` runs this process (the command line)."""
+    return bool(_installed)
+
+
+def finish() -> None:
+    """Ignore the ending signals from here on, and disarm a pending re-raise: the
+    command is done, and Python restores the signals' default actions while it shuts
+    down, so a signal during its exit would end it with another status (SIGALRM's, for a
+    re-raise armed then)."""
+    for signum in _installed:
+        signal.signal(signum, signal.SIG_IGN)
+    if hasattr(signal, "setitimer"):
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, signal.SIG_IGN)
+
+
+_ALARM = (signal.SIGALRM,) if hasattr(signal, "setitimer") else ()  # the re-raise's timer
+_installed: list[int] = []  # the signals raise_on_signals took over
+_previous: dict = {}  # their handlers before it
 
 
 # The interruption raised, until its line is written: typer turns one that comes while
@@ -55,11 +110,16 @@ _unreported: list[KeyboardInterrupt] = []
 
 
 def _raise(signum, frame) -> None:
-    for other in ENDING:
+    for other in _installed:
         # a no-op, not SIG_IGN: a signal that arrived before this line runs would then
         # find no handler and print Python's "ignored due to race condition" error
         signal.signal(other, _ignore)
-    err = KeyboardInterrupt() if signum == signal.SIGINT else Terminated(signum)
+    err = Interrupted() if signum == signal.SIGINT else Terminated(signum)
+    if _holding:
+        # delivered to another thread (BLAS, Dask's client) despite this thread's mask,
+        # and run here inside held(): raised when the hold ends
+        _pending.append(err)
+        return
     _unreported.append(err)
     raise err
 
@@ -95,18 +155,33 @@ def unreported() -> KeyboardInterrupt | None:
     return _unreported[0] if _unreported else None
 
 
+_holding: list[int] = []  # one entry per held() block open in the main thread
+_pending: list[KeyboardInterrupt] = []  # an interruption that came while held
+
+
 @contextmanager
 def held():
-    """Ctrl-C, SIGTERM and SIGHUP held in this thread (POSIX), delivered when the block
-    ends; child processes started meanwhile inherit the block."""
-    if not hasattr(signal, "pthread_sigmask"):  # not POSIX: nothing to hold with
+    """Ctrl-C, SIGTERM and SIGHUP held (POSIX), delivered when the block ends; child
+    processes started meanwhile inherit the block. Only under :func:`raise_on_signals`:
+    from Python the caller's signals are left as they are (a fork server started here
+    would keep them blocked for the caller's later processes).
+
+    The mask holds them in this thread; one that another thread takes is held by
+    :func:`_raise` until the block ends."""
+    if not _installed or not hasattr(signal, "pthread_sigmask"):
         yield
         return
     old = signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING))
+    _holding.append(1)
     try:
         yield
     finally:
+        _holding.pop()
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        if _pending and not _holding:
+            err = _pending.pop()
+            _unreported.append(err)
+            raise err
 
 
 def restore_defaults() -> None:
@@ -122,6 +197,8 @@ def restore_defaults() -> None:
     """
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if hasattr(signal, "pthread_sigmask"):
+        # from Python nothing was held while the worker started (held())
+        signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING) - {signal.SIGTERM})
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
 
 
@@ -137,8 +214,5 @@ def report(err: KeyboardInterrupt) -> int:
         sys.stderr.flush()
     except (OSError, ValueError):  # the terminal that hung up (SIGHUP) is gone
         pass
-    # Python restores the default action of signals with Python handlers as it shuts
-    # down; a second Ctrl-C then would end the process with another status.
-    for signum in ENDING:
-        signal.signal(signum, signal.SIG_IGN)
+    finish()
     return code

@@ -499,15 +499,20 @@ class _Progress:
         width = max(10, min(40, columns - len(self.label) - len(text) - 4))
         filled = int(width * done / max(self.total, 1))
         bar = f"{self.label} [{'#' * filled}{'.' * (width - filled)}]{text}"
-        self.stream.write("\r" + bar[: columns - 1] + "\x1b[K")
-        self.stream.flush()
+        self._write("\r" + bar[: columns - 1] + "\x1b[K")
         self.shown = True
 
     def _clear(self) -> None:
         if self.enabled and self.shown:
-            self.stream.write("\r\x1b[K")
-            self.stream.flush()
+            self._write("\r\x1b[K")
             self.shown = False
+
+    def _write(self, text: str) -> None:
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except (OSError, ValueError):  # the terminal hung up (SIGHUP): no bar to draw
+            self.enabled = False
 
 
 def _is_terminal(stream) -> bool:

@@ -48,6 +48,7 @@ def run_imucal(*args, stdin: bytes | None = None, cwd=None, text: bool = False):
     """
     from click.testing import CliRunner
 
+    from imucal import signals
     from imucal.cli import main
 
     argv = ["imucal", *map(str, args)]
@@ -66,6 +67,7 @@ def run_imucal(*args, stdin: bytes | None = None, cwd=None, text: bool = False):
             sys.stderr.flush()
             sys.argv = saved_argv
             os.chdir(here)
+            signals.uninstall()  # main() took over Ctrl-C and SIGTERM for the command
         stdout, stderr = out.getvalue(), err.getvalue()
     if text:
         stdout, stderr = stdout.decode(), stderr.decode()

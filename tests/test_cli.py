@@ -293,6 +293,104 @@ def test_sigterm_ends_a_command_with_its_status_and_no_half_written_file(tmp_pat
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 
 
+def test_a_signal_the_command_was_started_with_ignored_stays_ignored(tmp_path):
+    # nohup (and a script's background jobs) start a command with SIGHUP (SIGINT)
+    # ignored; imucal used to take them over, so closing the terminal ended a nohup run
+    import signal
+    import time
+
+    out = tmp_path / "long.csv"
+
+    def ignore_hangups():
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+
+    proc = subprocess.Popen([sys.executable, "-m", "imucal", "simulate", str(out),
+                             "--duration", "600", "--seed", "1", "-q"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=ignore_hangups)
+    try:
+        deadline = time.monotonic() + 60
+        while not list(tmp_path.iterdir()):  # past start-up: the handlers are installed
+            assert proc.poll() is None and time.monotonic() < deadline, "no file started"
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGHUP)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert (proc.returncode, err) == (0, b""), err.decode()
+    assert out.exists() and out.with_name("long.truth.json").exists()
+
+
+def test_held_holds_nothing_for_a_python_caller():
+    # a study started from Python held the ending signals while multiprocessing's shared
+    # fork server started, which then kept them blocked for the caller's own processes
+    import signal
+
+    from imucal import signals
+
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, set())
+    with signals.held():
+        assert signal.pthread_sigmask(signal.SIG_BLOCK, set()) == before
+    signals.raise_on_signals()
+    try:
+        with signals.held():
+            inside = signal.pthread_sigmask(signal.SIG_BLOCK, set())
+        assert set(signals.ENDING) <= inside
+    finally:
+        signals.uninstall()
+    assert signal.pthread_sigmask(signal.SIG_BLOCK, set()) == before
+
+
+def test_a_signal_while_the_temporary_file_is_created_leaves_no_file(tmp_path, monkeypatch):
+    import signal
+    import tempfile
+
+    from imucal import signals
+    from imucal.atomic import write_text_atomic
+
+    create = tempfile.mkstemp
+
+    def signalled(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)  # held until the file's name is kept
+        return create(*args, **kwargs)
+
+    monkeypatch.setattr(tempfile, "mkstemp", signalled)
+    signals.raise_on_signals()
+    try:
+        with pytest.raises(signals.Terminated):
+            write_text_atomic(tmp_path / "out.json", "{}")
+    finally:
+        signals.uninstall()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_interruption_turned_into_another_error_still_ends_the_command(monkeypatch):
+    # a signal inside a module being imported surfaces as "initialization failed" (an
+    # ImportError) or a RuntimeError: that was an internal error (exit 3) for the
+    # recording, and the study went on with its handlers already spent
+    import signal
+    import time
+
+    from imucal import runner, signals
+    from imucal.settings import AxisSettings
+
+    def hit(job, file, outcome):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.1)
+        except KeyboardInterrupt:
+            raise ImportError("initialization failed") from None
+
+    monkeypatch.setattr(runner, "_run", hit)
+    signals.raise_on_signals()
+    try:
+        with pytest.raises(signals.Terminated):
+            runner.run(runner.Job("axis", ("thigh", "shank"), AxisSettings(seed=1)), "x.h5")
+    finally:
+        signals.uninstall()
+
+
 def test_the_first_ending_signal_raises_and_later_ones_are_ignored():
     import signal
     import time
@@ -311,6 +409,16 @@ def test_the_first_ending_signal_raises_and_later_ones_are_ignored():
         time.sleep(0.1)
         assert signals.report(caught.value) == 143
         assert signals.unreported() is None
+        signals.uninstall()
+        signals.raise_on_signals()
+        # Ctrl-C as a subclass: CPython kills itself with SIGINT at exit after a plain
+        # KeyboardInterrupt left code run by eval(), even a caught one (status -2)
+        with pytest.raises(signals.Interrupted) as caught:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.1)
+        assert type(caught.value) is not KeyboardInterrupt
+        assert signals.report(caught.value) == 130
     finally:
+        signals.uninstall()
         for s, handler in saved.items():
             signal.signal(s, handler)
