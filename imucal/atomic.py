@@ -29,8 +29,9 @@ def check_writable(path: str | Path) -> Path:
     # os.access trusts permission bits; root, read-only mounts, ACLs and network file
     # systems can disagree with them, so create (and remove) a real file to be sure.
     try:
-        with tempfile.NamedTemporaryFile(dir=folder, prefix=f".{path.name}.", suffix=".probe"):
-            pass
+        with held(), tempfile.NamedTemporaryFile(dir=folder, prefix=f".{path.name}.",
+                                                 suffix=".probe"):
+            pass  # held: a signal between creating and removing the probe would leave it
     except OSError as err:
         raise InputError(
             f"{path}: folder '{folder}' is not writable ({err.strerror or err})"
