@@ -164,8 +164,8 @@ def _client(distributed, address: str, timeout: float):
             raise err
         # another protocol's bytes read as a Dask message: a frame length of exabytes
         # (MemoryError), or whatever else the parser makes of them
-        raise ValueError(f"something answers at {address} but not as a Dask scheduler "
-                         f"({type(err).__name__}: {err})") from err
+        raise InputError(f"--scheduler {address}: something answers there, but not as a "
+                         "Dask scheduler (another service on that port?)") from err
     return made["client"]
 
 

@@ -99,3 +99,18 @@ def test_a_port_that_is_no_scheduler_fails_instead_of_hanging(monkeypatch):
         cluster.connect(f"tcp://127.0.0.1:{server.getsockname()[1]}", timeout=1.0)
     assert time.perf_counter() - started < 10
     server.close()
+
+
+def test_a_port_that_answers_in_another_protocol_is_a_usage_error():
+    # an SSH banner read as a Dask frame: a length of exabytes, so Dask's client raised
+    # MemoryError, which became "internal error" and exit 3
+    from types import SimpleNamespace
+
+    from imucal import cluster
+    from imucal.errors import InputError
+
+    def client(*args, **kwargs):
+        raise MemoryError("Unable to allocate 3.07 EiB for an array")
+
+    with pytest.raises(InputError, match="not as a Dask scheduler"):
+        cluster._client(SimpleNamespace(Client=client), "tcp://127.0.0.1:22", timeout=1.0)
