@@ -267,27 +267,37 @@ def test_info_keeps_its_columns_in_line_for_long_sensor_names(tmp_path):
     assert [r.index("rad/s") for r in rows] == [units_at] * 3, lines
 
 
+def _simulate_signalled(folder, seconds: int, signum, preexec_fn=None):
+    """``imucal simulate FOLDER/long.csv --duration SECONDS`` in its own process, sent
+    ``signum`` once its output file has started (past start-up: the handlers are
+    installed): (returncode, stderr)."""
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "imucal", "simulate",
+                             str(folder / "long.csv"), "--duration", str(seconds),
+                             "--seed", "1", "-q"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=preexec_fn)
+    try:
+        deadline = time.monotonic() + 60
+        while not list(folder.iterdir()):  # the temporary file is being written
+            assert proc.poll() is None and time.monotonic() < deadline, "no file started"
+            time.sleep(0.01)
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return proc.returncode, err
+
+
 def test_sigterm_ends_a_command_with_its_status_and_no_half_written_file(tmp_path):
     # SIGTERM (what `kill` and job schedulers send) ended imucal on the spot, leaving the
     # output's temporary copy beside the target; now it cleans up as Ctrl-C does.
     import signal
-    import time
 
-    out = tmp_path / "long.csv"  # CSV: seconds of writing to hit
-    proc = subprocess.Popen([sys.executable, "-m", "imucal", "simulate", str(out),
-                             "--duration", "3000", "--seed", "1"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    try:
-        deadline = time.monotonic() + 60
-        while not list(tmp_path.iterdir()):  # the temporary file is being written
-            assert proc.poll() is None and time.monotonic() < deadline, "no file started"
-            time.sleep(0.01)
-        proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert (proc.returncode, err) == (143, b"imucal: terminated (SIGTERM)\n"), err.decode()
+    code, err = _simulate_signalled(tmp_path, 3000, signal.SIGTERM)  # CSV: seconds to hit
+    assert (code, err) == (143, b"imucal: terminated (SIGTERM)\n"), err.decode()
     # no temporary copy left (a signal handled just after the rename leaves the
     # recording complete, without its truth file)
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
@@ -297,28 +307,13 @@ def test_a_signal_the_command_was_started_with_ignored_stays_ignored(tmp_path):
     # nohup (and a script's background jobs) start a command with SIGHUP (SIGINT)
     # ignored; imucal used to take them over, so closing the terminal ended a nohup run
     import signal
-    import time
-
-    out = tmp_path / "long.csv"
 
     def ignore_hangups():
         signal.signal(signal.SIGHUP, signal.SIG_IGN)
 
-    proc = subprocess.Popen([sys.executable, "-m", "imucal", "simulate", str(out),
-                             "--duration", "600", "--seed", "1", "-q"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            preexec_fn=ignore_hangups)
-    try:
-        deadline = time.monotonic() + 60
-        while not list(tmp_path.iterdir()):  # past start-up: the handlers are installed
-            assert proc.poll() is None and time.monotonic() < deadline, "no file started"
-            time.sleep(0.01)
-        proc.send_signal(signal.SIGHUP)
-        _, err = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert (proc.returncode, err) == (0, b""), err.decode()
+    code, err = _simulate_signalled(tmp_path, 600, signal.SIGHUP, ignore_hangups)
+    assert (code, err) == (0, b""), err.decode()
+    out = tmp_path / "long.csv"
     assert out.exists() and out.with_name("long.truth.json").exists()
 
 
