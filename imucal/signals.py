@@ -82,11 +82,6 @@ def uninstall() -> None:
         sys.unraisablehook = _hooks[0]
 
 
-def installed() -> bool:
-    """Whether :func:`raise_on_signals` runs this process (the command line)."""
-    return bool(_installed)
-
-
 def finish() -> None:
     """Ignore the ending signals from here on, and disarm a pending re-raise: the
     command is done, and Python restores the signals' default actions while it shuts
@@ -94,7 +89,7 @@ def finish() -> None:
     re-raise armed then)."""
     for signum in _installed:
         signal.signal(signum, signal.SIG_IGN)
-    if hasattr(signal, "setitimer"):
+    if _ALARM:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, signal.SIG_IGN)
 
