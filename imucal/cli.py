@@ -860,7 +860,9 @@ def _summary(doc: dict, names) -> None:
     _err(f"  1-sigma {sigma} {u}; {reached}/{len(doc['restarts'])} restarts reached the estimate "
          f"(median {conv['iterations_median']:g}, max {conv['iterations_max']} iterations); "
          f"residual {q['rms_residual']:.4f} {units['rms_residual']} "
-         f"({q['relative_residual']:.1%} of signal)")
+         # no signal at all (every sample 0): the ratio is undefined, null in the JSON
+         f"({'-' if q['relative_residual'] is None else format(q['relative_residual'], '.1%')}"
+         " of signal)")
     offset = doc.get("time_offset") or {}
     if offset.get("mode") == "auto":
         applied = "applied" if offset["applied"] else "not applied"

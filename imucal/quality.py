@@ -226,7 +226,11 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
         "curvature": "the data barely constrain it",
         "time_blocks": "fits on different stretches of the recording disagree",
         "cutoff_shift": "it moves with the low-pass cut-off of the refits",
-        "model": "the residuals are systematic (soft tissue, a joint that is no hinge)",
+        # the two estimators' model terms see a model error differently (unit: deg for
+        # the axis, mm for a joint centre)
+        "model": ("the residuals are systematic (soft tissue, a joint that is no hinge)"
+                  if unit == "deg" else "a different weighting of the samples moves it "
+                  "(soft tissue, a joint that is no ball)"),
         "gyr_bias": "a gyroscope bias was estimated with it",
         "time_offset": "it moves with the clock offset between the sensors (uncertain, "
                        "or mimicked by soft tissue)",

@@ -130,7 +130,9 @@ def equal_minima(
     if not equal.any():
         return 0, 0.0, 1.0
     far = distance(finals[equal], finals[best])
-    return int(equal.sum()), float(far.max()), float((rms[equal] / rms[best]).max())
+    with np.errstate(invalid="ignore", divide="ignore"):  # a zero residual (no signal)
+        ratio = float((rms[equal] / rms[best]).max())
+    return int(equal.sum()), float(far.max()), ratio
 
 
 #: Fewer of the competing restarts than this fraction reaching the estimate is not

@@ -78,6 +78,7 @@ def uninstall() -> None:
     _installed.clear()
     _unreported.clear()
     _pending.clear()
+    _armed.clear()
     if sys.unraisablehook is _unraisable and _hooks:
         sys.unraisablehook = _hooks[0]
 
@@ -89,9 +90,10 @@ def finish() -> None:
     re-raise armed then)."""
     for signum in _installed:
         signal.signal(signum, signal.SIG_IGN)
-    if _ALARM:
+    if _armed:  # only a timer of ours: a caller's alarm (the test suite's) is its own
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, signal.SIG_IGN)
+        _armed.clear()
 
 
 _ALARM = (signal.SIGALRM,) if hasattr(signal, "setitimer") else ()  # the re-raise's timer
@@ -124,6 +126,7 @@ def _ignore(signum, frame) -> None:
 
 
 _hooks: list = []  # the unraisable hook before _unraisable
+_armed: list[bool] = []  # whether _unraisable set the re-raise timer
 
 
 def _unraisable(unraisable) -> None:
@@ -135,6 +138,7 @@ def _unraisable(unraisable) -> None:
                                                                           "setitimer"):
         signal.signal(signal.SIGALRM, _raise_again)
         signal.setitimer(signal.ITIMER_REAL, 0.001)
+        _armed[:] = [True]
         return
     (_hooks[0] if _hooks else sys.__unraisablehook__)(unraisable)
 
@@ -166,13 +170,17 @@ def held():
     if not _installed or not hasattr(signal, "pthread_sigmask"):
         yield
         return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING))
+    # counted before the mask goes up and until it is down: a signal that another
+    # thread takes in between must wait too, not raise with the mask left up
     _holding.append(1)
     try:
-        yield
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, set(ENDING))
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
     finally:
         _holding.pop()
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
         if _pending and not _holding:
             err = _pending.pop()
             _unreported.append(err)

@@ -179,3 +179,24 @@ def test_the_reported_crash_exits_0_or_1(command):
     )
     assert proc.returncode in (0, 1), proc.stderr
     assert "internal error" not in proc.stderr and "Warning" not in proc.stderr
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize("command", [["axis"], ["position"], ["position", "--joint", "hinge"]])
+def test_a_recording_of_zeros_forced_through_gets_its_summary(tmp_path, command):
+    # two sensors that read exactly 0: with --force the JSON was written, then the stderr
+    # summary failed on the undefined relative residual (internal error, exit 3), after
+    # numpy's "invalid value encountered in divide" from the competing minima's ratio
+    from conftest import run_imucal
+
+    from imucal.recording import make_recording
+    from imucal.writers import save_recording
+
+    zeros = {"gyr": np.zeros((2000, 3)), "acc": np.zeros((2000, 3))}
+    path = tmp_path / "zeros.h5"
+    save_recording(make_recording({"shank": zeros, "foot": zeros}, rate=100.0), path)
+    proc = run_imucal(*command, path, "--sensors", "shank,foot", "--force", "--seed", "1",
+                      text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert "residual 0.0000" in proc.stderr and "(- of signal)" in proc.stderr
+    assert "internal error" not in proc.stderr
