@@ -118,12 +118,12 @@ MAX_UNCERTAINTY_MM = 10.0
 #: A sensor strapped to a thigh, shank or foot is never this far from the joint, m.
 MAX_PLAUSIBLE_OFFSET_M = 1.0
 #: The joint centre's model term is this many times the move of the refit on eq. (3)'s
-#: squared-norm weighting (:func:`_refits`). On imucal's simulator (ankles, 20 s at
-#: 100 Hz, circling and protocol seeds 1-70, gait 1-30, soft tissue 0.5 deg / 1 mm to
-#: 2 deg / 3 mm) 27 of 510 fits were `good` beyond 3 sigma without the term, all on
-#: circling; to bring each within 3 sigma took 0.2-2.9 times its move (the same at 50
-#: and 200 Hz, seeds 1-15). Clean fits keep their verdicts (circling 70 of 70 `good`,
-#: protocol 59 of 60). docs/method.md has the numbers.
+#: squared-norm weighting (:func:`_refits`). Set on imucal's simulator (ankles, 20 s at
+#: 100 Hz, soft tissue 0.5 deg / 1 mm to 2 deg / 3 mm, circling and protocol seeds 1-70,
+#: gait 1-30): 27 of 510 fits were `good` beyond 3 sigma without it, none with it; on
+#: seeds 71-150 (480 fits) 22 without it and 7 with it (up to 3.8 sigma). A factor of 6
+#: would cover those too but take `good` from 10 of 77 clean protocol ankles.
+#: docs/method.md has the numbers.
 MODEL_MOVE_FACTOR = 3.0
 
 
