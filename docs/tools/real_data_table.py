@@ -80,6 +80,7 @@ UNCERTAIN = {
     "fits on different stretches": "uncertain (time blocks)",
     "it moves with the low-pass cut-off": "uncertain (cut-off)",
     "the residuals are systematic": "uncertain (model)",
+    "a different weighting of the samples": "uncertain (model)",
 }
 #: (estimate, side, window, time_offset block) of every fit in the tables, filled as
 #: they run.
