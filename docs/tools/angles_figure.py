@@ -81,8 +81,8 @@ def real() -> None:
         means = ", ".join(f"{rec.time[a]:.1f}-{rec.time[b - 1]:.1f} s: "
                           f"{j.flexion_deg[a:b].mean():.0f}" for a, b in periods)
         gyro = ", ".join(f"{j.gyro_only_deg[a:b].mean():.0f}" for a, b in periods)
-        print(f"real {name}: verdict {calibration.joints[name].verdict}, axis to gravity "
-              f"{ref['axis_to_gravity_deg']}, acc-gyro disagreement "
+        print(f"real {name}: verdict {calibration.joints[name].verdict}, gravity mismatch "
+              f"{ref['gravity_mismatch_deg']:.0f} deg, acc-gyro disagreement "
               f"{ref['acc_gyro_disagreement_deg']:.0f} deg, hinge residual "
               f"{ref['hinge_residual']:.2f}; range {j.flexion_deg.min():.0f} to "
               f"{j.flexion_deg.max():.0f} deg; still periods (fused) {means}; "
