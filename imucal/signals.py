@@ -134,8 +134,7 @@ def _unraisable(unraisable) -> None:
     printed as "Exception ignored in ..." and lost, and the command would run on: raise
     it again a millisecond later, by then (almost always) where it can end the command;
     if not, this comes round again."""
-    if _unreported and unraisable.exc_value is _unreported[0] and hasattr(signal,
-                                                                          "setitimer"):
+    if _unreported and unraisable.exc_value is _unreported[0] and _ALARM:
         signal.signal(signal.SIGALRM, _raise_again)
         signal.setitimer(signal.ITIMER_REAL, 0.001)
         _armed[:] = [True]
