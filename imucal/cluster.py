@@ -14,6 +14,7 @@ when a study asks for a cluster.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import threading
@@ -144,12 +145,21 @@ def _client(distributed, address: str, timeout: float):
     """
     made: dict = {}
 
+    class Tracked(distributed.Client):
+        """A client that is kept track of from its start: one whose start failed would
+        otherwise close itself when collected (at exit), waiting 2 x ``timeout`` for a
+        scheduler that is not there and printing "Exception ignored ..."."""
+
+        def __init__(self, *args, **kwargs):
+            made["partial"] = self
+            super().__init__(*args, **kwargs)
+
     def make():
         try:
-            made["client"] = distributed.Client(address, timeout=timeout,
-                                                set_as_default=False)
+            made["client"] = Tracked(address, timeout=timeout, set_as_default=False)
         except Exception as err:  # handed to the caller's thread
             made["error"] = err
+            _discard(made.pop("partial", None))
 
     thread = threading.Thread(target=make, daemon=True)
     thread.start()
@@ -167,6 +177,17 @@ def _client(distributed, address: str, timeout: float):
         raise InputError(f"--scheduler {address}: something answers there, but not as a "
                          "Dask scheduler (another service on that port?)") from err
     return made["client"]
+
+
+def _discard(client) -> None:
+    """Mark a client whose start failed as closed, and stop its event loop, so that its
+    finaliser has nothing to wait for (private attributes of distributed's Client: any
+    failure here only brings the wait back)."""
+    if client is None:
+        return
+    with contextlib.suppress(Exception):
+        client.status = "closed"
+        client._loop_runner.stop()
 
 
 def _work(task, cwd: str):

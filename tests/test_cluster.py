@@ -109,8 +109,40 @@ def test_a_port_that_answers_in_another_protocol_is_a_usage_error():
     from imucal import cluster
     from imucal.errors import InputError
 
-    def client(*args, **kwargs):
-        raise MemoryError("Unable to allocate 3.07 EiB for an array")
+    class Client:
+        def __init__(self, *args, **kwargs):
+            self.status = "newly-created"
+            raise MemoryError("Unable to allocate 3.07 EiB for an array")
 
     with pytest.raises(InputError, match="not as a Dask scheduler"):
-        cluster._client(SimpleNamespace(Client=client), "tcp://127.0.0.1:22", timeout=1.0)
+        cluster._client(SimpleNamespace(Client=Client), "tcp://127.0.0.1:22", timeout=1.0)
+
+
+def test_a_port_speaking_another_protocol_fails_fast_and_quietly(files):
+    # an SSH banner read as a Dask frame: after the error line, the half-started client
+    # closed itself at exit, waiting 20 s and printing "Exception ignored in Client.__del__"
+    import contextlib
+    import socket
+    import threading
+    import time
+
+    folder, _ = files
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+
+    def banner():
+        with contextlib.suppress(OSError):
+            while True:
+                peer, _ = server.accept()
+                peer.sendall(b"SSH-2.0-OpenSSH_8.9\r\n" + b"\xff" * 64)
+
+    threading.Thread(target=banner, daemon=True).start()
+    started = time.perf_counter()
+    proc = imucal("axis", "a.h5", "b.h5", "--scheduler",
+                  f"tcp://127.0.0.1:{server.getsockname()[1]}", "-q", cwd=folder)
+    elapsed = time.perf_counter() - started
+    server.close()
+    assert proc.returncode == 2, proc.stderr.decode()
+    assert b"not as a Dask scheduler" in proc.stderr
+    assert b"Exception ignored" not in proc.stderr and elapsed < 15, (elapsed, proc.stderr)
