@@ -322,13 +322,21 @@ def estimate_axis(
     acc1, acc2 = _check_acc(g1, acc1, acc2)
     if s.time_offset == "auto":
         return _with_auto_offset(g1, g2, acc1, acc2, rate, s)
-    s = replace(s, seed=resolve_seed(s.seed))
+    return _estimate(g1, g2, acc1, acc2, rate, replace(s, seed=resolve_seed(s.seed)))
+
+
+def _estimate(g1, g2, acc1, acc2, rate, s: AxisSettings, bias_removed: bool = False
+              ) -> AxisResult:
+    """:func:`estimate_axis` with checked inputs, a given time offset and seed; once a
+    gyroscope bias was removed (``bias_removed``), none is looked for again: rates that
+    never change (a dead sensor, [0, 0, 2] rad/s throughout) kept finding a "bias" in
+    what was left, recursing until Python gave up (exit 3)."""
     prepared = prepare((g1, acc1), (g2, acc2), rate, s, cutoff=s.cutoff or 0.0,
                        fit_signals=lambda sensors, c: _lowpassed_rates(sensors, rate, c),
                        min_samples=MIN_SAMPLES, what="axis")
     fit = _fit(prepared, s)
-    bias = _gyr_bias(prepared, fit)
-    if bias.significant:
+    bias = _gyr_bias(prepared, fit) if not bias_removed else None
+    if bias is not None and bias.significant:
         return _with_gyr_bias(g1, g2, acc1, acc2, rate, s, bias)
     j1, j2, decision, applied = _signs(prepared, fit, s)
     quality = _quality(prepared, fit, np.concatenate([j1, j2]))
@@ -336,7 +344,9 @@ def estimate_axis(
     warnings, blocking = _diagnose(prepared, quality, decision, gravity)
     warnings += _sign_warnings(decision, applied, s.j2_sign != "auto")
     result = _result(prepared, s, fit, j1, j2, decision, applied, quality, warnings, blocking)
-    result.gyr_bias, result.gravity = bias.report(), gravity
+    result.gravity = gravity
+    if bias is not None:  # with a removed bias, _with_gyr_bias reports it
+        result.gyr_bias = bias.report()
     return result
 
 
@@ -384,13 +394,14 @@ def _with_gyr_bias(g1, g2, acc1, acc2, rate, s: AxisSettings, bias: GyrBias) -> 
     """The estimate from rates corrected by ``bias``: a bias turns the axis by tenths of
     a degree, and everything after the fit (signs, uncertainty, the model bound) must
     see rates without it."""
-    result = estimate_axis(g1 - bias.b1, g2 - bias.b2, rate=rate, acc1=acc1, acc2=acc2,
-                           settings=s)
+    result = _estimate(g1 - bias.b1, g2 - bias.b2, acc1, acc2, rate, s, bias_removed=True)
     result.gyr_bias = bias.report()
     # the fit above takes the biases as known; with them estimated too, the axes are
     # known less well by the factor the joint fit's covariance gives
     c = result.uncertainty_components
+    # no widening (f = 1) stays 0 where the curvature's sigma is infinite (no motion)
     c["gyr_bias"] = {k: float(np.sqrt(f**2 - 1) * max(c["curvature"][k], c["time_blocks"][k]))
+                     if f > 1 else 0.0
                      for k, f in zip(("j1", "j2"), bias.inflation, strict=True)}
     result.uncertainty_deg = uncertainty_totals(c)
     return result

@@ -200,3 +200,16 @@ def test_a_recording_of_zeros_forced_through_gets_its_summary(tmp_path, command)
     assert proc.returncode == 0, proc.stderr
     assert "residual 0.0000" in proc.stderr and "(- of signal)" in proc.stderr
     assert "internal error" not in proc.stderr
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_rates_that_never_change_do_not_recurse_through_the_gyroscope_bias():
+    # both sensors turning at a constant [0, 0, 2] rad/s: the bias screening found a
+    # "bias" in the rates, and again in the rates with it removed, until RecursionError
+    rng = np.random.default_rng(0)
+    gyr = np.tile([0.0, 0.0, 2.0], (2000, 1))
+    acc = [np.array([0.0, 0.0, 9.81]) + 0.01 * rng.standard_normal((2000, 3)) for _ in "ab"]
+    r = estimate_axis(gyr, gyr.copy(), rate=100.0, acc1=acc[0], acc2=acc[1], restarts=10,
+                      seed=1, time_offset=0.0)
+    assert r.verdict == "not identifiable"
+    assert not any(np.isnan(v) for v in r.uncertainty_deg.values())
