@@ -276,7 +276,9 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
         broken = False
         futures = []
         try:
-            # Ctrl-C, SIGTERM and SIGHUP held while the workers start: they (and the fork
+            # Ctrl-C, SIGTERM and SIGHUP held while the workers start (by the command line;
+            # from Python nothing is held, and each worker blocks Ctrl-C and SIGHUP in
+            # restore_defaults): they (and the fork
             # server, whose preloading takes a second) inherit the block and never print
             # a KeyboardInterrupt traceback for the terminal's Ctrl-C to the whole group;
             # a worker lets Ctrl-C through only inside a recording (_pool_work). A signal
@@ -413,8 +415,8 @@ def _limit_threads() -> None:
 
 
 def _pool_work(task: tuple[int, Job, str]) -> Entry:
-    """:func:`work` in a pool worker, which starts with SIGINT blocked
-    (:func:`_parallel`). Ctrl-C is let through only while a recording
+    """:func:`work` in a pool worker, which starts with SIGINT blocked (:func:`_parallel`,
+    :func:`imucal.signals.restore_defaults`). Ctrl-C is let through only while a recording
     runs, and then ends the worker at once, without a word: a KeyboardInterrupt could
     surface in a finaliser ("Exception ignored ..."), and between recordings, in the
     pool's own code, as a traceback or a result cut off mid-write that hangs the pool."""
