@@ -60,6 +60,12 @@ ACC_ANGLE_CUTOFF_HZ = 12.0
 MIN_INPLANE_ACC = 2.0
 #: Sign decisions with |evidence| below this (see :func:`sign_evidence`) are weak.
 SIGN_EVIDENCE_MIN = 0.15
+#: A recording's own sign evidence (used when the calibration trial's was weak) counts
+#: only over at least this long, s: two slow strides (``GAIT_STRIDE_S``). Over part of a
+#: stride the skew says where in the stride the window lies: with the circling sample
+#: calibration, 0.3-0.5 s windows of a walk took the wrong direction unwarned in 93 of 259
+#: windows (about 70 deg off), windows of 0.75 s and more in none of 619.
+SIGN_MIN_S = 4.0
 #: Samples turning slower than this (rad/s, both sensors' mean in-plane rate) are left
 #: out of the hinge residual: at rest it would be noise over noise.
 MOVING_RATE = 0.5
@@ -730,7 +736,7 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     except NotIdentifiableError as err:
         raise NotIdentifiableError(f"{rec.source}: joint '{jc.name}': {err}; nothing "
                                    "written") from None
-    raw = np.degrees(fus.theta)
+    raw = _on_calibration_turn(np.degrees(fus.theta), ref)
     warnings = []
     evidence = sign_evidence(raw)
     if pinned is not None:
@@ -739,11 +745,14 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
         sign, source = int(ref["flexion_sign"]), "calibration"
     else:
         sign, source = (1 if evidence >= 0 else -1), "recording"
-        if abs(evidence) < SIGN_EVIDENCE_MIN:
+        seconds = raw.shape[0] / rec.rate
+        if abs(evidence) < SIGN_EVIDENCE_MIN or seconds < SIGN_MIN_S:
+            here = (f"{evidence:+.2f}" if seconds >= SIGN_MIN_S else
+                    f"{evidence:+.2f} over {seconds:.2g} s, less than the {SIGN_MIN_S:g} s it "
+                    "needs")
             warnings.append(f"{jc.name}: the flexion direction is ambiguous in the calibration "
-                            f"trial and here (evidence {ref['sign_evidence']:+.2f}, "
-                            f"{evidence:+.2f}); pin it (flexion_sign '+' or '-') if the "
-                            "angles look inverted")
+                            f"trial and here (evidence {ref['sign_evidence']:+.2f}, {here}); "
+                            "pin it (flexion_sign '+' or '-') if the angles look inverted")
     if reference is None:
         zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
                 "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
@@ -790,17 +799,29 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     extended = (source != "user" and (reference == "standing" or (
         reference is None and ref["zero_time_s"] is not None
         and sign == int(ref["flexion_sign"]))))
-    check = _fit_check(jc, ref, s1, s2, fus, rec.rate, flex if extended else None)
+    check = _fit_check(jc, ref, s1, s2, fus, rec.rate, flex, extended)
     if not check["fits"]:
         warnings.append(check["message"])
     return JointAngle(jc.name, jc.sensors, flex, np.degrees(fus.sigma), gyro_only, sign,
                       source, evidence, zero, check, detect_gait(flex, rec.rate), warnings)
 
 
-def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray | None) -> dict:
+def _on_calibration_turn(raw: np.ndarray, ref: dict) -> np.ndarray:
+    """``raw`` (deg) moved by the whole turns that bring its median nearest the middle of
+    the calibration trial's range. The accelerometer fixes the angle only up to whole
+    turns, and each recording's fusion takes the turn of its own first usable sample: a
+    knee whose range straddles that turn's edge read 360 deg off on some windows (7 of 80
+    simulated mountings) while its check said it fits. A knee's range is far narrower than
+    a turn, so the nearest turn is the calibration trial's."""
+    low, high = ref["flexion_range_deg"]
+    middle = ref["zero_deg"] + int(ref["flexion_sign"]) * (low + high) / 2
+    return raw + 360.0 * np.round((middle - np.median(raw)) / 360.0)
+
+
+def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bool) -> dict:
     """Does the calibration still fit this recording? (docs/angles.md) ``flex``: the
-    flexion, deg, when its zero is an extended posture and flexion positive (None: no
-    range to judge by, see ``_one_joint``)."""
+    flexion, deg; ``extended``: its zero is an extended posture and flexion positive, so
+    its range can be judged (else only its span, see ``_one_joint``)."""
     res = hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2)
     dis = math.degrees(fus.disagreement)
     # A calibration trial that never moved has no residual (NaN, null in its file): no
@@ -823,12 +844,19 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray | None) -> di
         bad.append(f"acc- vs gyro-angle disagreement {dis:.2f} deg > {dis_lim:.2f} deg "
                    f"(calibration trial {ref_dis:.2f} deg)")
     low, high = PLAUSIBLE_FLEXION_DEG
-    outside = 0.0 if flex is None else float(np.mean((flex < low) | (flex > high)))
+    outside = float(np.mean((flex < low) | (flex > high))) if extended else 0.0
+    p1, p99 = np.percentile(flex, [1, 99])
     if outside > IMPLAUSIBLE_SHARE:
         bad.append(f"the flexion spans {np.min(flex):.0f} to {np.max(flex):.0f} deg, outside "
                    f"the {low:g} to {high:g} deg a hinge of the body reaches from its "
                    f"extended zero on {outside:.0%} of the samples")
-    out = {"fits": not bad, "hinge_residual": res, "hinge_residual_limit": res_lim,
+    elif p99 - p1 > PLAUSIBLE_SPAN_DEG:  # whatever the zero: no knee moves that far
+        bad.append(f"the flexion spans {p1:.0f} to {p99:.0f} deg (1st to 99th percentile), "
+                   f"more than the {PLAUSIBLE_SPAN_DEG:g} deg a hinge of the body moves "
+                   "through")
+    unidentified = jc.verdict == "not identifiable"
+    out = {"fits": not bad and not unidentified, "calibration_verdict": jc.verdict,
+           "hinge_residual": res, "hinge_residual_limit": res_lim,
            "calibration_hinge_residual": ref["hinge_residual"],
            "acc_gyro_disagreement_deg": dis, "acc_gyro_disagreement_limit_deg": dis_lim,
            "calibration_acc_gyro_disagreement_deg": ref["acc_gyro_disagreement_deg"],
@@ -841,4 +869,10 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray | None) -> di
         out["message"] = (f"{jc.name}: the calibration does not fit this recording ("
                           + "; ".join(bad) + "): sensors re-strapped, swapped or another "
                           "subject? calibrate again; these angles are not trustworthy")
+    if unidentified:  # first: whatever else is wrong, the axes were never found
+        reason = jc.warnings[-1] if jc.warnings else "no reason recorded"
+        out["message"] = (f"{jc.name}: the calibration could not identify this joint ("
+                          f"{reason}): these angles are not trustworthy; calibrate again on "
+                          "a trial that moves it more"
+                          + ("" if not bad else "; " + out["message"]))
     return out

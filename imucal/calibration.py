@@ -12,6 +12,7 @@ statistics of the "does it still fit" check. The file format is in docs/json.md
 from __future__ import annotations
 
 import json
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -433,6 +434,8 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
         a = np.asarray(v, dtype=float)
         if a.shape != (3,) or not np.all(np.isfinite(a)):
             raise ValueError(f"joint '{name}' {key} is not a finite 3-vector")
+        if key in ("j1", "j2") and not np.linalg.norm(a) > 0:
+            raise ValueError(f"joint '{name}' {key} is a zero vector, not an axis")
         return a
 
     if e["joint"] not in KINDS:
@@ -441,4 +444,34 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
                             verdict=str(e["verdict"]), j1=vec("j1"), j2=vec("j2"),
                             o1=vec("o1"), o2=vec("o2"), warnings=list(e.get("warnings", [])),
                             axis=e.get("axis"), position=e.get("position"),
-                            angle=e.get("angle"))
+                            angle=_angle_from_doc(name, e.get("angle")))
+
+
+def _angle_from_doc(name: str, angle: dict | None) -> dict | None:
+    """A hinge's ``angle`` block, checked where :func:`imucal.angles.joint_angles` relies
+    on it: a hand-edited file with ``zero_deg: null`` or ``smoothing_s: 0`` otherwise
+    ended in an internal error, and ``flexion_sign: 0`` in silently mirrored angles."""
+    if angle is None:
+        return None
+
+    def bad(key, what):
+        return ValueError(f"joint '{name}' angle.{key} is {angle[key]!r}, not {what}")
+
+    sign = angle["flexion_sign"]
+    if isinstance(sign, bool) or sign not in (1, -1):
+        raise bad("flexion_sign", "+1 or -1")
+    for key, may_be_null in (("zero_deg", False), ("sign_evidence", False),
+                             ("smoothing_s", False), ("zero_time_s", True),
+                             ("hinge_residual", True), ("acc_gyro_disagreement_deg", True)):
+        if not (_finite(angle[key]) or (may_be_null and angle[key] is None)):
+            raise bad(key, "a finite number")
+    if not angle["smoothing_s"] > 0:
+        raise bad("smoothing_s", "a positive number")
+    span = angle["flexion_range_deg"]
+    if not (isinstance(span, list) and len(span) == 2 and all(map(_finite, span))):
+        raise bad("flexion_range_deg", "[p1, p99] in deg")
+    return dict(angle)
+
+
+def _finite(v) -> bool:
+    return not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v)

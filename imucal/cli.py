@@ -402,14 +402,15 @@ def angles(
                               start=start, end=end)
         for w in result.warnings:
             _err(f"imucal: warning: {recording.source}: {w}")
-        problems = [f"joint '{j.name}': {j.verdict} in the calibration"
-                    for j in cal.hinges if j.name in result.joints
-                    and j.verdict == "not identifiable"]
+        problems = []
         for j in result.joints.values():
             for w in j.warnings:
                 _err(f"imucal: warning: {w}")
             if not j.fits:
-                problems.append(f"joint '{j.name}': the calibration does not fit")
+                verdict = j.check["calibration_verdict"]
+                problems.append(f"joint '{j.name}': " + (
+                    f"{verdict} in the calibration" if verdict == "not identifiable"
+                    else "the calibration does not fit"))
         if problems and not force:
             raise NotIdentifiableError(
                 f"{recording.source} with {calibration}: {'; '.join(problems)}; nothing "

@@ -114,9 +114,10 @@ def test_a_calibration_of_another_mounting_is_flagged(session):
 
 
 def test_a_zero_that_does_not_carry_over_is_flagged(session):
-    # the calibration's zero (as if from a still period: an extended knee) moved by 250
-    # deg, as another recording's sensors gave: the knee would read -250 deg on every
-    # sample, and the check refuses it. Without an extended zero there is no range to
+    # the calibration's zero (as if from a still period: an extended knee) moved by 100
+    # deg, as another recording's sensors gave: the knee would read -100 to -35 deg, and
+    # the check refuses it. (Not more than half a turn: the recording's angle is read on
+    # the turn nearest the calibration trial's.) Without an extended zero there is no range to
     # judge by: a user's reference time, a sign pinned against the calibration's (the
     # flexion is then negative-going), a calibration zero that is only its trial's 1st
     # percentile (a trial that never straightened the knee reads stance at -40 deg)
@@ -132,7 +133,7 @@ def test_a_zero_that_does_not_carry_over_is_flagged(session):
                      zero_deg=knee.angle["zero_deg"] + shift * knee.angle["flexion_sign"])
         return replace(calibration, joints={"knee": replace(knee, angle=angle)})
 
-    result = joint_angles(walk, with_zero(250.0, 1.0), end=30.0)
+    result = joint_angles(walk, with_zero(100.0, 1.0), end=30.0)
     check = result.joints["knee"].check
     assert not result.fits
     assert check["implausible_flexion_share"] > 0.9
@@ -141,11 +142,74 @@ def test_a_zero_that_does_not_carry_over_is_flagged(session):
     opposite = "-" if knee.angle["flexion_sign"] > 0 else "+"
     for kwargs, zero_time in (({"reference": 5.0}, 1.0), ({"flexion_sign": opposite}, 1.0),
                               ({}, None)):
-        check = joint_angles(walk, with_zero(250.0, zero_time), end=30.0,
+        check = joint_angles(walk, with_zero(100.0, zero_time), end=30.0,
                              **kwargs).joints["knee"].check
         assert check["implausible_flexion_share"] == 0.0, kwargs
     pinned = joint_angles(walk, calibration, end=30.0, flexion_sign=opposite)
     assert pinned.fits and np.percentile(pinned.joints["knee"].flexion_deg, 1) < -30.0
+
+
+def test_the_angle_is_read_on_the_calibration_trials_turn():
+    # mounting 114: the raw angle's range straddles the edge of the accelerometer angle's
+    # turn, so the fusion took another turn on a walk starting at 0 s than at 5 s, and the
+    # knee read -360 to -300 deg with "fits" (the check had no range to judge by: the
+    # calibration trial's zero is its 1st percentile)
+    from imucal.angles import joint_angles
+    from imucal.calibration import calibrate
+
+    cal, _ = simulate(seed=14, mounting_seed=114, motion="protocol", duration=30.0, **NOISE)
+    walk, truth = simulate(seed=1014, mounting_seed=114, motion="gait", duration=40.0,
+                           gyr_bias=0.02, **NOISE)
+    calibration = calibrate(cal, restarts=20, seed=1, joints=["knee=hinge:thigh,shank"])
+    true = np.asarray(truth["knee_flexion_deg"])
+    for start in (0.0, 5.0):
+        result = joint_angles(walk, calibration, start=start)
+        knee = result.joints["knee"]
+        offset = np.median(knee.flexion_deg - true[int(start * walk.rate):])
+        # the zero convention (the trial's most extended posture) sets a few degrees
+        assert result.fits and abs(offset) < 10.0, (start, offset)
+
+
+def test_a_short_recording_cannot_decide_the_flexion_direction(session):
+    # a calibration trial without sign evidence (pure circling) leaves the direction to
+    # the recording: 0.4 s of a walk (5.2 s in) is skewed the wrong way (evidence -0.37,
+    # a clear decision before), and read flexion negative without a word
+    from dataclasses import replace
+
+    from imucal.angles import SIGN_EVIDENCE_MIN, joint_angles
+
+    calibration, walk, _ = session
+    knee = calibration.joints["knee"]
+    weak = replace(calibration, joints={"knee": replace(
+        knee, angle=dict(knee.angle, sign_evidence=0.0))})
+    short = joint_angles(walk, weak, start=5.2, end=5.6).joints["knee"]
+    assert short.sign != knee.angle["flexion_sign"]
+    assert abs(short.sign_evidence) > 2 * SIGN_EVIDENCE_MIN
+    assert "ambiguous" in short.warnings[0] and "less than the 4 s it needs" in short.warnings[0]
+    long = joint_angles(walk, weak, start=5.2, end=15.2).joints["knee"]
+    assert long.sign == knee.angle["flexion_sign"] and long.sign_source == "recording"
+    assert not any("ambiguous" in w for w in long.warnings)
+
+
+def test_a_joint_the_calibration_could_not_identify_does_not_fit(session):
+    # only the command line looked at the calibration's verdict: from Python the angles
+    # of an unidentified knee came out with fits True and no warning
+    from dataclasses import replace
+
+    from imucal.angles import joint_angles
+
+    calibration, walk, _ = session
+    knee = calibration.joints["knee"]
+    unidentified = replace(calibration, joints={"knee": replace(
+        knee, verdict="not identifiable", warnings=["axis: the sensors barely rotate"])})
+    result = joint_angles(walk, unidentified, end=20.0)
+    check = result.joints["knee"].check
+    assert not result.fits and check["calibration_verdict"] == "not identifiable"
+    assert ("knee: the calibration could not identify this joint (axis: the sensors barely "
+            "rotate)") in result.joints["knee"].warnings[-1]
+    assert result.to_document()["joints"]["knee"]["fits"] is False
+    assert joint_angles(walk, calibration, end=20.0).joints["knee"].check[
+        "calibration_verdict"] == "good"
 
 
 def test_two_sensors_of_the_calibration_finding_one_here_are_refused(session):

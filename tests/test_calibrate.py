@@ -157,6 +157,27 @@ def test_load_calibration_errors(calibration, tmp_path):
         load_calibration(tmp_path / "bad.json")
 
 
+@pytest.mark.parametrize(("key", "value", "match"), [
+    ("zero_deg", None, "angle.zero_deg is None, not a finite number"),
+    ("smoothing_s", 0, "angle.smoothing_s is 0, not a positive number"),
+    ("smoothing_s", -3, "angle.smoothing_s is -3, not a positive number"),
+    ("hinge_residual", "x", "angle.hinge_residual is 'x', not a finite number"),
+    ("flexion_sign", 0, "angle.flexion_sign is 0, not \\+1 or -1"),
+    ("flexion_range_deg", [0, None], "angle.flexion_range_deg"),
+    ("j1", [0, 0, 0], "knee' j1 is a zero vector"),
+])
+def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, key, value,
+                                                         match):
+    # each of these ended in an internal error (exit 3) or, flexion_sign 0, in angles
+    # mirrored without a word, when the file was applied
+    doc = calibration[0].to_document()
+    knee = doc["joints"]["knee"]
+    (knee if key == "j1" else knee["angle"])[key] = value
+    (tmp_path / "edited.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="edited.json: damaged calibration file.*" + match):
+        load_calibration(tmp_path / "edited.json")
+
+
 def test_a_joint_that_cannot_be_identified_does_not_lose_the_others():
     rec, _ = simulate(seed=3, motion="circling", duration=15.0, gyr_noise=0.01,
                       acc_noise=0.05)
