@@ -24,7 +24,10 @@ from .errors import ImucalError, InputError
 from .recording import Recording, _norm, _segment
 
 FORMAT = "imucal-calibration"
-FORMAT_VERSION = 1
+#: 2: the angle block's ``hinge_residual`` is relative to the angular rates, and its
+#: statistics are taken with the second sensor at the axis' clock offset (version 1
+#: files compare with neither: calibrate again).
+FORMAT_VERSION = 2
 KINDS = ("hinge", "spheroidal")
 #: Segment pairs of the joints found from sensor names: (joint, kind, first, second).
 JOINT_TYPES = (
