@@ -187,6 +187,19 @@ def _vendor(path: Path, source: str):
     )
 
 
+def _check_shapes(s, source: str) -> None:
+    """One row of x, y, z per sample in gyr and acc, one time stamp and packet count per
+    row: a reader that let a damaged export through ended in an internal error."""
+    n = s.gyr.shape[0] if s.gyr.ndim == 2 else -1
+    per_row = [("time stamps", s.time), ("packet counters", s.counter)]
+    if (n < 1 or s.gyr.shape != (n, 3) or s.acc.shape != (n, 3)
+            or any(v is not None and np.shape(v) != (n,) for _, v in per_row)):
+        found = [f"gyroscope {s.gyr.shape}", f"accelerometer {s.acc.shape}"] + [
+            f"{what} {np.shape(v)}" for what, v in per_row if v is not None]
+        raise InputError(f"{source}: sensor '{s.name}': the samples do not line up ("
+                         f"{', '.join(found)}; expected N x 3 and N, N > 0)")
+
+
 def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units) -> Recording:
     """Read a vendor export, put its devices on one time grid, check it as any recording."""
     from .clock import align
@@ -198,6 +211,7 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
             check_units(kind, unit, f"{source}: --{kind}-units ({kind}_units=)")
     milli = []
     for s in raw.sensors:
+        _check_shapes(s, source)
         if gyr_units is not None:
             s.gyr_units = gyr_units
         if acc_units is not None:

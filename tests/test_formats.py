@@ -158,6 +158,43 @@ def test_apdm_sensor_without_configuration_skipped(tmp_path):
     assert any("sensor 1236 skipped" in w for w in loaded.warnings)
 
 
+@pytest.mark.parametrize(("v3", "key", "damage"), [
+    (False, "Accelerometer", lambda x: x[:-10]),
+    (False, "Gyroscope", lambda x: x[:, :2]),
+    (False, "Accelerometer", lambda x: x.T),
+    (True, "Calibrated/Accelerometers", lambda x: x[:-10]),
+])
+def test_apdm_sensor_whose_samples_do_not_line_up_is_skipped(tmp_path, v3, key, damage):
+    # an accelerometer 10 rows short (or 2 columns, or stored transposed) ended in an
+    # internal error (exit 3) when the devices were put on one time grid
+    import h5py
+
+    path = vw.apdm(short(), tmp_path / "o.h5", v3=v3)
+    with h5py.File(path, "r+") as h5:
+        g = h5["SI-001234"] if v3 else h5["Sensors/1234"]
+        data = damage(np.asarray(g[key][()]))
+        del g[key]
+        g[key] = data
+    loaded = load_recording(path)
+    assert sorted(loaded.sensors) == ["Right Foot", "Right Lower Leg"]
+    what = "Gyroscope" if "Gyro" in key else "Accelerometer"
+    assert any("1234 skipped" in w and f"{what} {data.shape}" in w for w in loaded.warnings)
+
+
+def test_a_vendor_sensor_whose_samples_do_not_line_up_is_refused():
+    from imucal.formats import RawSensor
+    from imucal.loaders import _check_shapes
+
+    ok = np.zeros((5, 3))
+    _check_shapes(RawSensor("a", ok, ok, "rad/s", "m/s^2", time=np.arange(5.0)), "x.h5")
+    for kwargs in ({"acc": ok[:4]}, {"time": np.arange(4.0)}, {"counter": np.arange(6)},
+                   {"gyr": np.zeros((0, 3)), "acc": np.zeros((0, 3))}):
+        sensor = RawSensor("a", kwargs.get("gyr", ok), kwargs.get("acc", ok), "rad/s",
+                           "m/s^2", time=kwargs.get("time"), counter=kwargs.get("counter"))
+        with pytest.raises(InputError, match="x.h5: sensor 'a': the samples do not line up"):
+            _check_shapes(sensor, "x.h5")
+
+
 def test_xsens_newer_export_without_update_rate(tmp_path):
     rec = short()
     loaded = load_recording(vw.xsens(rec, tmp_path / "x", newer=True))

@@ -111,19 +111,27 @@ _UNREADABLE = (KeyError, OSError, TypeError, ValueError, IndexError)
 
 
 def _sensor(label, serial, rate, acc_ds, gyr_ds, time_ds, source) -> RawSensor:
-    """One sensor from its datasets (units from their attributes, SI by default)."""
+    """One sensor from its datasets (units from their attributes, SI by default). A
+    ValueError names what does not match (the sensor is then skipped with it)."""
+    gyr, acc = np.asarray(gyr_ds[()], float), np.asarray(acc_ds[()], float)
+    time = np.asarray(time_ds[()])
+    shapes = {"Gyroscope": gyr.shape, "Accelerometer": acc.shape, "Time": time.shape}
+    n = time.shape[0] if time.ndim == 1 else -1
+    if n < 1 or any(sh != (n, 3) for sh in (gyr.shape, acc.shape)):
+        raise ValueError("expected Time (N,) and Gyroscope, Accelerometer (N, 3) with one "
+                         "N > 0; found " + ", ".join(f"{k} {v}" for k, v in shapes.items()))
+    if not np.issubdtype(time.dtype, np.integer):
+        raise ValueError(f"Time holds {time.dtype} values, not integer microseconds")
     return RawSensor(
-        name=label, serial=serial, gyr=np.asarray(gyr_ds[()], float),
-        acc=np.asarray(acc_ds[()], float), gyr_units=_units(gyr_ds, "gyr", "rad/s"),
-        acc_units=_units(acc_ds, "acc", "m/s^2"),
-        time=np.asarray(time_ds[()]).astype(np.int64), claimed_rate=rate,
-        files=[Path(source).name],
+        name=label, serial=serial, gyr=gyr, acc=acc,
+        gyr_units=_units(gyr_ds, "gyr", "rad/s"), acc_units=_units(acc_ds, "acc", "m/s^2"),
+        time=time.astype(np.int64), claimed_rate=rate, files=[Path(source).name],
     )
 
 
 def _skipped(which, err) -> str:
     return (f"sensor {which} skipped: its configuration or data cannot be read "
-            f"({' '.join(str(err).split())[:80]})")
+            f"({' '.join(str(err).split())[:160]})")
 
 
 def _read_v3(h5, source: str):
