@@ -426,7 +426,8 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
     # one hinge axis makes the same angle with the vertical in both sensors whenever
     # they rest, whatever the posture (imucal.rest): eq. (1) never sees gravity, so this
     # is an independent test of the axes the angles rest on
-    gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rec.rate)
+    gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rec.rate,
+                            origin=float(rec.time[0]))
     warned = gravity_warning(gravity, f"{jc.name}: the axis")
     warnings = [] if warned is None else [warned]
     if math.degrees(fus.disagreement) > ACC_AGREEMENT_DEG:
@@ -436,9 +437,11 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
             f"(more than {ACC_AGREEMENT_DEG:g} deg): the drift correction is unreliable; "
             "the joint is far from a hinge with these axes, or the axes are wrong")
     flexion_range = [float(np.percentile(flex, 1)), float(np.percentile(flex, 99))]
+    failing = own_check_failure(jc.name, math.degrees(fus.disagreement), gravity["consistent"])
     implausible = implausible_range(jc.name, flexion_range)
-    if implausible:  # last: the reason calibrate gives for the joint
-        warnings.append(implausible)
+    for reason in (failing, implausible):  # last: the reasons calibrate gives for the joint
+        if reason:
+            warnings.append(reason)
     x1, _ = plane_basis(jc.j1)
     x2, _ = plane_basis(jc.j2)
     return {
@@ -458,6 +461,21 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S) -> dict:
         "gravity_consistent": gravity["consistent"],
         "warnings": warnings,
     }
+
+
+def own_check_failure(name: str, disagreement_deg: float, gravity_consistent) -> str | None:
+    """Why no recording can pass the fit check with this calibration: its own trial fails
+    the parts of it that do not depend on the trial's own numbers (a disagreement above
+    ``FIT_MAX_DEG``, axes the gravity check rejects), else None. Such a knee was "use
+    with care" in ``calibrate`` and then refused on the very trial it came from."""
+    fails = ([f"acc-gyro disagreement {disagreement_deg:.0f} deg > {FIT_MAX_DEG:g} deg"]
+             if disagreement_deg > FIT_MAX_DEG else [])
+    if gravity_consistent is False:
+        fails.append("the gravity check")
+    if not fails:
+        return None
+    return (f"{name}: no recording can pass the fit check with this calibration: its own "
+            f"trial fails it ({', '.join(fails)})")
 
 
 def implausible_range(name: str, flexion_range) -> str | None:
@@ -829,7 +847,7 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s) -> JointAngle:
     extended = (source != "user" and (reference == "standing" or (
         reference is None and ref["zero_time_s"] is not None
         and sign == int(ref["flexion_sign"]))))
-    check = _fit_check(jc, ref, s1, s2, fus, rec.rate, flex, extended)
+    check = _fit_check(jc, ref, s1, s2, fus, rec.rate, flex, extended, float(rec.time[0]))
     if not check["fits"]:
         warnings.append(check["message"])
     return JointAngle(jc.name, jc.sensors, flex, np.degrees(fus.sigma), gyro_only, sign,
@@ -848,10 +866,12 @@ def _on_calibration_turn(raw: np.ndarray, ref: dict) -> np.ndarray:
     return raw + 360.0 * np.round((middle - np.median(raw)) / 360.0)
 
 
-def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bool) -> dict:
+def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bool,
+               origin: float) -> dict:
     """Does the calibration still fit this recording? (docs/angles.md) ``flex``: the
     flexion, deg; ``extended``: its zero is an extended posture and flexion positive, so
-    its range can be judged (else only its span, see ``_one_joint``)."""
+    its range can be judged (else only its span, see ``_one_joint``); ``origin``: the time
+    of the recording's first sample, s."""
     res = hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2)
     dis = math.degrees(fus.disagreement)
     # A calibration trial that never moved has no residual (NaN, null in its file): no
@@ -864,7 +884,8 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bo
     if res > res_lim:  # NaN (never moved, here or there) is no evidence against
         bad.append(f"hinge residual {res:.3f} > {res_lim:.3f} (calibration trial "
                    f"{ref_res:.3f})")
-    gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rate)
+    gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rate,
+                            origin=origin)
     if gravity["consistent"] is False:
         worst = gravity["max_mismatch_deg"]
         bad.append(f"at rest the axis makes angles with the vertical that differ by "

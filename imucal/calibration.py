@@ -21,7 +21,7 @@ import numpy as np
 
 from . import __version__
 from .errors import ImucalError, InputError
-from .recording import Recording, _norm, _segment
+from .recording import Recording, _norm, _segment, estimator_window
 
 FORMAT = "imucal-calibration"
 #: 2: the angle block's ``hinge_residual`` is relative to the angular rates, and its
@@ -339,15 +339,20 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
 
     jc = JointCalibration(spec.name, spec.kind, (spec.first, spec.second), verdict="failed")
     try:
-        used = recording.select([spec.first, spec.second], start, end)
-        s1, s2 = used.sensors[spec.first], used.sensors[spec.second]
-        info = {"path": recording.source, "sensors": [spec.first, spec.second],
+        names = [spec.first, spec.second]
+        used = recording.select(names, start, end)
+        # the estimators get the window in its context, as the axis and position
+        # commands do: their times (still periods) are then the recording's, not the
+        # window's (a warning said "rest at 2-5 s" for 52-55 s)
+        around, window = estimator_window(recording, names, start, end)
+        s1, s2 = around.sensors[spec.first], around.sensors[spec.second]
+        info = {"path": recording.source, "sensors": names,
                 "sample_rate_hz": recording.rate, "samples_total": recording.n_samples,
                 "duration_s": recording.duration,
                 "units_in_file": {n: recording.units.get(n, {}) for n in jc.sensors},
-                "time_origin": float(used.time[0]), "load_warnings": list(used.warnings)}
+                "time_origin": float(around.time[0]), "load_warnings": list(used.warnings)}
         common = {"rate": used.rate, "restarts": restarts, "seed": seed,
-                  "time_offset": time_offset}
+                  "time_offset": time_offset, **window}
         axis = None
         if spec.kind == "hinge":
             axis = estimate_axis(s1.gyr, s2.gyr, acc1=s1.acc, acc2=s2.acc, **common)
@@ -366,7 +371,7 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
                        strict=True):
         jc.warnings += [f"{what}: {w}" for w in d["quality"]["warnings"]]
     if spec.kind == "hinge":
-        from .angles import implausible_range, reference_statistics
+        from .angles import implausible_range, own_check_failure, reference_statistics
 
         try:
             jc.angle = reference_statistics(used, jc, smoothing_s=smoothing_s)
@@ -377,7 +382,9 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
             if jc.angle["warnings"]:
                 jc.warnings += [f"angle: {w}" for w in jc.angle["warnings"]]
                 jc.verdict = _worst([jc.verdict, "use with care"])
-            if implausible_range(spec.name, jc.angle["flexion_range_deg"]):
+            a = jc.angle
+            if implausible_range(spec.name, a["flexion_range_deg"]) or own_check_failure(
+                    spec.name, a["acc_gyro_disagreement_deg"], a["gravity_consistent"]):
                 jc.verdict = _worst([jc.verdict, "not identifiable"])
     window = (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate)
     return jc, window

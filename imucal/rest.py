@@ -48,7 +48,7 @@ def still_periods(gyrs, rate: float, min_s: float = STILL_MIN_S) -> list[tuple[i
 
 
 def gravity_check(gyr1, acc1, gyr2, acc2, j1, j2, rate: float, *,
-                  window: slice | None = None) -> dict:
+                  window: slice | None = None, origin: float = 0.0) -> dict:
     """Compare the axis's angle to the vertical in both sensors over every still period.
 
     Parameters
@@ -61,6 +61,9 @@ def gravity_check(gyr1, acc1, gyr2, acc2, j1, j2, rate: float, *,
         Sample rate, Hz.
     window
         Only still periods inside this slice of samples count (None: all).
+    origin
+        Time of the first sample given, s on the recording's time axis (the periods'
+        times are on that axis).
 
     Returns
     -------
@@ -74,7 +77,7 @@ def gravity_check(gyr1, acc1, gyr2, acc2, j1, j2, rate: float, *,
     g1, a1, g2, a2 = (np.asarray(x, float) for x in (gyr1, acc1, gyr2, acc2))
     if window is not None:
         g1, a1, g2, a2 = g1[window], a1[window], g2[window], a2[window]
-    t0 = 0.0 if window is None or window.start is None else window.start / rate
+    t0 = origin + (0.0 if window is None or window.start is None else window.start / rate)
     periods = still_periods((g1, g2), rate)
     rows = []
     for i0, i1 in periods:

@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import ImucalError, InputError, NotIdentifiableError
+from .recording import estimator_window
 from .signals import unreported
 
 __all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors"]
@@ -340,7 +341,7 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
                          f"sensor '{names[0]}'; name two different sensors")
     # Only now the warnings: which of the file's problems matter depends on the sensors
     # and window used.
-    used, window = _window(recording, names, job.start, job.end)
+    used, window = estimator_window(recording, names, job.start, job.end)
     outcome.warnings.extend(f"{used.source}: {w}" for w in used.warnings)
     first, second = (used.sensor(n) for n in names)
     try:
@@ -365,19 +366,6 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
             f"{recording.source}: the data cannot identify the {what}: {reason}; nothing "
             "written (--force writes the result with its warnings)")
     outcome.document, outcome.result = doc, result
-
-
-def _window(recording, names, start, end):
-    """The sensors ``names`` in the window ``start``..``end`` (s on the recording's time
-    axis), checked and repaired (Recording.select), and the window for the estimators,
-    which count from the first sample they are given."""
-    used = recording.select(names, start, end, context=True)
-    i0, i1 = used.window
-    # Whole samples, so the estimators cut exactly the samples select checked; the finite
-    # context around them keeps filter transients off the window's edges.
-    rel = {"start": None if start is None and i0 == 0 else i0 / used.rate,
-           "end": None if end is None and i1 == used.n_samples else i1 / used.rate}
-    return used, rel
 
 
 def _input_info(recording, names, used, job: Job) -> dict:

@@ -229,3 +229,18 @@ def test_a_failed_hinge_is_named_in_the_angles(calibration):
     only_failed = dataclasses.replace(cal, joints={"other_knee": failed})
     with pytest.raises(InputError, match="no usable hinge joint"):
         joint_angles(rec, only_failed)
+
+
+def test_a_knee_whose_own_trial_fails_the_fit_check_is_not_identifiable(real_recording):
+    # 50-70 s of the shared recording: the right knee's axes are not one line at rest
+    # (52-55 s) and its acc and gyro angles disagree by 88 deg; calibrate said "use with
+    # care" (exit 0) and angles then refused the calibration on this very trial. The
+    # still period was also reported at 2-5 s, on the window's clock
+    cal = calibrate(real_recording, joints=["R=hinge:right_thigh,right_shank"], start=50.0,
+                    end=70.0, restarts=10, seed=1)
+    knee = cal.joints["R"]
+    assert knee.verdict == "not identifiable"
+    assert any("no recording can pass the fit check with this calibration: its own trial "
+               "fails it (acc-gyro disagreement" in w for w in knee.warnings)
+    start = knee.axis["quality"]["gravity"]["periods"][0]["start_s"]
+    assert 52.0 < start < 53.0 and any("rest at 52-55 s" in w for w in knee.warnings)
