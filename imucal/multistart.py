@@ -55,13 +55,18 @@ def one_blas_thread(estimator: Callable) -> Callable:
     BLAS thread pool spends more on waking and syncing its threads than it saves, and
     on a loaded machine far more. The controller is built on first use, when numpy's and
     scipy's BLAS libraries are loaded, and reused (about 20 us per call).
+
+    numpy's floating-point warnings are silenced inside: the estimators detect what does
+    not stay finite and say so in their own words (degenerate restarts, "no restart
+    produced a finite result"); rates of 1e30 rad/s printed a dozen numpy lines with
+    imucal's source lines before that one line.
     """
     @functools.wraps(estimator)
     def limited(*args, **kwargs):
         global _BLAS
         if _BLAS is None:
             _BLAS = ThreadpoolController()
-        with _BLAS.limit(limits=1, user_api="blas"):
+        with _BLAS.limit(limits=1, user_api="blas"), np.errstate(all="ignore"):
             return estimator(*args, **kwargs)
     return limited
 

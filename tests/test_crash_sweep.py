@@ -213,3 +213,22 @@ def test_rates_that_never_change_do_not_recurse_through_the_gyroscope_bias():
                       seed=1, time_offset=0.0)
     assert r.verdict == "not identifiable"
     assert not any(np.isnan(v) for v in r.uncertainty_deg.values())
+
+
+def test_absurd_rates_end_in_one_line_without_numpy_warnings():
+    # rates of 1e30 rad/s (a wrong scale): numpy printed a dozen overflow warnings, with
+    # imucal's source lines, before the estimator's own "no restart produced a finite
+    # result"
+    import warnings
+
+    from imucal import estimate_axis
+    from imucal.errors import ImucalError
+    from imucal.simulate import simulate
+
+    rec, _ = simulate(seed=1, duration=5.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(ImucalError, match="no restart produced a finite result"):
+            estimate_axis(rec.sensor("thigh").gyr * 1e30, rec.sensor("shank").gyr * 1e30,
+                          rate=rec.rate, restarts=5, seed=1)
+    assert not [w for w in caught if issubclass(w.category, RuntimeWarning)]

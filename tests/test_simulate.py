@@ -540,3 +540,13 @@ def test_a_rate_outside_the_imus_range_is_refused_before_simulating():
     with pytest.raises(InputError, match="^simulate: sample rate 1e\\+09 Hz is outside the 1 "):
         simulate(rate=1e9, duration=0.1)
     assert simulate(seed=1, rate=10_000.0, duration=0.01)[0].rate == 10_000.0
+
+
+def test_a_simulation_that_cannot_fit_in_memory_is_refused_up_front():
+    # 10 h at 10 kHz: the kernel killed such a run at 24 GB without a word (exit 137)
+    from imucal.errors import InputError
+    from imucal.simulate import simulate
+
+    with pytest.raises(InputError, match="simulate: 360000000 samples .* would need about "
+                                         "838 GiB, more than half this machine's"):
+        simulate(seed=1, rate=10000.0, duration=36000.0)
