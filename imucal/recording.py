@@ -244,6 +244,9 @@ class Recording:
         trail = max((g.length for r in gaps.values() for g in r if g.start + g.length == n),
                     default=0)
         a0, a1 = max(w0, lead), min(w1, n - trail)
+        if w1 - w0 < 2:  # the window itself, whatever its samples hold
+            raise InputError(f"{source}: {span} holds {w1 - w0} sample(s); "
+                             "at least 2 are needed")
         if a1 - a0 < 2:
             raise InputError(
                 f"{source}: fewer than 2 samples are finite (not NaN or Inf) in every sensor "
@@ -763,7 +766,8 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
     _check_plausible_rate(time_rate, source, " from the 'time' steps (are they in seconds?)")
     if rate is not None and abs(time_rate - rate) > TIME_JITTER_TOLERANCE * rate:
         raise InputError(
-            f"{source}: 'sample_rate' says {rate:g} Hz but 'time' says {time_rate:g} Hz; "
+            f"{source}: the rate given ('sample_rate' or --rate) says {rate:g} Hz but 'time' "
+            f"says {time_rate:g} Hz; "
             "fix one of them (or drop --rate)"
         )
     if rate is None:

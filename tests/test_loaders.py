@@ -238,7 +238,8 @@ def test_rate_argument_overrides_sample_rate_attribute(tmp_path):
 def test_rate_argument_must_agree_with_time(tmp_path):
     ones = np.ones((N, 3))
     path = write_h5(tmp_path / "r.h5", {"s": {"gyr": ones, "acc": ones}}, time=np.arange(N) / 100)
-    expect_error(path, "'sample_rate' says 50 Hz but 'time' says 100 Hz", rate=50)
+    expect_error(path, "the rate given ('sample_rate' or --rate) says 50 Hz but 'time' says "
+                 "100 Hz", rate=50)
 
 
 def test_csv_rate_only(tmp_path):

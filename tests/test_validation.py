@@ -201,3 +201,15 @@ def test_saving_a_recording_keeps_its_gaps(tmp_path, suffix):
     back = imucal.load_recording(tmp_path / f"gaps{suffix}")
     assert [(g.start, g.length) for g in back.gaps] == [(10, 2), (20, 1)]
     np.testing.assert_array_equal(back.sensors["a"].gyr, gyr)
+
+
+def test_a_window_of_one_sample_says_so():
+    # 99.99 s of a 100 s recording: "fewer than 2 samples are finite", though all were
+    from imucal import make_recording
+
+    z = np.zeros((1000, 3))
+    rec = make_recording({"a": {"gyr": z, "acc": z}, "b": {"gyr": z, "acc": z}}, rate=100.0,
+                         source="r.h5")
+    with pytest.raises(InputError, match=r"r.h5: the window t=9.99 to 10 s holds 1 "
+                                         r"sample\(s\); at least 2 are needed"):
+        rec.select(["a", "b"], 9.99, None)
