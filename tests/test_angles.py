@@ -191,6 +191,19 @@ def test_the_angle_is_read_on_the_calibration_trials_turn():
         assert result.fits and abs(offset) < 10.0, (start, offset)
 
 
+def test_a_window_of_a_few_samples_is_refused(session):
+    # 2 samples of a walk read up to 75 deg off with "fits" (0.02 s, 50 of 51 windows
+    # beyond 3 sigma); 10 samples stay within a degree
+    from imucal.angles import joint_angles
+
+    calibration, walk, truth = session
+    with pytest.raises(InputError, match="the window holds 2 samples; angles need at least "
+                                         "10"):
+        joint_angles(walk, calibration, start=10.0, end=10.02)
+    knee = joint_angles(walk, calibration, start=10.0, end=10.1).joints["knee"]
+    assert knee.flexion_deg.size == 10
+
+
 def test_the_calibrations_clock_offset_aligns_the_sensors():
     # the shank's clock 20 ms late on both trials: calibrate measured and applied it to
     # the axis, the angles ignored it (3.5 deg RMS against a median 1-sigma of 1.1 deg,
