@@ -374,7 +374,8 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
         from .angles import implausible_range, own_check_failure, reference_statistics
 
         try:
-            jc.angle = reference_statistics(used, jc, smoothing_s=smoothing_s)
+            jc.angle = reference_statistics(used, jc, smoothing_s=smoothing_s,
+                                            context=around)
         except ImucalError as err:  # e.g. a trial without acceleration across the axis
             jc.verdict = "not identifiable"
             jc.warnings.append(f"angle: {spec.name}: no angle calibration: {err}")
@@ -433,7 +434,7 @@ def load_calibration(path: str | Path) -> Calibration:
                            sensors=dict(inp.get("sensors", {})), file=str(path))
     except (KeyError, TypeError, ValueError, AttributeError) as err:
         raise InputError(f"{path}: damaged calibration file ({type(err).__name__}: "
-                         f"{str(err)[:80]})") from None
+                         f"{str(err)[:200]})") from None
 
 
 def _joint_from_doc(name: str, e: dict) -> JointCalibration:
@@ -450,11 +451,19 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
 
     if e["joint"] not in KINDS:
         raise ValueError(f"joint '{name}' has unknown type {e['joint']!r}")
+    for block in ("axis", "position"):
+        if e.get(block) is not None and not isinstance(e[block], dict):
+            raise ValueError(f"joint '{name}' {block} is not a JSON object")
     return JointCalibration(name=name, kind=e["joint"], sensors=tuple(e["sensors"]),
                             verdict=str(e["verdict"]), j1=vec("j1"), j2=vec("j2"),
                             o1=vec("o1"), o2=vec("o2"), warnings=list(e.get("warnings", [])),
                             axis=e.get("axis"), position=e.get("position"),
                             angle=_angle_from_doc(name, e.get("angle")))
+
+
+#: No angle a calibration file stores lies beyond this, deg: the raw angle is the fused
+#: angle of one trial (a few turns at most), its range a knee's.
+MAX_ANGLE_DEG = 1e4
 
 
 def _angle_from_doc(name: str, angle: dict | None) -> dict | None:
@@ -477,9 +486,17 @@ def _angle_from_doc(name: str, angle: dict | None) -> dict | None:
             raise bad(key, "a finite number")
     if not angle["smoothing_s"] > 0:
         raise bad("smoothing_s", "a positive number")
+    if not abs(angle["zero_deg"]) <= MAX_ANGLE_DEG:
+        raise bad("zero_deg", f"an angle within +-{MAX_ANGLE_DEG:g} deg")
     span = angle["flexion_range_deg"]
-    if not (isinstance(span, list) and len(span) == 2 and all(map(_finite, span))):
-        raise bad("flexion_range_deg", "[p1, p99] in deg")
+    if not (isinstance(span, list) and len(span) == 2 and all(map(_finite, span))
+            and -MAX_ANGLE_DEG <= span[0] <= span[1] <= MAX_ANGLE_DEG):
+        raise bad("flexion_range_deg", "[p1, p99] in deg, p1 <= p99")
+    if not isinstance(angle["zero_method"], str):
+        raise bad("zero_method", "a text")
+    if not (isinstance(angle.get("warnings", []), list)
+            and all(isinstance(w, str) for w in angle.get("warnings", []))):
+        raise bad("warnings", "a list of texts")
     return dict(angle)
 
 

@@ -223,6 +223,24 @@ def test_the_calibrations_clock_offset_aligns_the_sensors():
     assert result.fits and rmse < 0.5, rmse
 
 
+def test_the_clock_offset_reads_the_samples_beyond_the_window(session):
+    # held at the window's last sample, the shifted shank read the wrong rates there
+    # (5 s of a walk, 50 ms late: the last samples 2.8 deg off at 5 sigma)
+    from dataclasses import replace
+
+    from imucal.angles import _fused
+    from imucal.time_offset import shifted
+
+    calibration, walk, _ = session
+    knee = calibration.joints["knee"]
+    late = replace(knee, axis={**knee.axis, "time_offset": {"time_offset_s": 0.05}})
+    names = list(knee.sensors)
+    window = walk.select(names, 5.0, 10.0)
+    _, s2, _, _ = _fused(window, late, 3.0, walk.select(names, 5.0, 10.0, context=True))
+    whole = shifted(walk.sensor("shank").gyr, walk.rate, 0.05)[500:1000]
+    np.testing.assert_allclose(s2.gyr, whole, atol=1e-9)
+
+
 def test_a_short_recording_cannot_decide_the_flexion_direction(session):
     # a calibration trial without sign evidence (pure circling) leaves the direction to
     # the recording: 0.4 s of a walk (5.2 s in) is skewed the wrong way (evidence -0.37,

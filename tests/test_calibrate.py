@@ -165,6 +165,12 @@ def test_load_calibration_errors(calibration, tmp_path):
     ("flexion_sign", 0, "angle.flexion_sign is 0, not \\+1 or -1"),
     ("flexion_range_deg", [0, None], "angle.flexion_range_deg"),
     ("j1", [0, 0, 0], "knee' j1 is a zero vector"),
+    ("flexion_range_deg", [60, 0], "p1 <= p99"),
+    ("flexion_range_deg", [1e5, 2e5], "p1 <= p99"),
+    ("zero_deg", 1e300, "angle.zero_deg is 1e\\+300, not an angle within"),
+    ("zero_method", None, "angle.zero_method is None, not a text"),
+    ("warnings", None, "angle.warnings is None, not a list of texts"),
+    ("axis", 0.02, "knee' axis is not a JSON object"),
 ])
 def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, key, value,
                                                          match):
@@ -172,7 +178,7 @@ def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, 
     # mirrored without a word, when the file was applied
     doc = calibration[0].to_document()
     knee = doc["joints"]["knee"]
-    (knee if key == "j1" else knee["angle"])[key] = value
+    (knee if key in ("j1", "axis") else knee["angle"])[key] = value
     (tmp_path / "edited.json").write_text(json.dumps(doc))
     with pytest.raises(InputError, match="edited.json: damaged calibration file.*" + match):
         load_calibration(tmp_path / "edited.json")

@@ -181,6 +181,27 @@ def test_apdm_sensor_whose_samples_do_not_line_up_is_skipped(tmp_path, v3, key, 
     assert any("1234 skipped" in w and f"{what} {data.shape}" in w for w in loaded.warnings)
 
 
+def test_apdm_time_stored_as_whole_doubles_is_read(tmp_path):
+    # a re-save by MATLAB or h5py stores the microseconds as doubles
+    import h5py
+
+    path = vw.apdm(short(), tmp_path / "o.h5")
+    with h5py.File(path, "r+") as h5:
+        for serial in h5["Sensors"]:
+            g = h5["Sensors"][serial]
+            stamps = g["Time"][()].astype(np.float64)
+            del g["Time"]
+            g["Time"] = stamps
+    loaded = load_recording(path)
+    same(loaded, short(), NAMES["apdm"])
+    with h5py.File(path, "r+") as h5:
+        g = h5["Sensors/1234"]
+        stamps = g["Time"][()] / 1e6  # seconds: another unit
+        del g["Time"]
+        g["Time"] = stamps
+    assert any("not whole microseconds" in w for w in load_recording(path).warnings)
+
+
 def test_a_vendor_sensor_whose_samples_do_not_line_up_is_refused():
     from imucal.formats import RawSensor
     from imucal.loaders import _check_shapes

@@ -121,7 +121,13 @@ def _sensor(label, serial, rate, acc_ds, gyr_ds, time_ds, source) -> RawSensor:
         raise ValueError("expected Time (N,) and Gyroscope, Accelerometer (N, 3) with one "
                          "N > 0; found " + ", ".join(f"{k} {v}" for k, v in shapes.items()))
     if not np.issubdtype(time.dtype, np.integer):
-        raise ValueError(f"Time holds {time.dtype} values, not integer microseconds")
+        # a re-save (MATLAB, h5py) may store the microseconds as doubles: whole numbers
+        # are read as they are; fractions would be another unit
+        whole = (np.issubdtype(time.dtype, np.floating) and np.isfinite(time).all()
+                 and np.array_equal(time, np.rint(time)))
+        if not whole:
+            raise ValueError(f"Time holds {time.dtype} values that are not whole "
+                             "microseconds")
     return RawSensor(
         name=label, serial=serial, gyr=gyr, acc=acc,
         gyr_units=_units(gyr_ds, "gyr", "rad/s"), acc_units=_units(acc_ds, "acc", "m/s^2"),
