@@ -336,7 +336,7 @@ def hinge_residual(g1, g2, j1, j2) -> float:
     flexes cleanly about its axis (in simulated walking they stayed below 0.5 rad/s while
     the knee flexed at 6 rad/s), which left the residual to a handful of samples, or none
     (a re-strapped thigh then went unnoticed), and made a walk's residual several times
-    its protocol calibration trial's (soft tissue 2 deg / 3 mm: 14 of 40 walks refused).
+    its protocol calibration trial's (soft tissue 2 deg / 3 mm: 13 of 40 walks refused).
     Simulated: 0.005-0.015 with a rigid hinge, 0.03-0.23 with soft tissue."""
     g1, g2 = np.asarray(g1, float), np.asarray(g2, float)
     j1, j2 = (np.asarray(j, float) / np.linalg.norm(j) for j in (j1, j2))
