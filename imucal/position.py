@@ -28,6 +28,7 @@ import numpy as np
 from .axis import AxisResult, estimate_axis
 from .errors import InputError
 from .gauss_newton import every_row
+from .gyr_bias import joint_centre_with_bias
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
@@ -387,6 +388,7 @@ def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line) -> dict:
         "time_blocks": blocks,
         "cutoff_shift": cutoff_shifts(sensitivity, ("o1", "o2"), "mm"),
         "model": model,
+        "gyr_bias": _bias_move(p.data, x, line),
     }
     subset_finals = fit.batch.x if line is None else closest_point_on_axis(fit.batch.x, line)
     keep = settled(fit.batch.final_cost, fit.reached)
@@ -870,6 +872,19 @@ def _refits(data, x, line, size, max_iterations) -> tuple[dict, dict]:
             # a refit that failed leaves the model error unknown: infinite, like the blocks'
             {k: float(MODEL_MOVE_FACTOR * d[-1]) if np.isfinite(d[-1]) else float("inf")
              for k, d in moved.items()})
+
+
+def _bias_move(data, x, line) -> dict:
+    """{"o1", "o2"}: how far, mm, the centre ``x`` moves when constant gyroscope biases are
+    fitted with it (:func:`imucal.gyr_bias.joint_centre_with_bias`; across the axis for a
+    hinge), 0 where the refit cannot be made (a residual of 0)."""
+    y = joint_centre_with_bias(data, x)
+    if y is None:
+        return {"o1": 0.0, "o2": 0.0}
+    if line is not None:
+        y = closest_point_on_axis(y, line)
+    return {k: float(1000 * np.linalg.norm(y[sl] - x[sl]))
+            for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
 
 
 def _weighted(data, size) -> tuple:

@@ -231,7 +231,9 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
         "model": ("the residuals are systematic (soft tissue, a joint that is no hinge)"
                   if unit == "deg" else "a different weighting of the samples moves it "
                   "(soft tissue, a joint that is no ball)"),
-        "gyr_bias": "a gyroscope bias was estimated with it",
+        "gyr_bias": ("a gyroscope bias was estimated with it" if unit == "deg" else
+                     "it moves when gyroscope biases are fitted with it (an uncalibrated "
+                     "gyroscope)"),
         "time_offset": "it moves with the clock offset between the sensors (uncertain, "
                        "or mimicked by soft tissue)",
     }[main]

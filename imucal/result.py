@@ -42,7 +42,9 @@ class EstimateResult(Verdict):
         from the smooth part of the residual, :func:`imucal.quality.smooth_residual_rms`,
         over the Jacobian's smallest singular value; for a position 3 x the move of a
         refit weighing the samples by (|r1| + |r2|)^2, ``position.MODEL_MOVE_FACTOR``),
-        for the axis "gyr_bias" (the widening by a removed gyroscope bias) and, with
+        "gyr_bias" (axis: the widening by a removed gyroscope bias; position: the move
+        of the centre when gyroscope biases are fitted with it,
+        :func:`imucal.gyr_bias.joint_centre_with_bias`) and, with
         the automatic clock offset only, "time_offset" (the estimate's move per unit of
         offset times the offset's 1-sigma, :func:`imucal.time_offset.fit_with_offset`).
     excitation : how much the joint moved over the samples used (per estimator).
