@@ -1,4 +1,6 @@
-"""Constant gyroscope bias seen through the hinge constraint itself.
+"""Constant gyroscope bias seen through the joint constraints themselves: removed from the
+hinge axis where eq. (1) asks for it, and a 1-sigma part of a joint centre
+(:func:`joint_centre_with_bias`).
 
 A constant bias ``b`` in a gyroscope's reading adds ``-b x j`` to the joint-plane rate
 ``g x j`` of eq. (1) at every sample. It does not average out: on imucal's simulator

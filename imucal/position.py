@@ -122,7 +122,8 @@ MAX_PLAUSIBLE_OFFSET_M = 1.0
 #: squared-norm weighting (:func:`_refits`). Set on imucal's simulator (ankles, 20 s at
 #: 100 Hz, soft tissue 0.5 deg / 1 mm to 2 deg / 3 mm, circling and protocol seeds 1-70,
 #: gait 1-30): 27 of 510 fits were `good` beyond 3 sigma without it, none with it; on
-#: seeds 71-150 (480 fits) 24 without it and 7 with it (up to 3.8 sigma). A factor of 6
+#: seeds 71-150 (480 fits) 24 without it and 7 with it (up to 3.8 sigma; 4 once the
+#: gyroscope-bias part joined the 1-sigma). A factor of 6
 #: would cover those too but take `good` from 10 of 77 clean protocol ankles.
 #: docs/method.md has the numbers.
 MODEL_MOVE_FACTOR = 3.0
