@@ -225,10 +225,11 @@ def joint_centre_with_bias(data: tuple, x: np.ndarray) -> np.ndarray | None:
 
     ``data`` is the position estimate's (g1, gdot1, a1, g2, gdot2, a2) (N, 3) each. A
     bias enters eq. (3) through ``g x (g x o)`` (its derivative is 0), and the position
-    estimate has no term for it: simulated circling with 0.05-0.1 rad/s biases came out
-    `good` 2.5-4.6 sigma off. How far the centre moves when biases the data cannot rule
-    out are allowed (5-9 mm there, against 0.2-2 mm without bias) is a 1-sigma part of
-    its own. Fitted on every k-th sample (at most ``SCREEN_SAMPLES``)."""
+    estimate has no term for it: simulated circling with 0.02-0.2 rad/s biases came out
+    up to 3.7 sigma off, some `good` (4.2 and 5.4 sigma on one seed). How far the centre
+    moves when biases the data cannot rule out are allowed (3-10 mm there, against
+    0.2-3 mm without bias) is a 1-sigma part of its own. Fitted on every k-th sample
+    (at most ``SCREEN_SAMPLES``)."""
     step = max(1, int(np.ceil(np.shape(data[0])[0] / SCREEN_SAMPLES)))
     g1, gd1, a1, g2, gd2, a2 = (np.asarray(d, dtype=float)[::step] for d in data)
     sensors = ((g1, gd1, a1, 1.0), (g2, gd2, a2, -1.0))

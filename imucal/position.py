@@ -146,7 +146,8 @@ class PositionResult(EstimateResult):
     singular_values : singular values of that Jacobian over sqrt(samples), 1/s^2.
     uncertainty_mm : {"o1", "o2"} 1-sigma, mm (for a hinge: across the axis line): the
         larger of the curvature's and the time blocks' with the cut-off shift, the model
-        term and (with the automatic clock offset) the offset's part added in quadrature
+        term, the gyroscope-bias part and (with the automatic clock offset) the offset's
+        part added in quadrature
         (:func:`imucal.quality.uncertainty_totals`); its parts, in mm, are
         ``uncertainty_components``.
     excitation : RMS angular rate of each sensor, deg/s, and the Jacobian's singular

@@ -254,7 +254,8 @@ def cutoff_shifts(sensitivity: dict, names: tuple[str, str], unit: str) -> dict:
 def uncertainty_totals(components: dict) -> dict:
     """{name: :func:`total_sigma`} of each vector from its uncertainty ``components``
     ("curvature", "time_blocks", "cutoff_shift" and, where there is one, "model"), with
-    "gyr_bias" (the axis's widening by a removed gyroscope bias) and "time_offset" (the
+    "gyr_bias" (the axis's widening by a removed gyroscope bias; a joint centre's move
+    when gyroscope biases are fitted with it) and "time_offset" (the
     part due to the automatic clock offset's uncertainty,
     :func:`imucal.time_offset.fit_with_offset`) added in quadrature where present."""
     model = components.get("model", {})

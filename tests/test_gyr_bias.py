@@ -64,3 +64,29 @@ def test_soft_tissue_asks_for_an_implausible_bias_which_is_not_removed():
     assert found["cost_ratio"] > 1.5 and not found["applied"]
     assert max(np.linalg.norm(found["b1_rad_s"]), np.linalg.norm(found["b2_rad_s"])) \
         > MAX_PLAUSIBLE_RAD_S
+
+
+def test_the_joint_centre_bias_fit_has_the_right_jacobian():
+    # the analytic Jacobian of eq. (3) in (o1, o2, b1, b2) against central differences,
+    # gdot terms included
+    import imucal.gyr_bias as gb
+
+    rng = np.random.default_rng(0)
+    data = tuple(rng.standard_normal((50, 3)) * s for s in (2.0, 5.0, 9.0, 2.0, 5.0, 9.0))
+    x = rng.standard_normal(6) * 0.1
+    found = {}
+
+    def capture(rows, jacobian, p, tolerance):
+        found["rows"], found["jacobian"] = rows, jacobian
+        return p
+
+    original = gb._levenberg_marquardt
+    gb._levenberg_marquardt = capture
+    try:
+        gb.joint_centre_with_bias(data, x)
+    finally:
+        gb._levenberg_marquardt = original
+    p = np.concatenate([x, rng.standard_normal(6) * 0.03])
+    numeric = np.stack([(found["rows"](p + d) - found["rows"](p - d)) / 2e-6
+                        for d in 1e-6 * np.eye(12)], axis=1)
+    np.testing.assert_allclose(found["jacobian"](p), numeric, rtol=1e-6, atol=1e-6)
