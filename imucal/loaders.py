@@ -544,9 +544,13 @@ def _map_columns(header: list[str], source: str) -> dict:
             ignored.append(name)
 
     if not found:
+        # stdin carries imucal's own CSV only: a vendor export piped in read as a CSV
+        # whose columns were 'sep=', ''
+        piped = ("; vendor exports are read from their file or folder, not from standard "
+                 "input" if source == "<stdin>" else "")
         raise InputError(
             f"{source}: no sensor columns found; columns in the file: {_short_list(header)}; "
-            f"expected {_EXPECTED_COLUMNS}"
+            f"expected {_EXPECTED_COLUMNS}{piped}"
         )
 
     incomplete = {s: cols for s, cols in found.items() if len(cols) < 6}

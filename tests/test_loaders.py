@@ -295,6 +295,14 @@ def test_read_csv_from_stdin(monkeypatch):
     np.testing.assert_array_equal(rec.sensors["t"].acc[-1], [4, 5, 6])
 
 
+def test_a_vendor_export_on_stdin_is_told_to_come_as_a_file(monkeypatch):
+    # a Movella DOT CSV piped in: "columns in the file: 'sep=', ''" and nothing more
+    data = b"sep=,\nDeviceTag:,Left Shank\nPacketCounter,SampleTimeFine,Acc_X\n1,2,3\n"
+    monkeypatch.setattr(sys, "stdin", SimpleNamespace(buffer=io.BytesIO(data)))
+    expect_error("-", "vendor exports are read from their file or folder, not from "
+                      "standard input")
+
+
 def test_empty_stdin(monkeypatch):
     monkeypatch.setattr(sys, "stdin", SimpleNamespace(buffer=io.BytesIO(b"")))
     expect_error("-", "standard input is empty")
