@@ -202,6 +202,17 @@ def test_apdm_time_stored_as_whole_doubles_is_read(tmp_path):
     assert any("not whole microseconds" in w for w in load_recording(path).warnings)
 
 
+def test_apdm_sample_rate_of_zero_is_noted_and_the_stamps_used(tmp_path):
+    import h5py
+
+    path = vw.apdm(short(), tmp_path / "o.h5")
+    with h5py.File(path, "r+") as h5:
+        h5["Sensors/1234/Configuration"].attrs["Sample Rate"] = np.uint16(0)
+    loaded = load_recording(path)
+    assert loaded.rate == pytest.approx(100.0)
+    assert any("the file's sample rate 0 Hz is no rate" in w for w in loaded.warnings)
+
+
 def test_a_vendor_sensor_whose_samples_do_not_line_up_is_refused():
     from imucal.formats import RawSensor
     from imucal.loaders import _check_shapes

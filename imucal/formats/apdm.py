@@ -128,10 +128,16 @@ def _sensor(label, serial, rate, acc_ds, gyr_ds, time_ds, source) -> RawSensor:
         if not whole:
             raise ValueError(f"Time holds {time.dtype} values that are not whole "
                              "microseconds")
+    notes = []
+    if not (np.isfinite(rate) and rate > 0):  # checked against the stamps only if a rate
+        notes.append(f"sensor '{label}': the file's sample rate {rate:g} Hz is no rate; the "
+                     "time stamps' is used")
+        rate = None
     return RawSensor(
         name=label, serial=serial, gyr=gyr, acc=acc,
         gyr_units=_units(gyr_ds, "gyr", "rad/s"), acc_units=_units(acc_ds, "acc", "m/s^2"),
         time=time.astype(np.int64), claimed_rate=rate, files=[Path(source).name],
+        notes=notes,
     )
 
 
