@@ -230,46 +230,48 @@ def joint_centre_with_bias(data: tuple, x: np.ndarray) -> np.ndarray | None:
     moves when biases the data cannot rule out are allowed (3-10 mm there, against
     0.2-3 mm without bias) is a 1-sigma part of its own. Fitted on every k-th sample
     (at most ``SCREEN_SAMPLES``)."""
+    from .position import _gamma_rows  # eq. (3)'s matrices: one implementation
+
     step = max(1, int(np.ceil(np.shape(data[0])[0] / SCREEN_SAMPLES)))
     g1, gd1, a1, g2, gd2, a2 = (np.asarray(d, dtype=float)[::step] for d in data)
-    sensors = ((g1, gd1, a1, 1.0), (g2, gd2, a2, -1.0))
+    sensors = ((g1, gd1, a1), (g2, gd2, a2))
 
     def parts(p):
+        """Per sensor: o, h = g - b, Gamma(h, gdot) (M, 3, 3), r = a - Gamma o, |r|."""
         out = []
-        for k, (g, gd, a, sign) in enumerate(sensors):
+        for k, (g, gd, a) in enumerate(sensors):
             o, h = p[3 * k:3 * k + 3], g - p[6 + 3 * k:9 + 3 * k]
-            r = a - (h * (h @ o)[:, None] - np.sum(h * h, axis=1)[:, None] * o
-                     + cross_rows(gd, np.broadcast_to(o, gd.shape)))
-            out.append((o, h, gd, r, np.linalg.norm(r, axis=1), sign))
+            gam = _gamma_rows(h, gd)
+            r = a - gam @ o
+            out.append((o, h, gam, r, np.linalg.norm(r, axis=1)))
         return out
 
-    e0 = _centre_residual(parts(np.concatenate([x, np.zeros(6)])))
+    def residual(p):
+        (*_, n1), (*_, n2) = parts(p)
+        return n1 - n2
+
+    e0 = residual(np.concatenate([x, np.zeros(6)]))
     cost0 = float(np.mean(e0**2))
     if not np.isfinite(cost0) or cost0 <= 0 or e0.shape[0] < 20:
         return None
     weight = np.sqrt(cost0) / PRIOR_RAD_S
 
     def rows(p):
-        return np.concatenate([_centre_residual(parts(p)), weight * p[6:12]])
+        return np.concatenate([residual(p), weight * p[6:12]])
 
     def jacobian(p):
         jac = np.zeros((e0.shape[0] + 6, 12))
-        for k, (o, h, gd, r, n, sign) in enumerate(parts(p)):
+        for k, ((o, h, gam, r, n), sign) in enumerate(zip(parts(p), (1.0, -1.0),
+                                                           strict=True)):
             u = r / np.maximum(n, 1e-12)[:, None]
-            # r = a - Gamma(h) o with h = g - b: dr/do = -Gamma, dr/db = (h.o) I + h o^T
-            # - 2 o h^T; Gamma^T u = h (h.u) - |h|^2 u - gdot x u
-            gtu = h * np.sum(h * u, axis=1)[:, None] - np.sum(h * h, axis=1)[:, None] * u \
-                - cross_rows(gd, u)
+            # e = |r1| - |r2|, r = a - Gamma(h) o with h = g - b: dr/do = -Gamma, and
+            # d(Gamma o)/dh = (h.o) I + h o^T - 2 o h^T, so dr/db is its positive
             db = ((h @ o)[:, None] * u + np.sum(u * h, axis=1)[:, None] * o
                   - 2.0 * (u @ o)[:, None] * h)
-            jac[:-6, 3 * k:3 * k + 3] = -sign * gtu
+            jac[:-6, 3 * k:3 * k + 3] = -sign * np.einsum("mij,mi->mj", gam, u)
             jac[:-6, 6 + 3 * k:9 + 3 * k] = sign * db
         jac[-6:, 6:] = weight * np.eye(6)
         return jac
 
     p = _levenberg_marquardt(rows, jacobian, np.concatenate([x, np.zeros(6)]), TOLERANCE)
     return p[:6] if np.isfinite(p).all() else None
-
-
-def _centre_residual(parts) -> np.ndarray:
-    return parts[0][4] - parts[1][4]
