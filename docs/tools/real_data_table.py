@@ -431,7 +431,7 @@ FOOTER = """
   centres the two largest parts are the cut-off shift (refits at 0.75 and 1.5 x the
   cut-off; 12-96 mm) and the model term (1-156 mm; the largest part of five of the
   twelve, the left hip in 55-100 s at its poor fit most of all), against 2-22 mm of
-  curvature and 2-30 mm of time blocks. The answered centres have a 1-sigma of 26-184 mm
+  curvature and 2-30 mm of time blocks. The answered centres have a 1-sigma of 26-186 mm
   (25-99 mm before the joint centre's model term) and every one warns that it is
   uncertain. The split halves agree well within these sigmas; a model error that both
   halves share (soft tissue, a joint that is no ball) cannot show there, and that is
@@ -454,7 +454,7 @@ FOOTER = """
   0.09-0.25 (the left hip in 55-100 s at the 0.25 where imucal warns of a poor fit);
   in 55-100 s the right hip has a second centre 241 mm away within 1.05 x the best RMS
   residual, reached by 61 restarts: refused. The left hip in 55-100 s shows no such
-  second minimum with this seed and is answered with a 1-sigma of 184 mm.
+  second minimum with this seed and is answered with a 1-sigma of 186 mm.
 - **Clock offsets.** No fit applied one: every cost ratio is 1.00-1.51, below the 1.6 at
   which imucal aligns the sensors. What the profiles prefer is not a clock. The left knee
   axis' residual keeps falling to the end of the +-0.2 s search (+200 ms, at a cost
@@ -474,7 +474,7 @@ FOOTER = """
   40 Hz) to 90 and is found within 0.2 ms at 40-200 Hz ([accuracy.md](accuracy.md)).
 - **Split halves.** Wherever neither half is refused, the halves agree within 1.4
   combined sigma (worst: the left hip, 0-50 / 50-100 s, whose o1 moves 276 mm between the
-  halves against a combined sigma of 200 mm; 2.1 and 129 mm before the joint centre's
+  halves against a combined sigma of 202 mm; 2.1 and 129 mm before the joint centre's
   model term). Before issue 10, with the curvature alone,
   the same splits disagreed by up to 15.3 combined sigma (left knee), 13.4 (right
   knee), 14.5 and 13.6 (left and right hip):
