@@ -223,6 +223,7 @@ def estimate_axis(
     max_samples: int | None = MAX_SAMPLES,
     time_offset: float | str = "auto",
     offset_search: float = SEARCH_S,
+    time_origin: float = 0.0,
     settings: AxisSettings | None = None,
 ) -> AxisResult:
     """Estimate the hinge axis seen by two gyroscopes.
@@ -278,8 +279,11 @@ def estimate_axis(
     select, max_samples
         Informative-sample selection (:mod:`imucal.selection`): drop still stretches and
         thin to at most ``max_samples`` (None: no cap). ``select=False`` fits every sample.
+    time_origin
+        Time of the first sample given, s on the recording's clock: the gravity check's
+        still periods (``gravity``, and its warning) are reported on that clock.
     settings
-        All of the above (``restarts`` to ``offset_search``) as one
+        All of the above (``restarts`` to ``time_origin``) as one
         :class:`imucal.settings.AxisSettings`, instead of keyword arguments (giving both,
         with keyword values other than the defaults, is an InputError).
 
@@ -316,7 +320,8 @@ def estimate_axis(
         AxisSettings, settings, restarts=restarts, seed=seed, cutoff=cutoff,
         subsample=subsample, subset=subset, start=start, end=end,
         max_iterations=max_iterations, sign=sign, j2_sign=j2_sign, select=select,
-        max_samples=max_samples, time_offset=time_offset, offset_search=offset_search)
+        max_samples=max_samples, time_offset=time_offset, offset_search=offset_search,
+        time_origin=time_origin)
     g1, g2 = check_pair(gyr1, gyr2)
     rate = check_rate(rate)
     acc1, acc2 = _check_acc(g1, acc1, acc2)
@@ -340,7 +345,7 @@ def _estimate(g1, g2, acc1, acc2, rate, s: AxisSettings, bias_removed: bool = Fa
         return _with_gyr_bias(g1, g2, acc1, acc2, rate, s, bias)
     j1, j2, decision, applied = _signs(prepared, fit, s)
     quality = _quality(prepared, fit, np.concatenate([j1, j2]))
-    gravity = _gravity(prepared, j1, j2)
+    gravity = _gravity(prepared, j1, j2, s.time_origin)
     warnings, blocking = _diagnose(prepared, quality, decision, gravity)
     warnings += _sign_warnings(decision, applied, s.j2_sign != "auto")
     result = _result(prepared, s, fit, j1, j2, decision, applied, quality, warnings, blocking)
@@ -407,13 +412,14 @@ def _with_gyr_bias(g1, g2, acc1, acc2, rate, s: AxisSettings, bias: GyrBias) -> 
     return result
 
 
-def _gravity(p: Prepared, j1, j2) -> dict:
-    """The gravity check of the axes at rest, when accelerometers came with the rates."""
+def _gravity(p: Prepared, j1, j2, origin: float) -> dict:
+    """The gravity check of the axes at rest, when accelerometers came with the rates;
+    ``origin``: the first sample's time, s on the recording's clock."""
     if p.first[1] is None:
         return {"periods": [], "max_mismatch_deg": None, "consistent": None,
                 "max_allowed_deg": MAX_MISMATCH_DEG}
     return gravity_check(p.first[0], p.first[1], p.second[0], p.second[1], j1, j2, p.rate,
-                         window=p.window)
+                         window=p.window, origin=origin)
 
 
 def _fit(p: Prepared, s: AxisSettings) -> Multistart:

@@ -207,6 +207,7 @@ def estimate_position(
     j2_sign: str = "auto",
     time_offset: float | str = "auto",
     offset_search: float = SEARCH_S,
+    time_origin: float = 0.0,
     settings: PositionSettings | None = None,
 ) -> PositionResult:
     """Estimate the joint centre seen by two IMUs.
@@ -249,6 +250,9 @@ def estimate_position(
     time_offset, offset_search
         The second sensor's clock lateness, s, as in :func:`imucal.estimate_axis`, found
         here from eq. (3) (for a hinge, the axis is fitted with the same offset).
+    time_origin
+        Time of the first sample given, s on the recording's clock, for the still
+        periods a hinge's estimated axis reports (:func:`imucal.estimate_axis`).
     settings
         All of the above but ``axis`` as one :class:`imucal.settings.PositionSettings`,
         instead of keyword arguments (giving both, with keyword values other than the
@@ -290,7 +294,8 @@ def estimate_position(
         PositionSettings, settings, restarts=restarts, seed=seed, joint=joint, cutoff=cutoff,
         subsample=subsample, subset=subset, start=start, end=end,
         max_iterations=max_iterations, select=select, max_samples=max_samples, sign=sign,
-        j2_sign=j2_sign, time_offset=time_offset, offset_search=offset_search)
+        j2_sign=j2_sign, time_offset=time_offset, offset_search=offset_search,
+        time_origin=time_origin)
     g1, g2 = check_pair(gyr1, gyr2)
     a1, a2 = check_pair(acc1, acc2)
     if g1.shape != a1.shape:
@@ -342,7 +347,7 @@ def _axis_line(p: Prepared, s: PositionSettings, axis):
             p.first[0], p.second[0], rate=p.rate, restarts=s.restarts, seed=s.seed,
             subset=s.subset, start=s.start, end=s.end, max_iterations=s.max_iterations,
             select=s.select, max_samples=s.max_samples, acc1=p.first[1], acc2=p.second[1],
-            sign=s.sign, j2_sign=s.j2_sign,
+            sign=s.sign, j2_sign=s.j2_sign, time_origin=s.time_origin,
             time_offset=0.0,  # the second sensor is already aligned
         )
         axis = (axis_result.j1, axis_result.j2)

@@ -807,12 +807,14 @@ def _drift_notes(time: np.ndarray, rate: float) -> list[str]:
 
 def estimator_window(recording: Recording, names, start, end) -> tuple[Recording, dict]:
     """The sensors ``names`` in the window ``start``..``end`` (s on the recording's time
-    axis), checked and repaired (Recording.select), and the window for the estimators,
-    which count from the first sample they are given."""
+    axis), checked and repaired (Recording.select), and the estimators' keywords for it:
+    the window counted from the first sample they are given, and that sample's time on the
+    recording's clock (``time_origin``)."""
     used = recording.select(names, start, end, context=True)
     i0, i1 = used.window
     # Whole samples, so the estimators cut exactly the samples select checked; the finite
     # context around them keeps filter transients off the window's edges.
     rel = {"start": None if start is None and i0 == 0 else i0 / used.rate,
-           "end": None if end is None and i1 == used.n_samples else i1 / used.rate}
+           "end": None if end is None and i1 == used.n_samples else i1 / used.rate,
+           "time_origin": float(used.time[0])}
     return used, rel

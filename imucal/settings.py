@@ -69,6 +69,9 @@ class AxisSettings:
     offset_search : float
         Search range of the automatic time offset, +- s, > 0; at least one sample (an
         estimate refuses a shorter one).
+    time_origin : float
+        Time of the first sample given, s on the recording's clock: the still periods
+        of the gravity check (and their warning) are reported on that clock.
     """
 
     restarts: int = 100
@@ -85,6 +88,7 @@ class AxisSettings:
     max_samples: int | None = MAX_SAMPLES
     time_offset: float | str = "auto"
     offset_search: float = OFFSET_SEARCH_S
+    time_origin: float = 0.0
 
     def __post_init__(self) -> None:
         _check_int(self, "restarts", 1)
@@ -99,6 +103,7 @@ class AxisSettings:
             _check_number(self, "cutoff", low=0.0)
         _check_number(self, "subset", low=0.0, open_low=True, high=1.0)
         _check_number(self, "offset_search", low=0.0, open_low=True, high=MAX_TIME_OFFSET_S)
+        _check_number(self, "time_origin", low=-math.inf)
         for name in ("start", "end"):
             if getattr(self, name) is not None:
                 _check_number(self, name, low=0.0)

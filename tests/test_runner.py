@@ -139,3 +139,27 @@ def test_every_runner_field_is_documented(cls):
             documented.update(head.split(", "))
     missing = {f.name for f in dataclasses.fields(cls)} - documented
     assert not missing, f"{cls.__name__}: undocumented {sorted(missing)}"
+
+
+def test_still_periods_are_on_the_recordings_clock(real_recording, tmp_path):
+    # The same 20 s (standing at 0-5 s) with its clock starting at 0 and at 100 s: the
+    # gravity check's still periods move with the clock, and --start/--end are read on it.
+    from imucal.recording import make_recording
+
+    n = 2000
+    sensors = {k: {"gyr": real_recording.sensor(k).gyr[:n], "acc": real_recording.sensor(k).acc[:n]}
+               for k in ("left_thigh", "left_shank")}
+    periods = {}
+    for t0 in (0.0, 100.0):
+        path = tmp_path / f"at{t0:g}.h5"
+        save_recording(make_recording(sensors, time=t0 + np.arange(n) / 100.0), path)
+        job = Job("axis", ("left_thigh", "left_shank"),
+                  AxisSettings(restarts=8, seed=1, time_offset=0.0), start=t0 + 2, end=t0 + 20,
+                  force=True)
+        outcome = run(job, str(path))
+        assert outcome.exit_code in (0, 1), outcome.error
+        periods[t0] = [(p["start_s"], p["end_s"])
+                       for p in outcome.document["quality"]["gravity"]["periods"]]
+        assert outcome.document["input"]["window_s"] == pytest.approx([t0 + 2, t0 + 20])
+    assert periods[0.0] and periods[0.0][0][0] == pytest.approx(2.0)  # standing, cut at 2 s
+    assert np.allclose(np.array(periods[100.0]) - 100.0, periods[0.0])
