@@ -1,6 +1,6 @@
 """Constant gyroscope bias seen through the joint constraints themselves: removed from the
-hinge axis where eq. (1) asks for it, and a 1-sigma part of a joint centre
-(:func:`joint_centre_with_bias`).
+hinge axis where eq. (1) asks for it, and from a joint centre where eq. (3) asks for it
+(:func:`joint_centre_with_bias`, by the same rule), else a 1-sigma part of it.
 
 A constant bias ``b`` in a gyroscope's reading adds ``-b x j`` to the joint-plane rate
 ``g x j`` of eq. (1) at every sample. It does not average out: on imucal's simulator
@@ -218,10 +218,44 @@ def _across(b: np.ndarray, j: np.ndarray) -> np.ndarray:
     return b - (b @ j) * j
 
 
-def joint_centre_with_bias(data: tuple, x: np.ndarray) -> np.ndarray | None:
-    """The joint centre (o1, o2) (6,), m, refitted to eq. (3) from ``x`` together with a
-    constant bias of each gyroscope (Gaussian prior ``PRIOR_RAD_S`` per component, the
-    residual's own scale per sample, as for the axis); None if it cannot be fitted.
+@dataclass(frozen=True)
+class CentreBias:
+    """A joint centre refitted to eq. (3) together with constant gyroscope biases.
+
+    Attributes
+    ----------
+    o : (6,) the refitted centre (o1, o2), m, each in its sensor's frame.
+    b1, b2 : (3,) the biases of the first and second gyroscope, rad/s, in its frame.
+    cost_ratio : mean squared eq. (3) residual without the biases over that with them.
+    """
+
+    o: np.ndarray
+    b1: np.ndarray
+    b2: np.ndarray
+    cost_ratio: float
+
+    @property
+    def size(self) -> float:
+        """The larger of the two biases' magnitudes, rad/s."""
+        return float(max(np.linalg.norm(self.b1), np.linalg.norm(self.b2)))
+
+    @property
+    def significant(self) -> bool:
+        """Worth removing, by the axis's rule (:attr:`GyrBias.significant`)."""
+        return self.cost_ratio >= MIN_COST_RATIO and self.size <= MAX_PLAUSIBLE_RAD_S
+
+    def report(self, applied: bool) -> dict:
+        """The JSON block (rad/s); ``applied``: the rates were corrected by these biases."""
+        return {"applied": applied, "b1_rad_s": self.b1.tolist(),
+                "b2_rad_s": self.b2.tolist(), "cost_ratio": self.cost_ratio,
+                "prior_rad_s": PRIOR_RAD_S, "min_cost_ratio": MIN_COST_RATIO,
+                "max_plausible_rad_s": MAX_PLAUSIBLE_RAD_S}
+
+
+def joint_centre_with_bias(data: tuple, x: np.ndarray) -> CentreBias | None:
+    """The joint centre (o1, o2), refitted to eq. (3) from ``x`` together with a constant
+    bias of each gyroscope (Gaussian prior ``PRIOR_RAD_S`` per component, the residual's
+    own scale per sample, as for the axis); None if it cannot be fitted.
 
     ``data`` is the position estimate's (g1, gdot1, a1, g2, gdot2, a2) (N, 3) each. A
     bias enters eq. (3) through ``g x (g x o)`` (its derivative is 0), and the position
@@ -274,4 +308,7 @@ def joint_centre_with_bias(data: tuple, x: np.ndarray) -> np.ndarray | None:
         return jac
 
     p = _levenberg_marquardt(rows, jacobian, np.concatenate([x, np.zeros(6)]), TOLERANCE)
-    return p[:6] if np.isfinite(p).all() else None
+    if not np.isfinite(p).all():
+        return None
+    cost = float(np.mean(residual(p) ** 2))
+    return CentreBias(p[:6], p[6:9], p[9:12], cost0 / cost if cost > 0 else float("inf"))

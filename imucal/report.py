@@ -84,11 +84,13 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
         "convention": POSITION_CONVENTION,
         "units": {"o1": "m", "o2": "m", "rms_residual": "m/s^2",
                   "cost": "m/s^2 (RMS residual)", "uncertainty": "mm", "spread": "mm",
-                  "time_offset": "s (positive: the second sensor's clock is late)"},
+                  "time_offset": "s (positive: the second sensor's clock is late)",
+                  "gyr_bias": "rad/s"},
         "joint": result.joint,
         "o1": result.o1,
         "o2": result.o2,
         "time_offset": result.time_offset,
+        "gyr_bias": result.gyr_bias,
     }
     if result.line is not None:
         doc["axis_line"] = {
