@@ -1176,3 +1176,17 @@ def test_a_drifting_time_column_says_both_rates(tmp_path):
     assert any("steps drift" in w for w in rec.select(["thigh", "shank"]).warnings)
     steady = make_recording(sensors, time=np.arange(n) * 0.01, source="steady.csv")
     assert not any("drift" in w for w in steady.warnings)
+
+
+@pytest.mark.parametrize("offset", [96, 200])
+def test_hdf5_with_a_damaged_object_header(tmp_path, offset):
+    # 16 bytes zeroed in an object header: h5py raises RuntimeError ("bad object header
+    # version number", "incorrect metadata checksum"), not OSError, while the vendor
+    # formats sniffed the file: exit 3 before (an independent review)
+    good = tmp_path / "good.h5"
+    save_recording(random_recording(), good)
+    data = bytearray(good.read_bytes())
+    data[offset:offset + 16] = bytes(16)
+    path = tmp_path / "damaged.h5"
+    path.write_bytes(bytes(data))
+    expect_error(path, "HDF5 file")

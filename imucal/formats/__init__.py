@@ -121,7 +121,9 @@ def detect(path: Path):
         try:
             if module.sniff(path):
                 return module
-        except (OSError, UnicodeError, ValueError):
+        except (OSError, RuntimeError, KeyError, UnicodeError, ValueError):
+            # a damaged HDF5 header raises RuntimeError from h5py (exit 3 before); the
+            # loader then names the problem
             continue
     return None
 
