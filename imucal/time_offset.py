@@ -176,7 +176,9 @@ def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
     def residuals(deltas):
         return refit(deltas)[0]
 
-    steps = max(1, int(np.floor(search * rate)))
+    # a rate from printed time stamps (99.99999999994884 Hz for 100 Hz) must not lose
+    # the search's last sample: it then read 190 ms '(+-0 ms)' where HDF5 read the end
+    steps = max(1, int(np.floor(search * rate + 1e-6)))
     # coarse grid first, then one-sample steps around its lowest point: the profile is
     # smooth, and each point costs a refit
     half = np.unique(np.concatenate([np.arange(0, steps + 1, COARSE_STEP), [steps]]))

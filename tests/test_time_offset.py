@@ -379,3 +379,17 @@ def test_a_large_offset_is_followed_from_the_fit_at_the_offset_found(motion, see
     assert found["applied"] and abs(found["time_offset_s"] - late) < 0.002, found
     assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.3
     assert r.verdict == "good"
+
+
+def test_a_rate_from_printed_time_stamps_searches_the_same_offsets(real_recording):
+    # 100 Hz read from a CSV's printed time stamps is 99.99999999994884 Hz: the search
+    # lost its last sample (19 of 20 steps), so the real left knee's profile, which falls
+    # to +200 ms, read "+190 ms (1-sigma 0.0 ms)" from the CSV and "at least +200 ms" from
+    # the HDF5 file (an independent review)
+    thigh, shank = real_recording.sensor("left_thigh"), real_recording.sensor("left_shank")
+    found = [estimate_axis(thigh.gyr, shank.gyr, rate=rate, seed=1, restarts=8, end=55.0,
+                           acc1=thigh.acc, acc2=shank.acc).time_offset
+             for rate in (100.0, 99.99999999994884)]
+    assert found[0]["estimated_s"] == pytest.approx(0.2), found  # the search's end: a bound
+    assert found[1]["estimated_s"] == pytest.approx(found[0]["estimated_s"], abs=1e-9)
+    assert found[0]["sigma_s"] is None and found[1]["sigma_s"] is None
