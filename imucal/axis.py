@@ -135,6 +135,10 @@ MODEL_FACTOR = 0.5
 #: 1-sigma 2.7-4.8 deg) was called "good" with errors up to 3.6 sigma; clean simulated
 #: knees stay below 0.2 deg, so 2 deg separates them.
 MAX_UNCERTAINTY_DEG = 2.0
+#: A sign-free axis is never more than 90 deg from another: a 1-sigma this large says
+#: nothing about where the axis is (a hip fitted as a hinge on the real recording: 217 deg,
+#: "use with care" before).
+MAX_INFORMATIVE_SIGMA_DEG = 90.0
 #: Below this RMS flexion rate (j2.g2 - j1.g1 at the estimate) the joint did not bend,
 #: deg/s: a rigid joint fits every pair j1 = R j2. Voluntary knee motion is 50-400 deg/s.
 MIN_FLEXION_RATE_DEG_S = 5.0
@@ -672,6 +676,10 @@ def _blocking(p: Prepared, q: dict, decision, doubts: list[str]) -> list[str]:
                 f"model fits poorly (residual {relative:.0%} of the signal): the joint does not "
                 "move like a hinge (a spheroidal joint such as the ankle?), so no axis is "
                 "identifiable"]
+    sigma = max(q["uncertainty"].values())
+    if sigma >= MAX_INFORMATIVE_SIGMA_DEG:
+        return [f"the axis's 1-sigma is {sigma:.0f} deg (at least {MAX_INFORMATIVE_SIGMA_DEG:g}, "
+                "the most a sign-free axis can be off): the data do not locate the axis"]
     # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
     blocking = equal_minima_blocking(q["minima"], max(q["uncertainty"].values()),
                                      2 * AGREEMENT_DEG, "deg", "different axes", "axis")

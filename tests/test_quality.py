@@ -376,3 +376,25 @@ def test_a_joint_centre_from_biased_gyroscopes_is_covered(bias):
     else:  # 0.1 rad/s is more than a warmed-up gyroscope has: a 1-sigma part instead
         assert not r.gyr_bias["applied"]
         assert max(r.uncertainty_components["gyr_bias"].values()) > 2.0  # mm
+
+
+def test_an_axis_whose_1_sigma_reaches_90_deg_is_not_identifiable(monkeypatch):
+    # a sign-free axis is never more than 90 deg off: a hip fitted as a hinge on the real
+    # recording reported 1-sigma 217 deg at "use with care" (an independent review)
+    import imucal.axis as axis_module
+
+    rec, _ = simulated(2, duration=8.0)
+    a, b = rec.sensor("thigh"), rec.sensor("shank")
+    plain = estimate_axis(a.gyr, b.gyr, rate=rec.rate, restarts=8, seed=1, time_offset=0.0)
+    assert plain.verdict == "good"
+    original = axis_module._quality
+
+    def widened(*args, **kwargs):
+        q = original(*args, **kwargs)
+        q["uncertainty"] = {"j1": 120.0, "j2": 95.0}
+        return q
+
+    monkeypatch.setattr(axis_module, "_quality", widened)
+    r = estimate_axis(a.gyr, b.gyr, rate=rec.rate, restarts=8, seed=1, time_offset=0.0)
+    assert r.verdict == "not identifiable"
+    assert r.blocking[0].startswith("the axis's 1-sigma is 120 deg")
