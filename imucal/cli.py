@@ -82,8 +82,9 @@ AxisCutoff = Annotated[float | None, typer.Option(
     "--cutoff", min=0.0, help="Low-pass cut-off, Hz, before the fit; default: none (raw rates fit "
     "eq. 1 best).", show_default=False)]
 PositionCutoff = Annotated[float | None, typer.Option(
-    "--cutoff", min=0.0, help="Low-pass cut-off, Hz; default 10 Hz (at most 0.4 x rate); 0 "
-    "disables the filter.", show_default=False)]
+    "--cutoff", min=0.0, help="Low-pass cut-off, Hz; default: from the recording's spectrum "
+    "(3 x the frequency below which most of the motion lies, within 4-12 Hz and at most "
+    "0.4 x rate); 0 disables the filter.", show_default=False)]
 Subsample = Annotated[int | None, typer.Option(min=1, help="Use every k-th sample; default: all "
                                                "without a filter, else about 2.5 per cut-off "
                                                "period.", show_default=False)]
@@ -370,7 +371,8 @@ def angles(
     force: Annotated[bool, typer.Option(
         "--force", help="Write the angles even when the calibration does not fit this "
         "recording or a knee in it is not identifiable (exit 0, the warnings on stderr). "
-        "Without it such a run writes nothing and exits 1.")] = False,
+        "Without it such a run writes nothing and exits 1. A window where no angle can be "
+        "measured at all (the joint never moves) exits 1 even with it.")] = False,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
