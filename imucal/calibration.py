@@ -21,6 +21,7 @@ import numpy as np
 
 from . import __version__
 from .errors import ImucalError, InputError
+from .quality import NOT_IDENTIFIABLE
 from .recording import Recording, _norm, _segment, estimator_window
 
 FORMAT = "imucal-calibration"
@@ -458,7 +459,8 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
                             verdict=str(e["verdict"]), j1=vec("j1"), j2=vec("j2"),
                             o1=vec("o1"), o2=vec("o2"), warnings=list(e.get("warnings", [])),
                             axis=e.get("axis"), position=e.get("position"),
-                            angle=_angle_from_doc(name, e.get("angle")))
+                            angle=_angle_from_doc(name, e.get("angle"),
+                                                  str(e["verdict"]) != NOT_IDENTIFIABLE))
 
 
 #: No angle a calibration file stores lies beyond this, deg: the raw angle is the fused
@@ -466,10 +468,13 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
 MAX_ANGLE_DEG = 1e4
 
 
-def _angle_from_doc(name: str, angle: dict | None) -> dict | None:
+def _angle_from_doc(name: str, angle: dict | None, identified: bool = True) -> dict | None:
     """A hinge's ``angle`` block, checked where :func:`imucal.angles.joint_angles` relies
     on it: a hand-edited file with ``zero_deg: null`` or ``smoothing_s: 0`` otherwise
-    ended in an internal error, and ``flexion_sign: 0`` in silently mirrored angles."""
+    ended in an internal error, and ``flexion_sign: 0`` in silently mirrored angles. The
+    ranges only where the knee was ``identified``: a knee calibrate could not identify
+    may have integrated any angle (rates 1000 times too large: a zero of 37 472 deg), and
+    ``angles`` refuses it as not identifiable, not as a damaged file."""
     if angle is None:
         return None
 
@@ -486,11 +491,12 @@ def _angle_from_doc(name: str, angle: dict | None) -> dict | None:
             raise bad(key, "a finite number")
     if not angle["smoothing_s"] > 0:
         raise bad("smoothing_s", "a positive number")
-    if not abs(angle["zero_deg"]) <= MAX_ANGLE_DEG:
+    limit = MAX_ANGLE_DEG if identified else np.inf
+    if not abs(angle["zero_deg"]) <= limit:
         raise bad("zero_deg", f"an angle within +-{MAX_ANGLE_DEG:g} deg")
     span = angle["flexion_range_deg"]
     if not (isinstance(span, list) and len(span) == 2 and all(map(_finite, span))
-            and -MAX_ANGLE_DEG <= span[0] <= span[1] <= MAX_ANGLE_DEG):
+            and -limit <= span[0] <= span[1] <= limit):
         raise bad("flexion_range_deg", "[p1, p99] in deg, p1 <= p99")
     if not isinstance(angle["zero_method"], str):
         raise bad("zero_method", "a text")

@@ -250,3 +250,21 @@ def test_a_knee_whose_own_trial_fails_the_fit_check_is_not_identifiable(real_rec
                "fails it (acc-gyro disagreement" in w for w in knee.warnings)
     start = knee.axis["quality"]["gravity"]["periods"][0]["start_s"]
     assert 52.0 < start < 53.0 and any("rest at 52-55 s" in w for w in knee.warnings)
+
+
+def test_a_knee_calibrate_could_not_identify_loads_with_its_verdict(calibration,
+                                                                     tmp_path):
+    # rates 1000 times too large: calibrate (exit 1, file written as documented) stored
+    # the knee's integrated zero, 37 472 deg, and `angles` called its own file damaged
+    doc = calibration[0].to_document()
+    knee = doc["joints"]["knee"]
+    knee["verdict"] = "not identifiable"
+    knee["angle"]["zero_deg"], knee["angle"]["flexion_range_deg"] = 37471.9, [-0.1, 75763.0]
+    (tmp_path / "unidentified.json").write_text(json.dumps(doc))
+    loaded = load_calibration(tmp_path / "unidentified.json")
+    assert loaded.joints["knee"].angle["zero_deg"] == 37471.9
+    assert loaded.joints["knee"].verdict == "not identifiable"
+    knee["verdict"] = "good"  # an identified knee keeps the ranges checked
+    (tmp_path / "edited.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="angle.zero_deg is 37471.9, not an angle within"):
+        load_calibration(tmp_path / "edited.json")
