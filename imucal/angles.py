@@ -854,7 +854,7 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
                              f"{reference!r}") from None
         if not rec.time[0] <= t_ref <= rec.time[-1]:
             raise InputError(f"{rec.source}: reference time {t_ref:g} s is outside the "
-                             f"recording ({rec.time[0]:g} to {rec.time[-1]:g} s)")
+                             f"window measured ({rec.time[0]:g} to {rec.time[-1]:g} s)")
         i = int(np.argmin(np.abs(rec.time - t_ref)))
         half = max(1, int(0.1 * rec.rate))
         zero = {"method": "user time (mean over +-0.1 s)",

@@ -245,7 +245,7 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
         # the axis, mm for a joint centre)
         "model": ("the residuals are systematic (soft tissue, a joint that is no hinge)"
                   if unit == "deg" else "a different weighting of the samples moves it "
-                  "(soft tissue, a joint that is no ball)"),
+                  "(soft tissue, a joint that is not the modelled one)"),
         "gyr_bias": ("a gyroscope bias was estimated with it" if unit == "deg" else
                      "it moves when gyroscope biases are fitted with it (an uncalibrated "
                      "gyroscope)"),
