@@ -103,6 +103,10 @@ OFFSET_MODEL_CAP = 3.0
 #: profile around the fit at it moves it by more than its 1-sigma and ``FOLLOW_STEP_S``.
 MAX_FOLLOW = 3
 FOLLOW_STEP_S = 0.002
+#: An offset found but not applied is tried (:func:`_trial`) from this size, s, when it is
+#: also more than twice its 1-sigma (simulated circling, shank 20 ms late, gyroscope bias
+#: 0.02 rad/s: 8.2 ms found, the axis 3.7 deg off at "good").
+TRIAL_S = 0.005
 
 
 @dataclass(frozen=True)
@@ -340,6 +344,9 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     result = first
     if applied:
         found, result = _follow(fit, profile, rate, search, found)
+    elif (not found.at_edge and abs(found.delta_s) >= TRIAL_S
+          and abs(found.delta_s) > 2 * found.sigma_s):
+        applied, found, result = _trial(fit, profile, rate, search, first, found)
     result.time_offset = offset_report(found, rate)
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(found, rate))
@@ -386,6 +393,25 @@ def _follow(fit, profile, rate: float, search: float, found: Offset):
             break
         found, result = again, candidate
     return found, result
+
+
+def _trial(fit, profile, rate: float, search: float, first, found: Offset):
+    """(applied, offset, fit) for an offset found but not applied, yet clear of its
+    1-sigma and at least ``TRIAL_S``: the fit at 0 may have spoiled its profile, as for
+    an applied one (:func:`_follow`). The profile is made again around the fit at the
+    offset found; where that makes it significant, it is followed, and applied only if the
+    whole fits gain ``MIN_COST_RATIO`` over the fit at 0 too (a model error's preferred
+    shift does not). Simulated circling, shank 50 ms late: 18.4 ms found at a profile
+    gain of 1.48, the axis 12 deg off; the fit at 50 ms gains 1.87."""
+    trial = fit(found.delta_s)
+    again = estimate_offset(profile(trial), rate, search)
+    if not again.significant(rate):
+        return False, found, first
+    moved, result = _follow(fit, profile, rate, search, again)
+    gain = (first.rms_residual / result.rms_residual) ** 2 if result.rms_residual > 0 else 0.0
+    if not gain >= MIN_COST_RATIO:
+        return False, found, first
+    return True, moved, result
 
 
 def check_search(search: float, rate: float) -> None:

@@ -393,3 +393,18 @@ def test_a_rate_from_printed_time_stamps_searches_the_same_offsets(real_recordin
     assert found[0]["estimated_s"] == pytest.approx(0.2), found  # the search's end: a bound
     assert found[1]["estimated_s"] == pytest.approx(found[0]["estimated_s"], abs=1e-9)
     assert found[0]["sigma_s"] is None and found[1]["sigma_s"] is None
+
+
+def test_an_offset_found_short_and_not_applied_is_tried_from_the_fit_at_it():
+    # circling, shank 50 ms late: the profile around the fit at 0 found 18.4 ms at a gain
+    # of 1.48, below the 1.6 that applies an offset, and the axis stayed 12 deg off; the
+    # fit at 50 ms gains 1.87 (an independent review). Tried from the fit at 18.4 ms, the
+    # profile becomes significant and is followed to the truth.
+    rec, truth = simulate(seed=535, rate=100.0, duration=20.0, motion="circling",
+                          gyr_noise=0.01, acc_noise=0.05, clock_offset={"shank": 0.05})
+    thigh, shank = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(thigh.gyr, shank.gyr, rate=rec.rate, seed=1, restarts=30,
+                      acc1=thigh.acc, acc2=shank.acc)
+    found = r.time_offset
+    assert found["applied"] and abs(found["time_offset_s"] - 0.05) < 0.003, found
+    assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
