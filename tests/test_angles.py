@@ -331,7 +331,7 @@ def test_sign_and_zero_can_be_pinned(session):
     np.testing.assert_allclose(flipped.flexion_deg, -auto.flexion_deg, atol=1e-9)
     at = joint_angles(walk, calibration, end=20.0, reference=5.0).joints["knee"]
     assert abs(at.flexion_deg[500]) < 1.0 and at.sign_source == "calibration"
-    with pytest.raises(InputError, match="outside the recording"):
+    with pytest.raises(InputError, match="outside the window measured"):
         joint_angles(walk, calibration, end=20.0, reference=50.0)
     with pytest.raises(InputError, match="flexion sign must be"):
         joint_angles(walk, calibration, flexion_sign="up")
