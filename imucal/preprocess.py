@@ -354,8 +354,10 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *,
     data = tuple(x[sel.index] for x in windowed)
     n = data[0].shape[0]
     if n < min_samples:
+        every = f" (one sample in {step}, from the cut-off or --subsample)" if step > 1 else ""
         raise InputError(
-            f"only {n} samples left after window and subsampling; the {what} needs at least "
-            f"{min_samples} (about {min_samples * step / rate:.1f} s of motion)"
+            f"only {n} sample{'' if n == 1 else 's'} left after window and "
+            f"subsampling{every}; the {what} needs at least {min_samples} (about "
+            f"{min_samples * step / rate:.1f} s of motion)"
         )
     return Prepared(first, second, data, rate, cutoff, step, win, sel, windowed)

@@ -228,7 +228,10 @@ class _Progression:
 
     def acc(self, t: np.ndarray) -> np.ndarray:
         w = self.sigma.width
-        rate = 0.5 / w / np.cosh((np.asarray(t) - self.sigma.centre) / w) ** 2
+        # far from the step the rate is 0 to double precision; cosh(x)^2 overflows beyond
+        # |x| of about 355 (a 120 s protocol warned)
+        x = np.clip((np.asarray(t) - self.sigma.centre) / w, -300.0, 300.0)
+        rate = 0.5 / w / np.cosh(x) ** 2
         return rate[..., None] * np.asarray(self.velocity)
 
 

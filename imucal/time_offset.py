@@ -104,9 +104,11 @@ OFFSET_MODEL_CAP = 3.0
 MAX_FOLLOW = 3
 FOLLOW_STEP_S = 0.002
 #: An offset found but not applied is tried (:func:`_trial`) from this size, s, when it is
-#: also more than twice its 1-sigma (simulated circling, shank 20 ms late, gyroscope bias
-#: 0.02 rad/s: 8.2 ms found, the axis 3.7 deg off at "good").
-TRIAL_S = 0.005
+#: also more than twice its 1-sigma: the size that gets a warning. A trial costs two
+#: whole fits and a profile (0.1-0.25 s on the shared real recording, where model errors
+#: prefer shifts of 4-37 ms: from 5 ms, 7 of 12 reference estimates ran one, from 10 ms 3;
+#: none applied an offset).
+TRIAL_S = SUSPICIOUS_S
 
 
 @dataclass(frozen=True)
@@ -344,8 +346,8 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     result = first
     if applied:
         found, result = _follow(fit, profile, rate, search, found)
-    elif (not found.at_edge and abs(found.delta_s) >= TRIAL_S
-          and abs(found.delta_s) > 2 * found.sigma_s):
+    elif (not found.at_edge and not at_search_end(found, rate)
+          and abs(found.delta_s) >= TRIAL_S and abs(found.delta_s) > 2 * found.sigma_s):
         applied, found, result = _trial(fit, profile, rate, search, first, found)
     result.time_offset = offset_report(found, rate)
     result.settings["time_offset"] = "auto"
