@@ -380,10 +380,9 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
     def again(seconds):
         return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
                              settings=replace(s, time_offset=seconds))
-    return fit_with_offset(again, _offset_profile(g1, g2, rate, s.offset_search), rate,
-                           s.offset_search,
-                           _offset_moved, "deg", MAX_UNCERTAINTY_DEG,
-                           lambda r: np.concatenate([r.j1, r.j2]))
+    return _refuse_if_uninformative(fit_with_offset(
+        again, _offset_profile(g1, g2, rate, s.offset_search), rate, s.offset_search,
+        _offset_moved, "deg", MAX_UNCERTAINTY_DEG, lambda r: np.concatenate([r.j1, r.j2])))
 
 
 def _lowpassed_rates(sensors, rate, cutoff) -> list[tuple]:
@@ -413,7 +412,7 @@ def _with_gyr_bias(g1, g2, acc1, acc2, rate, s: AxisSettings, bias: GyrBias) -> 
                      if f > 1 else 0.0
                      for k, f in zip(("j1", "j2"), bias.inflation, strict=True)}
     result.uncertainty_deg = uncertainty_totals(c)
-    return result
+    return _refuse_if_uninformative(result)
 
 
 def _gravity(p: Prepared, j1, j2, origin: float) -> dict:
@@ -676,10 +675,9 @@ def _blocking(p: Prepared, q: dict, decision, doubts: list[str]) -> list[str]:
                 f"model fits poorly (residual {relative:.0%} of the signal): the joint does not "
                 "move like a hinge (a spheroidal joint such as the ankle?), so no axis is "
                 "identifiable"]
-    sigma = max(q["uncertainty"].values())
-    if sigma >= MAX_INFORMATIVE_SIGMA_DEG:
-        return [f"the axis's 1-sigma is {sigma:.0f} deg (at least {MAX_INFORMATIVE_SIGMA_DEG:g}, "
-                "the most a sign-free axis can be off): the data do not locate the axis"]
+    blocking = _uninformative(q["uncertainty"])
+    if blocking:
+        return blocking
     # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
     blocking = equal_minima_blocking(q["minima"], max(q["uncertainty"].values()),
                                      2 * AGREEMENT_DEG, "deg", "different axes", "axis")
@@ -693,6 +691,23 @@ def _blocking(p: Prepared, q: dict, decision, doubts: list[str]) -> list[str]:
                 "joint can flex) with either relative sign: the segments do not move as a "
                 "hinge here (soft tissue, impacts, or a joint that is not a hinge)"]
     return []
+
+
+def _uninformative(uncertainty: dict) -> list[str]:
+    """The reason, if any, why a 1-sigma ({"j1", "j2"}, deg) says nothing about the axis."""
+    sigma = max(uncertainty.values())
+    if not sigma >= MAX_INFORMATIVE_SIGMA_DEG:
+        return []
+    return [f"the axis's 1-sigma is {sigma:.0f} deg (at least {MAX_INFORMATIVE_SIGMA_DEG:g}, "
+            "the most a sign-free axis can be off): the data do not locate the axis"]
+
+
+def _refuse_if_uninformative(result: AxisResult) -> AxisResult:
+    """``result`` refused where a part added after the diagnosis (a removed gyroscope
+    bias, the clock offset) took its 1-sigma to ``MAX_INFORMATIVE_SIGMA_DEG``."""
+    if not result.blocking:
+        result.blocking.extend(_uninformative(result.uncertainty_deg))
+    return result
 
 
 def _block_jackknife(d1, d2, x) -> dict:

@@ -103,12 +103,6 @@ OFFSET_MODEL_CAP = 3.0
 #: profile around the fit at it moves it by more than its 1-sigma and ``FOLLOW_STEP_S``.
 MAX_FOLLOW = 3
 FOLLOW_STEP_S = 0.002
-#: An offset found but not applied is tried (:func:`_trial`) from this size, s, when it is
-#: also more than twice its 1-sigma: the size that gets a warning. A trial costs two
-#: whole fits and a profile (0.1-0.25 s on the shared real recording, where model errors
-#: prefer shifts of 4-37 ms: from 5 ms, 7 of 12 reference estimates ran one, from 10 ms 3;
-#: none applied an offset).
-TRIAL_S = SUSPICIOUS_S
 
 
 @dataclass(frozen=True)
@@ -190,13 +184,15 @@ def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
     half = np.unique(np.concatenate([np.arange(0, steps + 1, COARSE_STEP), [steps]]))
     coarse = np.unique(np.concatenate([-half, half]))  # symmetric, with 0 and both ends
     costs = dict(zip(coarse.tolist(), np.square(residuals(coarse / rate)), strict=True))
+    if costs[0].shape[0] < 20:  # too few samples away from the ends to compare shifts
+        return Offset(0.0, float("inf"), False, float(search), 1.0)
     low = min(costs, key=lambda k: costs[k].mean())
     fine = np.arange(max(-steps, low - COARSE_STEP), min(steps, low + COARSE_STEP) + 1)
     todo = np.array([k for k in fine.tolist() if k not in costs])
     if todo.size:
         costs.update(zip(todo.tolist(), np.square(residuals(todo / rate)), strict=True))
     table = np.stack([costs[int(k)] for k in fine])  # (D, M) on the one-sample grid
-    if not np.isfinite(table).all() or table.shape[1] < 20:
+    if not np.isfinite(table).all():
         return Offset(0.0, float("inf"), False, float(search), 1.0)
     whole = table.mean(axis=1)
     zero = costs[0].mean()  # 0 is on the coarse grid
@@ -346,8 +342,7 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     result = first
     if applied:
         found, result = _follow(fit, profile, rate, search, found)
-    elif (not found.at_edge and not at_search_end(found, rate)
-          and abs(found.delta_s) >= TRIAL_S and abs(found.delta_s) > 2 * found.sigma_s):
+    elif found.suspicious(rate) and not at_search_end(found, rate):
         applied, found, result = _trial(fit, profile, rate, search, first, found)
     result.time_offset = offset_report(found, rate)
     result.settings["time_offset"] = "auto"
@@ -398,8 +393,12 @@ def _follow(fit, profile, rate: float, search: float, found: Offset):
 
 
 def _trial(fit, profile, rate: float, search: float, first, found: Offset):
-    """(applied, offset, fit) for an offset found but not applied, yet clear of its
-    1-sigma and at least ``TRIAL_S``: the fit at 0 may have spoiled its profile, as for
+    """(applied, offset, fit) for an offset found but not applied, yet one that gets a
+    warning (:meth:`Offset.suspicious`: at least ``SUSPICIOUS_S`` and clear of its
+    1-sigma; a trial costs two whole fits and a profile, 0.1-0.25 s on the shared real
+    recording, where model errors prefer shifts of 4-37 ms: from 5 ms 7 of 12 reference
+    estimates ran one, from 10 ms 3, none applied): the fit at 0 may have spoiled its
+    profile, as for
     an applied one (:func:`_follow`). The profile is made again around the fit at the
     offset found; where that makes it significant, it is followed, and applied only if the
     whole fits gain ``MIN_COST_RATIO`` over the fit at 0 too (a model error's preferred

@@ -398,3 +398,26 @@ def test_an_axis_whose_1_sigma_reaches_90_deg_is_not_identifiable(monkeypatch):
     r = estimate_axis(a.gyr, b.gyr, rate=rec.rate, restarts=8, seed=1, time_offset=0.0)
     assert r.verdict == "not identifiable"
     assert r.blocking[0].startswith("the axis's 1-sigma is 120 deg")
+
+
+def test_a_1_sigma_widened_past_90_deg_by_the_clock_offset_is_refused(monkeypatch):
+    # the 90 deg rule was judged before the offset's part was added: a fit at 89.9 deg
+    # with an applied 20 ms offset reported 90.01 deg at "use with care" (a review)
+    import imucal.axis as axis_module
+    from imucal.quality import uncertainty_totals
+
+    rec, _ = simulate(seed=2, motion="circling", duration=20.0, gyr_noise=0.01,
+                      acc_noise=0.05, clock_offset={"shank": 0.02})
+    a, b = rec.sensor("thigh"), rec.sensor("shank")
+    original = axis_module._quality
+
+    def widened(*args, **kwargs):
+        q = original(*args, **kwargs)
+        q["components"]["model"] = {"j1": 89.9, "j2": 89.9}
+        q["uncertainty"] = uncertainty_totals(q["components"])
+        return q
+
+    monkeypatch.setattr(axis_module, "_quality", widened)
+    r = estimate_axis(a.gyr, b.gyr, rate=rec.rate, seed=1, restarts=20, acc1=a.acc, acc2=b.acc)
+    assert r.time_offset["applied"] and max(r.uncertainty_deg.values()) >= 90.0
+    assert r.verdict == "not identifiable" and r.blocking[0].startswith("the axis's 1-sigma")
