@@ -77,7 +77,8 @@ def test_the_joint_centre_bias_fit_has_the_right_jacobian():
     found = {}
 
     def capture(rows, jacobian, p, tolerance):
-        found["rows"], found["jacobian"] = rows, jacobian
+        if p.size == 12:  # the fit with the biases (the second refits the centre alone)
+            found["rows"], found["jacobian"] = rows, jacobian
         return p
 
     original = gb._levenberg_marquardt
