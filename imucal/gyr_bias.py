@@ -52,14 +52,35 @@ TOLERANCE = 1e-6
 SCREEN_TOLERANCE = 1e-4
 
 
-def _worth_removing(cost_ratio: float, size: float) -> bool:
-    """Biases lower the residual by at least ``MIN_COST_RATIO`` and are no larger than a
-    gyroscope's bias can be (``MAX_PLAUSIBLE_RAD_S``, rad/s)."""
-    return cost_ratio >= MIN_COST_RATIO and size <= MAX_PLAUSIBLE_RAD_S
+class _Biases:
+    """What the axis's and the joint centre's bias fits share: biases ``b1``, ``b2``
+    (rad/s) and the ``cost_ratio`` they gain, one rule for removing them."""
+
+    b1: np.ndarray
+    b2: np.ndarray
+    cost_ratio: float
+
+    @property
+    def size(self) -> float:
+        """The larger of the two biases' magnitudes, rad/s."""
+        return float(max(np.linalg.norm(self.b1), np.linalg.norm(self.b2)))
+
+    @property
+    def significant(self) -> bool:
+        """Worth removing: the biases lower the residual by at least ``MIN_COST_RATIO``
+        and are no larger than a gyroscope's bias can be (``MAX_PLAUSIBLE_RAD_S``)."""
+        return self.cost_ratio >= MIN_COST_RATIO and self.size <= MAX_PLAUSIBLE_RAD_S
+
+    def _block(self, applied: bool, **extra) -> dict:
+        """The JSON block (rad/s)."""
+        return {"applied": applied, "b1_rad_s": self.b1.tolist(),
+                "b2_rad_s": self.b2.tolist(), "cost_ratio": self.cost_ratio, **extra,
+                "prior_rad_s": PRIOR_RAD_S, "min_cost_ratio": MIN_COST_RATIO,
+                "max_plausible_rad_s": MAX_PLAUSIBLE_RAD_S}
 
 
 @dataclass(frozen=True)
-class GyrBias:
+class GyrBias(_Biases):
     """Constant gyroscope biases estimated with the hinge axis.
 
     Attributes
@@ -81,27 +102,13 @@ class GyrBias:
     inflation: tuple[float, float] = (1.0, 1.0)
 
     @property
-    def size(self) -> float:
-        """The larger of the two biases' magnitudes, rad/s."""
-        return float(max(np.linalg.norm(self.b1), np.linalg.norm(self.b2)))
-
-    @property
-    def significant(self) -> bool:
-        """Worth removing (:func:`_worth_removing`)."""
-        return _worth_removing(self.cost_ratio, self.size)
-
-    @property
     def implausible(self) -> bool:
         """The residual asks for a bias no gyroscope has: a smooth model error."""
         return self.cost_ratio >= MIN_COST_RATIO and self.size > MAX_PLAUSIBLE_RAD_S
 
     def report(self) -> dict:
         """The JSON block (rad/s)."""
-        return {"applied": self.significant, "b1_rad_s": self.b1.tolist(),
-                "b2_rad_s": self.b2.tolist(), "cost_ratio": self.cost_ratio,
-                "inflation": list(self.inflation),
-                "prior_rad_s": PRIOR_RAD_S, "min_cost_ratio": MIN_COST_RATIO,
-                "max_plausible_rad_s": MAX_PLAUSIBLE_RAD_S}
+        return self._block(self.significant, inflation=list(self.inflation))
 
 
 def estimate_gyr_bias(gyr1: np.ndarray, gyr2: np.ndarray, j1: np.ndarray,
@@ -224,7 +231,7 @@ def _across(b: np.ndarray, j: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class CentreBias:
+class CentreBias(_Biases):
     """A joint centre refitted to eq. (3) together with constant gyroscope biases.
 
     Attributes
@@ -240,22 +247,9 @@ class CentreBias:
     b2: np.ndarray
     cost_ratio: float
 
-    @property
-    def size(self) -> float:
-        """The larger of the two biases' magnitudes, rad/s."""
-        return float(max(np.linalg.norm(self.b1), np.linalg.norm(self.b2)))
-
-    @property
-    def significant(self) -> bool:
-        """Worth removing, by the axis's rule (:func:`_worth_removing`)."""
-        return _worth_removing(self.cost_ratio, self.size)
-
     def report(self, applied: bool) -> dict:
         """The JSON block (rad/s); ``applied``: the rates were corrected by these biases."""
-        return {"applied": applied, "b1_rad_s": self.b1.tolist(),
-                "b2_rad_s": self.b2.tolist(), "cost_ratio": self.cost_ratio,
-                "prior_rad_s": PRIOR_RAD_S, "min_cost_ratio": MIN_COST_RATIO,
-                "max_plausible_rad_s": MAX_PLAUSIBLE_RAD_S}
+        return self._block(applied)
 
 
 def joint_centre_with_bias(data: tuple, x: np.ndarray) -> CentreBias | None:
