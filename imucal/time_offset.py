@@ -399,9 +399,9 @@ def _trial(fit, profile, rate: float, search: float, first, found: Offset):
     recording, where model errors prefer shifts of 4-37 ms: from 5 ms 7 of 12 reference
     estimates ran one, from 10 ms 3, none applied): the fit at 0 may have spoiled its
     profile, as for an applied one (:func:`_follow`). The profile is made again around the
-    fit at the offset found; where that makes it significant, it is followed, and applied only if the
-    whole fits gain ``MIN_COST_RATIO`` over the fit at 0 too (a model error's preferred
-    shift does not). Simulated circling, shank 50 ms late: 18.4 ms found at a profile
+    fit at the offset found; where that makes it significant, it is followed, and applied
+    only if the whole fits gain ``MIN_COST_RATIO`` over the fit at 0 too (a model error's
+    preferred shift does not). Simulated circling, shank 50 ms late: 18.4 ms found at a profile
     gain of 1.48, the axis 12 deg off; the fit at 50 ms gains 1.87."""
     trial = fit(found.delta_s)
     again = estimate_offset(profile(trial), rate, search)
