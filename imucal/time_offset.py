@@ -339,12 +339,14 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     first = fit(0.0)
     found = estimate_offset(profile(first), rate, search)
     applied = found.significant(rate)
-    result = first
+    result, start, how = first, found, "profile"
     if applied:
         found, result = _follow(fit, profile, rate, search, found)
+        how = "profile" if found is start else "followed"
     elif found.suspicious(rate) and not at_search_end(found, rate):
         applied, found, result = _trial(fit, profile, rate, search, first, found)
-    result.time_offset = offset_report(found, rate)
+        how = "trial" if applied else "profile"
+    result.time_offset = {**offset_report(found, rate), "found_by": how}
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(found, rate))
     if refused_at_edge(found):

@@ -287,6 +287,7 @@ def test_circling_with_a_late_shank_is_aligned_not_called_good_while_off(seed):
                       acc2=shank.acc)
     found = r.time_offset
     assert found["applied"] and abs(found["time_offset_s"] - 0.02) < 0.003, found
+    assert found["found_by"] == "profile"  # 20 ms: the first profile finds it
     truth = truth["knee"] if "knee" in truth else truth
     assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
 
@@ -377,6 +378,7 @@ def test_a_large_offset_is_followed_from_the_fit_at_the_offset_found(motion, see
                       acc1=thigh.acc, acc2=shank.acc)
     found = r.time_offset
     assert found["applied"] and abs(found["time_offset_s"] - late) < 0.002, found
+    assert found["found_by"] == "followed"
     assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.3
     assert r.verdict == "good"
 
@@ -407,4 +409,5 @@ def test_an_offset_found_short_and_not_applied_is_tried_from_the_fit_at_it():
                       acc1=thigh.acc, acc2=shank.acc)
     found = r.time_offset
     assert found["applied"] and abs(found["time_offset_s"] - 0.05) < 0.003, found
+    assert found["found_by"] == "trial"
     assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
