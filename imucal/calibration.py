@@ -351,7 +351,7 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
                 "sample_rate_hz": recording.rate, "samples_total": recording.n_samples,
                 "duration_s": recording.duration,
                 "units_in_file": {n: recording.units.get(n, {}) for n in jc.sensors},
-                "time_origin": float(around.time[0]), "load_warnings": list(used.warnings)}
+                "time_origin": window["time_origin"], "load_warnings": list(used.warnings)}
         common = {"rate": used.rate, "restarts": restarts, "seed": seed,
                   "time_offset": time_offset, **window}
         axis = None

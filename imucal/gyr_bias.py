@@ -260,10 +260,11 @@ def joint_centre_with_bias(data: tuple, x: np.ndarray) -> CentreBias | None:
     ``data`` is the position estimate's (g1, gdot1, a1, g2, gdot2, a2) (N, 3) each. A
     bias enters eq. (3) through ``g x (g x o)`` (its derivative is 0), and the position
     estimate has no term for it: simulated circling with 0.02-0.2 rad/s biases came out
-    up to 3.7 sigma off, some `good` (4.2 and 5.4 sigma on one seed). How far the centre
-    moves when biases the data cannot rule out are allowed (3-10 mm there, against
-    0.2-3 mm without bias) is a 1-sigma part of its own. Fitted on every k-th sample
-    (at most ``SCREEN_SAMPLES``)."""
+    up to 3.7 sigma off, some `good` (4.2 and 5.4 sigma on one seed). Where the biases
+    are worth removing (:attr:`CentreBias.significant`) the position is estimated again
+    from corrected rates; otherwise how far the centre moves when biases the data cannot
+    rule out are allowed (3-10 mm there, against 0.2-3 mm without bias) is a 1-sigma part
+    of its own. Fitted on every k-th sample (at most ``SCREEN_SAMPLES``)."""
     from .position import _gamma_rows  # eq. (3)'s matrices: one implementation
 
     step = max(1, int(np.ceil(np.shape(data[0])[0] / SCREEN_SAMPLES)))
