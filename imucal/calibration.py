@@ -23,6 +23,7 @@ from . import __version__
 from .errors import ImucalError, InputError
 from .quality import NOT_IDENTIFIABLE
 from .recording import Recording, _norm, _segment, estimator_window
+from .settings import ACC_ERROR_M_S2
 
 FORMAT = "imucal-calibration"
 #: 2: the angle block's ``hinge_residual`` is relative to the angular rates, and its
@@ -255,7 +256,7 @@ def _joint_specs(recording: Recording, joints) -> tuple[list[JointSpec], list[st
 def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
               seed: int | None = None, start: float | None = None, end: float | None = None,
               time_offset: float | str = "auto", smoothing_s: float | None = None,
-              ) -> Calibration:
+              acc_error: float = ACC_ERROR_M_S2) -> Calibration:
     """Calibrate every joint of ``recording`` (module docstring).
 
     Parameters
@@ -272,6 +273,9 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     smoothing_s
         The angle fusion's kernel (:data:`imucal.angles.SMOOTHING_S`), stored for
         :func:`imucal.joint_angles`.
+    acc_error
+        1-sigma of each accelerometer's error at 1 g, m/s^2, for the joint centres'
+        uncertainty (:func:`imucal.estimate_position`).
 
     Returns
     -------
@@ -299,7 +303,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     --------
     >>> import imucal
     >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"),
-    ...                        restarts=20, seed=1)
+    ...                        restarts=20, seed=1, acc_error=0.0)  # simulated: exact
     >>> sorted(cal.joints), cal.joints["knee"].verdict
     (['ankle', 'knee'], 'good')
     """
@@ -312,7 +316,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     for spec in specs:
         jc, window = _calibrate_joint(recording, spec, restarts=restarts, seed=seed,
                                       start=start, end=end, time_offset=time_offset,
-                                      smoothing_s=smoothing_s)
+                                      smoothing_s=smoothing_s, acc_error=acc_error)
         jc.warnings = notes + jc.warnings
         out[spec.name] = jc
         if window is not None:
@@ -326,6 +330,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
         sample_rate_hz=recording.rate,
         settings={"restarts": restarts, "seed": seed, "start": start, "end": end,
                   "time_offset": time_offset, "smoothing_s": smoothing_s,
+                  "acc_error_m_s2": acc_error,
                   "joints": [f"{s.name}={s.kind}:{s.first},{s.second}" for s in specs]},
         sensors={n: dict(recording.sensor_info.get(n, {}), units_in_file=dict(
             recording.units.get(n, {}))) for n in used},
@@ -333,7 +338,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
 
 
 def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, time_offset,
-                     smoothing_s):
+                     smoothing_s, acc_error):
     """One joint; an estimate that stops leaves verdict ``failed`` and its reason."""
     from . import estimate_axis, estimate_position
     from .report import axis_report, position_report
@@ -360,7 +365,7 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
             jc.axis = axis_report(axis, input_info=info)
             jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
         pos = estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, joint=spec.kind,
-                                axis=axis, **common)
+                                axis=axis, acc_error=acc_error, **common)
         jc.position = position_report(pos, input_info=info)
         jc.o1, jc.o2 = np.asarray(pos.o1, float), np.asarray(pos.o2, float)
     except ImucalError as err:

@@ -122,6 +122,11 @@ TimeOffset = Annotated[str, typer.Option(
     "late): auto (estimated from the constraint itself within +-0.2 s and applied when it "
     "clearly improves the fit; reported in time_offset), 0 (clocks in sync) or a number "
     "of seconds to apply.")]
+AccError = Annotated[float, typer.Option(
+    "--acc-error", metavar="M/S^2", help="1-sigma of each accelerometer's error at 1 g, "
+    "m/s^2: an offset of this size and a scale error of this / 9.81 per axis, carried "
+    "into the joint centre's 1-sigma where the motion cannot tell them from a move of the "
+    "centre (steady circling). 0.02-0.1 after factory calibration; 0: calibrated.")]
 Scheduler = Annotated[str | None, typer.Option(
     "--scheduler", metavar="ADDRESS", show_default=False,
     help="With several RECs: run the study on the Dask cluster whose scheduler listens "
@@ -171,6 +176,7 @@ def axis(
         "positive/negative, e.g. --sign +x --j2-sign +x when both sensors' x axes point "
         "laterally.")] = "auto",
     time_offset: TimeOffset = "auto",
+    acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     force: Force = False,
     trace: Trace = False,
     jobs: Jobs = 1,
@@ -231,6 +237,7 @@ def position(
         "which decides the line the knee point is taken on (see imucal axis --help).")]
     = "auto",
     time_offset: TimeOffset = "auto",
+    acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     force: Force = False,
     trace: Trace = False,
     jobs: Jobs = 1,
@@ -245,7 +252,7 @@ def position(
         settings = _settings(ctx, PositionSettings, restarts=restarts, seed=seed, joint=joint,
                              cutoff=cutoff, subsample=subsample, select=select,
                              max_samples=_max_samples(max_samples), sign=sign,
-                             j2_sign=j2_sign, time_offset=time_offset)
+                             j2_sign=j2_sign, time_offset=time_offset, acc_error=acc_error)
         job = _job(ctx, "position", sensors, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force, trace=trace)
@@ -277,6 +284,7 @@ def calibrate(
     start: Start = None,
     end: End = None,
     time_offset: TimeOffset = "auto",
+    acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", help="Write the calibration file (JSON) here instead of stdout.",
         show_default=False)] = None,
@@ -301,7 +309,8 @@ def calibrate(
         from .settings import CalibrateSettings
 
         settings = _settings(ctx, CalibrateSettings, joints=tuple(joint or ()),
-                             restarts=restarts, seed=seed, time_offset=time_offset)
+                             restarts=restarts, seed=seed, time_offset=time_offset,
+                             acc_error=acc_error)
         job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)
@@ -532,6 +541,10 @@ def simulate(
         "one session with the sensors left in place (calibrate on one, measure angles on "
         "another); the mounting equals the one of --seed N. Default: from --seed.")]
     = None,
+    acc_bias: Annotated[list[str] | None, typer.Option(
+        metavar="M/S^2|SENSOR=M/S^2|SENSOR=X,Y,Z", show_default=False,
+        help="Constant accelerometer bias (offset), m/s^2, sensor frame, given like "
+        "--gyr-bias (typical after factory calibration: 0.02-0.1).")] = None,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
@@ -550,6 +563,7 @@ def simulate(
                                                         or acc_noise is not None):
             raise InputError("give --snr or --gyr-noise/--acc-noise (physical units), not both")
         offsets, bias = parse_clock_offsets(clock_offset), parse_gyr_bias(gyr_bias)
+        acc_offsets = parse_gyr_bias(acc_bias, "--acc-bias", "m/s^2")
         if out.suffix.lower() not in {".h5", ".hdf5", ".csv"}:
             raise InputError(f"{out}: unknown output format '{out.suffix or out.name}'; use "
                              ".h5, .hdf5 or .csv")
@@ -560,7 +574,7 @@ def simulate(
             snr="auto" if snr is None else None if math.isinf(snr) else snr,
             gyr_noise=gyr_noise, acc_noise=acc_noise, soft_tissue_deg=soft_tissue_deg,
             soft_tissue_mm=soft_tissue_mm, clock_offset=offsets, gyr_bias=bias,
-            mounting_seed=mounting_seed,
+            mounting_seed=mounting_seed, acc_bias=acc_offsets,
         )
         # an old truth file must not outlive the recording it described: a signal between
         # the two writes would pair the new recording with it

@@ -64,6 +64,7 @@ from .quality import (
     uncertainty_totals,
     uncertainty_warning,
 )
+from .recording import ACC_UNITS
 from .restarts import (
     competing_agreement,
     disagreement_warning,
@@ -75,7 +76,13 @@ from .restarts import (
 )
 from .result import EstimateResult, shared_fields
 from .selection import MAX_SAMPLES
-from .settings import JOINTS, MAX_ITERATIONS, SUBSET_FRACTION, PositionSettings  # noqa: F401 (JOINTS: imported from here)
+from .settings import (  # noqa: F401 (JOINTS: imported from here)
+    ACC_ERROR_M_S2,
+    JOINTS,
+    MAX_ITERATIONS,
+    SUBSET_FRACTION,
+    PositionSettings,
+)
 from .settings import resolve as resolve_settings
 from .time_offset import (
     OFFSET_STEPS,
@@ -213,6 +220,7 @@ def estimate_position(
     time_offset: float | str = "auto",
     offset_search: float = SEARCH_S,
     time_origin: float = 0.0,
+    acc_error: float = ACC_ERROR_M_S2,
     settings: PositionSettings | None = None,
 ) -> PositionResult:
     """Estimate the joint centre seen by two IMUs.
@@ -258,6 +266,12 @@ def estimate_position(
     time_origin
         Time of the first sample given, s on the recording's clock, for the still
         periods a hinge's estimated axis reports (:func:`imucal.estimate_axis`).
+    acc_error
+        1-sigma of each accelerometer's error at 1 g, m/s^2 (default 0.05): an offset of
+        this size per axis and a scale error of ``acc_error`` / 1 g per axis. Neither is
+        fitted: the motion must tell them from a move of the centre, and where it cannot
+        (steady circling: an offset b looks like a move of about b / w^2) the 1-sigma
+        carries them (``uncertainty_components["acc_error"]``). 0: calibrated sensors.
     settings
         All of the above but ``axis`` as one :class:`imucal.settings.PositionSettings`,
         instead of keyword arguments (giving both, with keyword values other than the
@@ -292,6 +306,10 @@ def estimate_position(
     >>> shank, foot = rec.sensor("shank"), rec.sensor("foot")
     >>> r = imucal.estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc,
     ...                              rate=rec.rate, seed=1)
+    >>> r.verdict, round(r.uncertainty_components["acc_error"]["o1"])  # circling: mm
+    ('use with care', 13)
+    >>> r = imucal.estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc,
+    ...                              rate=rec.rate, seed=1, acc_error=0.0)  # exact sensors
     >>> r.verdict, (1000 * r.o1).round()  # mm
     ('good', array([101.,  40.,  17.]))
     """
@@ -300,7 +318,7 @@ def estimate_position(
         subsample=subsample, subset=subset, start=start, end=end,
         max_iterations=max_iterations, select=select, max_samples=max_samples, sign=sign,
         j2_sign=j2_sign, time_offset=time_offset, offset_search=offset_search,
-        time_origin=time_origin)
+        time_origin=time_origin, acc_error=acc_error)
     g1, g2 = check_pair(gyr1, gyr2)
     a1, a2 = check_pair(acc1, acc2)
     if g1.shape != a1.shape:
@@ -420,6 +438,7 @@ def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line, bias) -> d
         "cutoff_shift": cutoff_shifts(sensitivity, ("o1", "o2"), "mm"),
         "model": model,
         "gyr_bias": _bias_move(bias, x, line),
+        "acc_error": _acc_error_move(full, x, jac, free, s.acc_error),
     }
     subset_finals = fit.batch.x if line is None else closest_point_on_axis(fit.batch.x, line)
     keep = settled(fit.batch.final_cost, fit.reached)
@@ -574,6 +593,7 @@ def _settings_record(p: Prepared, s: PositionSettings) -> dict:
         "axis_sign_convention": s.sign if hinge else None,
         "j2_sign": s.j2_sign if hinge else None,
         "time_offset": s.time_offset,
+        "acc_error_m_s2": s.acc_error,
         "step_tolerance_m": STEP_TOLERANCE,
         "restart_step_tolerance_m": RESTART_STEP_TOLERANCE,
         "coarse_samples": COARSE_SAMPLES,
@@ -913,6 +933,36 @@ def _bias_move(bias, x, line) -> dict:
         return {"o1": 0.0, "o2": 0.0}
     y = bias.o if line is None else closest_point_on_axis(bias.o, line)
     return {k: float(1000 * np.linalg.norm(y[sl] - x[sl]))
+            for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
+
+
+def _acc_error_move(full: _SpheroidalProblem, x: np.ndarray, jac: np.ndarray,
+                    free: np.ndarray, acc_error: float) -> dict:
+    """{"o1", "o2"}: 1-sigma, mm, of the centre ``x`` due to accelerometer errors eq. (3)
+    cannot see: a constant offset (1-sigma ``acc_error`` m/s^2 per axis) and a scale error
+    (``acc_error`` / 1 g per axis) of each accelerometer, as consider parameters.
+
+    A bias b in a1 enters eq. (3) as -u1 . b (u1 = r1 / |r1|): where Gamma hardly
+    changes (steady circling at rate w) a shift of the centre by about b / w^2 mimics it,
+    and the fit takes that shift for the centre. The centre's linear response to the
+    errors, ``S = -(J^T J)^-1 J^T J_c`` (across the axis for a hinge), carries their
+    priors into its covariance: small where the motion tells a bias from a centre (gait),
+    large where it cannot (circling)."""
+    cols = []
+    for k, sign in ((0, -1.0), (1, 1.0)):
+        r = full._r(k, x[None, 3 * k:3 * k + 3].astype(full.dtype))[0].T.astype(float)
+        u = r / np.maximum(np.linalg.norm(r, axis=1), 1e-12)[:, None]
+        a = np.asarray(full.sensors[k][0], dtype=float).T
+        # a_measured = (1 + s) a + b, so the model's r = a_measured - b - s a - Gamma o
+        cols += [sign * acc_error * u, sign * acc_error / ACC_UNITS["g"] * u * a]
+    jc = np.hstack(cols)
+    jo = jac @ free
+    try:
+        s = -np.linalg.solve(jo.T @ jo, jo.T @ jc)
+    except np.linalg.LinAlgError:
+        return {"o1": float("inf"), "o2": float("inf")}
+    move = free @ s  # (6, 12): the centre's shift per unit (prior-scaled) error
+    return {k: float(1000 * np.sqrt(np.sum(move[sl] ** 2)))
             for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
 
 

@@ -249,10 +249,14 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
         "gyr_bias": ("a gyroscope bias was estimated with it" if unit == "deg" else
                      "it moves when gyroscope biases are fitted with it (an uncalibrated "
                      "gyroscope)"),
+        "acc_error": "the motion cannot tell it from an accelerometer offset or scale "
+                     "error (steady rotation: calibrate the accelerometers, or move more "
+                     "variedly)",
         "time_offset": "it moves with the clock offset between the sensors (uncertain, "
                        "or mimicked by soft tissue)",
     }[main]
-    extra = {"model": "model", "gyr_bias": "gyroscope bias", "time_offset": "clock offset"}
+    extra = {"model": "model", "gyr_bias": "gyroscope bias", "acc_error": "accelerometer",
+             "time_offset": "clock offset"}
     return (f"{UNCERTAIN_PREFIX}: 1-sigma {total[name]:.1f} {unit} for {name}, mostly "
             f"because {why} (curvature {parts['curvature']:.1f}, time blocks "
             f"{parts['time_blocks']:.1f}, cut-off shift {parts['cutoff_shift']:.1f}"
@@ -274,7 +278,7 @@ def uncertainty_totals(components: dict) -> dict:
     part due to the automatic clock offset's uncertainty,
     :func:`imucal.time_offset.fit_with_offset`) added in quadrature where present."""
     model = components.get("model", {})
-    extra = [components.get(kind, {}) for kind in ("gyr_bias", "time_offset")]
+    extra = [components.get(kind, {}) for kind in ("gyr_bias", "acc_error", "time_offset")]
     return {k: float(np.linalg.norm([total_sigma(components["curvature"][k],
                                                  components["time_blocks"][k],
                                                  components["cutoff_shift"][k],

@@ -106,7 +106,8 @@ def _process_calibrate(job, recording, outcome) -> None:
     # one seed for every joint, drawn here when none is given, so the file can say it
     seed = resolve_seed(s.seed)
     cal = calibrate(recording, joints=list(s.joints) or None, restarts=s.restarts,
-                    seed=seed, start=job.start, end=job.end, time_offset=s.time_offset)
+                    seed=seed, start=job.start, end=job.end, time_offset=s.time_offset,
+                    acc_error=s.acc_error)
     if job.sensor_map is not None:
         cal.settings["sensor_map"] = str(job.sensor_map)
     names = ", ".join(f"{j.name} ({j.sensors[0]} -> {j.sensors[1]})"

@@ -34,6 +34,11 @@ OFFSET_SEARCH_S = 0.2
 MAX_ITERATIONS = 50
 #: Default fraction of the samples each restart sees (the paper's "different subsets").
 SUBSET_FRACTION = 0.5
+#: Default 1-sigma of an accelerometer's error at 1 g, m/s^2 (:class:`PositionSettings`):
+#: factory-calibrated MEMS accelerometers keep offsets of about 0.02-0.1 m/s^2.
+ACC_ERROR_M_S2 = 0.05
+#: Largest ``acc_error`` accepted, m/s^2 (half of g: a larger number is a unit mistake).
+MAX_ACC_ERROR_M_S2 = 5.0
 
 
 @dataclass(frozen=True)
@@ -131,14 +136,21 @@ class PositionSettings(AxisSettings):
     ----------
     joint : str
         "spheroidal" (3 rotational DOF, the ankle) or "hinge" (the knee).
+    acc_error : float
+        1-sigma of each accelerometer's error at 1 g, m/s^2, >= 0: a constant offset of
+        this size per axis and a scale error of ``acc_error / 9.81`` per axis, neither
+        fitted; the joint centre's 1-sigma carries what the motion cannot tell from them
+        (0: calibrated accelerometers).
     """
 
     joint: str = "spheroidal"
+    acc_error: float = ACC_ERROR_M_S2
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.joint not in JOINTS:
             raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{self.joint}'")
+        _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
 
 
 @dataclass(frozen=True)
@@ -152,12 +164,15 @@ class CalibrateSettings:
         :class:`imucal.calibration.JointSpec`; empty: found from the sensor names.
     restarts, seed, time_offset
         As in :class:`AxisSettings`; every joint uses the same.
+    acc_error : float
+        As in :class:`PositionSettings`, m/s^2; every joint centre uses the same.
     """
 
     joints: tuple = ()
     restarts: int = 100
     seed: int | None = None
     time_offset: float | str = "auto"
+    acc_error: float = ACC_ERROR_M_S2
 
     def __post_init__(self) -> None:
         from .calibration import JointSpec, parse_joint_spec
@@ -173,6 +188,7 @@ class CalibrateSettings:
         if self.seed is not None:
             _check_int(self, "seed", 0)
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
+        _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
 
 
 def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) -> AxisSettings:

@@ -315,6 +315,7 @@ def simulate(
     clock_offset: Mapping[str, float] | None = None,
     gyr_bias: float | Mapping[str, float | tuple[float, float, float]] | None = None,
     mounting_seed: int | None = None,
+    acc_bias: float | Mapping[str, float | tuple[float, float, float]] | None = None,
 ) -> tuple[Recording, dict]:
     """Simulate thigh, shank and foot IMUs on a leg with a knee hinge and a spheroidal ankle.
 
@@ -364,6 +365,10 @@ def simulate(
         walking trial of one session; another ``mounting_seed`` is a re-strapped (or
         another) leg. ``None`` (default): the mounting follows ``seed`` as before. The
         mounting with ``mounting_seed=m`` equals the one of ``seed=m``.
+    acc_bias
+        Constant accelerometer bias (offset), m/s^2, sensor frame, given like ``gyr_bias``
+        (its own random directions). Factory-calibrated MEMS accelerometers keep about
+        0.02-0.1 m/s^2. Recorded in the truth only when given.
 
     Returns
     -------
@@ -375,6 +380,7 @@ def simulate(
         seed=seed, rate=rate, duration=duration, snr=snr, motion=motion, gyr_noise=gyr_noise,
         acc_noise=acc_noise, soft_tissue_deg=soft_tissue_deg, soft_tissue_mm=soft_tissue_mm,
         clock_offset=clock_offset, gyr_bias=gyr_bias, mounting_seed=mounting_seed,
+        acc_bias=acc_bias,
     )
     return rec, truth
 
@@ -385,7 +391,7 @@ def simulate(
 def _simulate_with_internals(*, seed, rate, duration, snr="auto", motion="circling",
                              gyr_noise=None, acc_noise=None, soft_tissue_deg=0.0,
                              soft_tissue_mm=0.0, clock_offset=None, gyr_bias=None,
-                             mounting_seed=None):
+                             mounting_seed=None, acc_bias=None):
     """:func:`simulate` plus internals for tests: clean signals, knee angle, sensor poses."""
     seed, rate, duration, snr, motion = _check_args(seed, rate, duration, snr, motion,
                                                     gyr_noise, acc_noise)
@@ -407,7 +413,10 @@ def _simulate_with_internals(*, seed, rate, duration, snr="auto", motion="circli
         geo_ss = np.random.SeedSequence(mounting_seed).spawn(5)[0]
     geo = _draw_geometry(np.random.default_rng(geo_ss))
     mot = _draw_motion(np.random.default_rng(motion_ss), motion)
-    bias = _gyr_bias(gyr_bias, np.random.default_rng(bias_ss))
+    bias = _sensor_bias("gyr_bias", gyr_bias, np.random.default_rng(bias_ss), "rad/s")
+    # a sixth stream (spawn(6)[:5] equals spawn(5)), so the other streams keep their data
+    acc_ss = np.random.SeedSequence(seed).spawn(6)[5]
+    acc_bias_vec = _sensor_bias("acc_bias", acc_bias, np.random.default_rng(acc_ss), "m/s^2")
     wobble = None
     if soft_tissue_deg > 0 or soft_tissue_mm > 0:
         wobble = _scale_soft_tissue(_draw_soft_tissue(np.random.default_rng(tissue_ss)), mot,
@@ -437,6 +446,8 @@ def _simulate_with_internals(*, seed, rate, duration, snr="auto", motion="circli
                 out = s + noise_rng.standard_normal(s.shape) * sigma
             if kind == "gyr" and name in bias:
                 out = out + bias[name]
+            if kind == "acc" and name in acc_bias_vec:
+                out = out + acc_bias_vec[name]
             data[name][kind] = out
 
     rec = make_recording(data, rate=rate, source="<simulated>")
@@ -455,9 +466,13 @@ def _simulate_with_internals(*, seed, rate, duration, snr="auto", motion="circli
     }
     if mounting_seed is not None:  # only when given, so earlier truth files keep their bytes
         settings["mounting_seed"] = mounting_seed
+    if acc_bias is not None:  # likewise
+        settings["acc_bias"] = _bias_setting(acc_bias)
     truth = _truth(geo, mot, settings)
     truth.update(_realism_truth(mot, t, clock, bias, noise_std, tissue, knee_angle,
                                 soft_tissue_deg, soft_tissue_mm))
+    if acc_bias is not None:
+        truth["acc_bias"] = {n: _vec(acc_bias_vec.get(n, np.zeros(3))) for n in SENSORS}
     internals = {"clean": clean, "rot": rot_world, "knee_angle": knee_angle, "time": t,
                  "soft_tissue": tissue, "motion": mot}
     return rec, truth, internals
@@ -548,38 +563,40 @@ def _check_clock_offset(clock_offset, duration: float) -> dict[str, float]:
     return out
 
 
-def _gyr_bias(gyr_bias, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Bias vector per sensor (sensor frame, rad/s); sensors without bias are left out."""
+def _sensor_bias(label: str, value, rng: np.random.Generator, unit: str
+                 ) -> dict[str, np.ndarray]:
+    """Bias vector per sensor (sensor frame, ``unit``) from the option ``label``
+    (``gyr_bias`` or ``acc_bias``); sensors without bias are left out."""
     # One random direction per sensor, always drawn in sensor order, so a sensor's direction
     # does not depend on which other sensors get a bias.
     dirs = {}
     for name in SENSORS:
         v = rng.standard_normal(3)
         dirs[name] = v / np.linalg.norm(v)
-    if gyr_bias is None:
+    if value is None:
         return {}
-    if not isinstance(gyr_bias, Mapping):
-        gyr_bias = dict.fromkeys(SENSORS, gyr_bias)
+    if not isinstance(value, Mapping):
+        value = dict.fromkeys(SENSORS, value)
     out = {}
-    for name, value in gyr_bias.items():
+    for name, given in value.items():
         if name not in SENSORS:
-            raise InputError(f"simulate: gyr_bias for unknown sensor '{name}'; sensors are "
+            raise InputError(f"simulate: {label} for unknown sensor '{name}'; sensors are "
                              f"{', '.join(SENSORS)}")
-        if np.ndim(value) == 0:
-            mag = _number(f"gyr_bias of {name}", value)
+        if np.ndim(given) == 0:
+            mag = _number(f"{label} of {name}", given)
             if not math.isfinite(mag) or mag < 0:
-                raise InputError(f"simulate: gyr_bias of {name} must be a non-negative "
-                                 f"magnitude in rad/s or a 3-vector, got {mag:g}")
+                raise InputError(f"simulate: {label} of {name} must be a non-negative "
+                                 f"magnitude in {unit} or a 3-vector, got {mag:g}")
             vec = mag * dirs[name]
         else:
             try:
-                vec = np.asarray(value, dtype=float)
+                vec = np.asarray(given, dtype=float)
             except (TypeError, ValueError):
-                raise InputError(f"simulate: gyr_bias of {name} {_one_line(value)} is not "
-                                 "a number or 3-vector (rad/s)") from None
+                raise InputError(f"simulate: {label} of {name} {_one_line(given)} is not "
+                                 f"a number or 3-vector ({unit})") from None
             if vec.shape != (3,) or not np.all(np.isfinite(vec)):
-                raise InputError(f"simulate: gyr_bias of {name} must be a magnitude or a "
-                                 f"finite 3-vector (rad/s), got {_one_line(value)}")
+                raise InputError(f"simulate: {label} of {name} must be a magnitude or a "
+                                 f"finite 3-vector ({unit}), got {_one_line(given)}")
         if np.any(vec != 0.0):
             out[name] = vec
     return out
@@ -1136,28 +1153,29 @@ def _sensor_items(items: list[str], option: str, usage: str):
         yield item, name, value
 
 
-def parse_gyr_bias(items: list[str] | None, option: str = "--gyr-bias"):
+def parse_gyr_bias(items: list[str] | None, option: str = "--gyr-bias", unit: str = "rad/s"):
     """``["0.02"]`` -> 0.02 (every sensor, random directions); ``["shank=0.02",
-    "foot=0.01,0,0"]`` -> ``{"shank": 0.02, "foot": (0.01, 0.0, 0.0)}`` (rad/s)."""
+    "foot=0.01,0,0"]`` -> ``{"shank": 0.02, "foot": (0.01, 0.0, 0.0)}`` (``unit``; also
+    parses ``--acc-bias`` in m/s^2)."""
     if not items:
         return None
     if len(items) == 1 and "=" not in items[0]:
         try:
             return float(items[0])
         except ValueError:
-            raise InputError(f"{option} '{items[0]}': use RAD/S, SENSOR=RAD/S or "
-                             "SENSOR=X,Y,Z (rad/s)") from None
+            raise InputError(f"{option} '{items[0]}': use {unit.upper()}, SENSOR="
+                             f"{unit.upper()} or SENSOR=X,Y,Z ({unit})") from None
     out = {}
-    usage = (f"use SENSOR=RAD/S or SENSOR=X,Y,Z with SENSOR one of {', '.join(SENSORS)} "
-             "(a bare magnitude only alone)")
+    usage = (f"use SENSOR={unit.upper()} or SENSOR=X,Y,Z with SENSOR one of "
+             f"{', '.join(SENSORS)} (a bare magnitude only alone)")
     for item, name, value in _sensor_items(items, option, usage):
         try:
             parts = [float(x) for x in value.split(",")]
         except ValueError:
             raise InputError(f"{option} '{item}': '{value}' is not a number or X,Y,Z in "
-                             "rad/s") from None
+                             f"{unit}") from None
         if len(parts) not in (1, 3):
             raise InputError(f"{option} '{item}': give one magnitude or three components "
-                             "X,Y,Z (rad/s)")
+                             f"X,Y,Z ({unit})")
         out[name] = parts[0] if len(parts) == 1 else tuple(parts)
     return out

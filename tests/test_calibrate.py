@@ -192,7 +192,8 @@ def test_a_joint_that_cannot_be_identified_does_not_lose_the_others():
     dead = make_recording({"thigh": rec.sensors["thigh"].__dict__,
                            "shank": rec.sensors["shank"].__dict__,
                            "foot": {"gyr": z, "acc": z + [0, 0, 9.81]}}, rate=rec.rate)
-    cal = calibrate(dead, restarts=20, seed=1)
+    # the simulator's accelerometers are exact (the default widens circling centres)
+    cal = calibrate(dead, restarts=20, seed=1, acc_error=0.0)
     assert cal.joints["knee"].verdict == "good" and cal.joints["knee"].usable
     ankle = cal.joints["ankle"]
     assert ankle.verdict in ("failed", "not identifiable")

@@ -37,7 +37,9 @@ def random_batch():
     for rec, truth, _snr, rate in _random_cases(60):
         th, sh, ft = rec.sensor("thigh"), rec.sensor("shank"), rec.sensor("foot")
         a = estimate_axis(th.gyr, sh.gyr, rate=rate, seed=1, restarts=20)
-        p = estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=rate, seed=1, restarts=20)
+        # exact accelerometers, so no accelerometer error part (its own test below)
+        p = estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=rate, seed=1, restarts=20,
+                              acc_error=0.0)
         knee, ankle = truth["knee"], truth["ankle"]
         rows.append({
             "axis_err": axis_error_deg(a.j1, a.j2, knee["j1"], knee["j2"]),
@@ -319,7 +321,8 @@ def test_soft_tissue_joint_centre_error_is_covered_or_not_called_good(seed, deg,
 def test_clean_joint_centre_gets_a_small_model_term_and_keeps_its_verdict():
     rec, _ = simulated(seed=3)
     a, b = rec.sensor("shank"), rec.sensor("foot")
-    r = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=rec.rate, seed=1, time_offset=0.0)
+    r = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=rec.rate, seed=1, time_offset=0.0,
+                          acc_error=0.0)  # the simulator's accelerometers are exact
     model = r.uncertainty_components["model"]
     assert r.verdict == "good"
     assert 0.0 < max(model.values()) < 1.5  # mm; the curvature's 1-sigma is about 0.5-1
@@ -327,8 +330,41 @@ def test_clean_joint_centre_gets_a_small_model_term_and_keeps_its_verdict():
     c = r.uncertainty_components
     for k in ("o1", "o2"):
         expected = np.sqrt(max(c["curvature"][k], c["time_blocks"][k])**2
-                           + c["cutoff_shift"][k]**2 + model[k]**2 + c["gyr_bias"][k]**2)
+                           + c["cutoff_shift"][k]**2 + model[k]**2 + c["gyr_bias"][k]**2
+                           + c["acc_error"][k]**2)
         assert r.uncertainty_mm[k] == pytest.approx(expected)
+
+
+@pytest.mark.parametrize("seed", [5, 7])
+def test_accelerometer_offsets_are_in_the_joint_centre_sigma(seed):
+    # Under steady circling an accelerometer offset b looks like a move of the centre by
+    # about b / w^2. With 0.05 m/s^2 per sensor, simulated knee centres (seeds 1-8) came
+    # out 2-35 mm off at a 1-sigma of 1-8 mm, 6 of 8 beyond 3 sigma, before the
+    # accelerometer part joined it.
+    from imucal.position import closest_point_on_axis
+
+    rec, truth = simulate(seed=seed, duration=20.0, acc_bias=0.05)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    knee = truth["knee"]
+    want = closest_point_on_axis(np.concatenate([knee["o1"], knee["o2"]]),
+                                 np.concatenate([knee["j1"], knee["j2"]]))
+
+    def fit(**kw):
+        r = estimate_position(th.gyr, th.acc, sh.gyr, sh.acc, rate=rec.rate, seed=seed,
+                              joint="hinge", **kw)
+        return r, 1000 * np.linalg.norm(r.o1 - want[:3])
+
+    r, error = fit()
+    assert error > 20.0  # the offsets did move the thigh's side of the centre (30-35 mm)
+    assert error < 3 * r.uncertainty_mm["o1"] and r.verdict != "good"
+    part = r.uncertainty_components["acc_error"]["o1"]
+    assert part > error / 3 and part == max(c["o1"] for c in r.uncertainty_components.values())
+    assert "accelerometer offset" in " ".join(r.warnings)
+    assert r.settings["acc_error_m_s2"] == 0.05
+    # told the accelerometers are exact, the same fit is confidently wrong
+    exact, error_exact = fit(acc_error=0.0)
+    assert error_exact > 3 * exact.uncertainty_mm["o1"]
+    assert exact.uncertainty_components["acc_error"] == {"o1": 0.0, "o2": 0.0}
 
 
 @pytest.mark.filterwarnings("error::RuntimeWarning")

@@ -399,6 +399,28 @@ def test_gyro_bias_is_a_constant_in_the_sensor_frame():
     assert t2["settings"]["gyr_bias"] == {"shank": 0.01, "foot": [0.0, 0.0, -0.03]}
 
 
+def test_accelerometer_bias_is_a_constant_in_the_sensor_frame():
+    kw = {"seed": 8, "duration": 3.0, "snr": None, "motion": "gait"}
+    ref, ref_truth = simulate(**kw)
+    biased, truth = simulate(acc_bias=0.05, gyr_bias=0.02, **kw)
+    gyr_only, _ = simulate(gyr_bias=0.02, **kw)
+    for name in ("thigh", "shank", "foot"):
+        b = np.array(truth["acc_bias"][name])
+        assert np.linalg.norm(b) == pytest.approx(0.05, rel=1e-12)
+        diff = biased.sensor(name).acc - ref.sensor(name).acc
+        np.testing.assert_allclose(diff, np.tile(b, (len(diff), 1)), atol=1e-12)
+        # its own random stream: the gyroscope biases do not change with it
+        assert np.array_equal(biased.sensor(name).gyr, gyr_only.sensor(name).gyr)
+        assert np.dot(b / 0.05, np.array(truth["gyr_bias"][name]) / 0.02) < 0.999
+    assert truth["settings"]["acc_bias"] == 0.05
+    # without it the truth keeps its earlier keys
+    assert "acc_bias" not in ref_truth and "acc_bias" not in ref_truth["settings"]
+    _, t2 = simulate(acc_bias={"foot": (0.0, 0.1, 0.0)}, **kw)
+    assert t2["acc_bias"]["foot"] == [0.0, 0.1, 0.0] and t2["acc_bias"]["thigh"] == [0.0] * 3
+    with pytest.raises(InputError, match="acc_bias of shank must be a non-negative"):
+        simulate(acc_bias={"shank": -1.0}, **kw)
+
+
 def test_physical_noise_has_the_requested_std():
     kw = {"seed": 9, "duration": 30.0, "motion": "protocol"}
     ref, _ = simulate(snr=None, **kw)

@@ -207,7 +207,7 @@ def test_the_ankle_at_40_hz_finds_the_offset_and_carries_its_uncertainty():
         others = {c: v[k] for c, v in r.uncertainty_components.items() if c != "time_offset"}
         without = np.linalg.norm([max(others["curvature"], others["time_blocks"]),
                                   others["cutoff_shift"], others["model"],
-                                  others["gyr_bias"]])
+                                  others["gyr_bias"], others["acc_error"]])
         assert r.uncertainty_mm[k] == pytest.approx(np.hypot(without, part[k]))
         assert error[k] < 3 * r.uncertainty_mm[k]
     # unlike the axis, no move from offset 0 (hundreds of mm per 20 ms) joins it
