@@ -236,9 +236,33 @@ def test_the_clock_offset_reads_the_samples_beyond_the_window(session):
     late = replace(knee, axis={**knee.axis, "time_offset": {"time_offset_s": 0.05}})
     names = list(knee.sensors)
     window = walk.select(names, 5.0, 10.0)
-    _, s2, _, _ = _fused(window, late, 3.0, walk.select(names, 5.0, 10.0, context=True))
+    _, s2, _, _, beyond = _fused(window, late, 3.0,
+                                 walk.select(names, 5.0, 10.0, context=True))
     whole = shifted(walk.sensor("shank").gyr, walk.rate, 0.05)[500:1000]
     np.testing.assert_allclose(s2.gyr, whole, atol=1e-9)
+    assert not beyond.any()  # the context holds the samples the shift reads
+
+
+def test_the_end_of_a_recording_read_beyond_the_late_sensor_gets_a_wide_band():
+    # 100 ms late: the last 0.1 s read the shank beyond its last sample (held there), and
+    # came out 14 deg off at 42 sigma, "fits"; the offset's own 1-sigma (0.6 ms) was in no
+    # band either (8 % of the samples beyond 3 sigma)
+    from imucal.angles import joint_angles
+    from imucal.calibration import calibrate
+
+    rec, truth = simulate(seed=708, mounting_seed=708, motion="gait", rate=40.0,
+                          duration=40.0, clock_offset={"shank": 0.1}, **NOISE)
+    calibration = calibrate(rec, restarts=20, seed=1, joints=["knee=hinge:thigh,shank"])
+    result = joint_angles(rec, calibration)
+    knee = result.joints["knee"]
+    err = knee.flexion_deg - np.asarray(truth["knee_flexion_deg"])
+    err -= err.mean()
+    z = np.abs(err) / knee.sigma_deg
+    assert np.abs(err[-4:]).max() > 5.0  # the extrapolated samples are off ...
+    assert z[-4:].max() < 3.0  # ... and say so
+    assert (z < 3).mean() > 0.95, (z < 3).mean()
+    assert any("the last 4 samples (100 ms) read shank beyond its recording" in w
+               for w in knee.warnings)
 
 
 def test_a_short_recording_cannot_decide_the_flexion_direction(session):
