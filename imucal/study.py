@@ -395,6 +395,13 @@ def _context(start_method):
             start_method = "fork"
         else:
             start_method = "forkserver" if "forkserver" in methods else "spawn"
+    if start_method != "fork":
+        # Both start a fresh interpreter with "-c", which puts the current folder first on
+        # sys.path, and the fork server ignores the parent's path it is given (CPython
+        # 3.11): a folder named "imucal" where the user stands (the parent of a checkout)
+        # then shadowed the installed package in every worker (exit 3 for every file, an
+        # independent review). Python 3.11 leaves it out when asked to.
+        os.environ.setdefault("PYTHONSAFEPATH", "1")
     context = multiprocessing.get_context(start_method)
     if start_method == "fork":
         for module in WORKER_MODULES:

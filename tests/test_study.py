@@ -163,6 +163,20 @@ def test_study_refuses_plot_and_stdin(study, tmp_path, args, phrase):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_folder_named_imucal_where_the_study_runs_changes_nothing(study, tmp_path):
+    # the workers' fresh interpreters put the current folder first on sys.path, so an
+    # "imucal" folder there (standing in the parent of a checkout) shadowed the package
+    # in every worker: exit 3 for every file. The console script, as a user runs it
+    # ("python -m" would put the folder first in this process too).
+    (tmp_path / "imucal").mkdir()
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONSAFEPATH"}
+    run = subprocess.run([Path(sys.executable).with_name("imucal"), "axis", study["a"],
+                          study["b"], *FAST, "--jobs", "2"], cwd=tmp_path, env=env,
+                         capture_output=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert [o["exit_code"] for o in lines(run.stdout)] == [0, 0]
+
+
 def test_single_rec_keeps_pretty_json(study):
     run = imucal("axis", study["a"], *FAST, "--jobs", 2)
     assert run.returncode == 0
