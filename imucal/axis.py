@@ -645,7 +645,7 @@ def _diagnose(p: Prepared, q: dict, decision, gravity: dict) -> tuple[list[str],
     if not blocking:
         warnings += disagreement_warning(
             q["agreement"], "; the joint may have moved too little or not as a hinge")
-    if relative > MAX_RELATIVE_RESIDUAL:
+    if MAX_RELATIVE_RESIDUAL < relative < np.inf:  # inf: no motion, refused for that
         warnings.append(
             f"the hinge model fits poorly (residual {relative:.0%} of the signal; real knees "
             "leave 35-45 %): the joint may not be a hinge, or the sensors moved on the skin"

@@ -138,7 +138,7 @@ class Offset:
     def suspicious(self, rate: float) -> bool:
         """Found but not applied, yet large and clear enough to mention."""
         size = abs(self.delta_s)
-        return (not self.significant(rate) and not self.at_edge
+        return (not self.significant(rate) and not self.at_edge and self.cost_ratio > 1.0
                 and size >= SUSPICIOUS_S and size > 2 * self.sigma_s)
 
 
@@ -467,6 +467,10 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
     search is no warning but a reason the result is not identifiable,
     :func:`refused_at_edge`)."""
     if refused_at_edge(found) or found.significant(rate):
+        return []
+    if not found.cost_ratio > 1.0:
+        # aligning gains nothing: no motion leaves a residual of 0 at every offset, and the
+        # warning said "lowers it only by a factor 0.00" (a new-user review)
         return []
     if found.at_edge:
         return [offset_edge_reason(found, refused=False)]

@@ -411,3 +411,14 @@ def test_an_offset_found_short_and_not_applied_is_tried_from_the_fit_at_it():
     assert found["applied"] and abs(found["time_offset_s"] - 0.05) < 0.003, found
     assert found["found_by"] == "trial"
     assert max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"])) < 0.5
+
+
+def test_a_recording_without_motion_gets_no_offset_or_fit_warning():
+    # constant rates leave a residual of 0 at every offset: the warnings said the offset
+    # "lowers it only by a factor 0.00" and the fit left a residual of "inf%" (a new-user
+    # review), next to the refusal that says what is wrong
+    for gyr in (np.zeros((1000, 3)), np.tile([0.1, 0.0, 0.0], (1000, 1))):
+        r = estimate_axis(gyr, gyr, rate=100.0, seed=1)
+        assert r.blocking and ("barely" in r.blocking[0])
+        text = " ".join(r.warnings)
+        assert "factor 0.00" not in text and "inf%" not in text, text
