@@ -57,6 +57,12 @@ MAX_INTERPOLATED_GAP_S = 0.05
 #: Largest share of one signal's samples in the window used that may be interpolated;
 #: beyond it the signal is more repair than measurement and the estimate stops.
 MAX_INTERPOLATED_FRACTION = 0.05
+#: Readings beyond these, in SI units, are no measurement but a corrupt packet (a value
+#: of 1e30): they are treated as missing, like NaN. Far above any body-worn sensor's range
+#: (4000 deg/s = 70 rad/s; 400 g = 3900 m/s^2) and above what a unit mistake gives
+#: (deg/s read as rad/s: some thousands; mG read as m/s^2: some ten thousands), which the
+#: unit checks name instead.
+NONPHYSICAL = {"gyr": 1e4, "acc": 1e5}
 
 #: Common spellings of the accepted units, used only to suggest the right name.
 _UNIT_ALIASES = {
@@ -476,6 +482,7 @@ def make_recording(
 
     raw: dict[str, dict[str, np.ndarray]] = {}
     lengths = {}
+    corrupt: list[tuple] = []  # (sensor, kind, count, first index, value): see _nonphysical
     for name, data in sensors.items():
         name = _sensor_name(name)
         arrays = {}
@@ -491,6 +498,7 @@ def make_recording(
             arr = _as_n_by_3(data[kind], f"{source}: sensor '{name}' {kind}")
             with np.errstate(over="ignore"):  # overflow to Inf is reported as non-finite
                 arrays[kind] = arr * table[unit]
+            corrupt += _nonphysical(arrays[kind], name, kind)
         if arrays["gyr"].shape[0] != arrays["acc"].shape[0]:
             raise InputError(
                 f"{source}: sensor '{name}' has {arrays['gyr'].shape[0]} gyr samples but "
@@ -519,7 +527,7 @@ def make_recording(
         rate_from = "the median step of 'time'"
     else:
         rate_from = f"{rate_name}, checked against 'time'"
-    notes = list(notes) + timing
+    notes = list(notes) + _nonphysical_notes(corrupt, time_out) + timing
     gaps = _find_gaps(raw, time_out)
     converted = {name: SensorData(gyr=a["gyr"], acc=a["acc"]) for name, a in raw.items()}
     finite = {name: SensorData(gyr=s.gyr[_finite_rows(s)], acc=s.acc[_finite_rows(s)])
@@ -530,6 +538,29 @@ def make_recording(
                   + _unit_warnings(finite, units) + _stuck_warnings(finite)),
         gaps=gaps, notes=tuple(notes), rate_from=rate_from,
     )
+
+
+def _nonphysical(arr: np.ndarray, name: str, kind: str) -> list[tuple]:
+    """Readings of ``arr`` (N, 3, SI units) beyond :data:`NONPHYSICAL` set to NaN in place,
+    so they become gaps: [(name, kind, count, first index, its largest value)] or [].
+    Before, one 1e30 sample stopped every estimate with "no restart produced a finite
+    result", naming neither the sample nor the cause (a new-user review)."""
+    with np.errstate(invalid="ignore"):
+        bad = np.isfinite(arr).all(axis=1) & (np.abs(arr) > NONPHYSICAL[kind]).any(axis=1)
+    if not bad.any():
+        return []
+    i = int(np.flatnonzero(bad)[0])
+    value = float(np.abs(arr[i]).max())
+    arr[bad] = np.nan
+    return [(name, kind, int(bad.sum()), i, value)]
+
+
+def _nonphysical_notes(corrupt: list[tuple], time: np.ndarray) -> list[str]:
+    return [f"sensor '{name}' {kind}: {count} reading(s) beyond {NONPHYSICAL[kind]:g} "
+            f"{'rad/s' if kind == 'gyr' else 'm/s^2'}, the first {value:.3g} at t="
+            f"{time[i]:g} s (sample {i}): not a physical reading (a corrupt packet?), "
+            "treated as missing"
+            for name, kind, count, i, value in corrupt]
 
 
 def _sensor_name(name) -> str:

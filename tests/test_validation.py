@@ -123,6 +123,25 @@ def test_short_gaps_in_the_window_are_interpolated_with_a_warning(clean, tmp_pat
     assert any(w.startswith("input: sensor 'shank' gyr: 3 non-finite") for w in warnings)
 
 
+def test_a_corrupt_reading_is_treated_as_missing_and_named(clean, tmp_path):
+    # one 1e30 sample (a corrupt packet) stopped every estimate with "no restart produced
+    # a finite result", naming neither the sample nor the cause
+    path = tmp_path / "spike.h5"
+    path.write_bytes(clean.read_bytes())
+    with h5py.File(path, "r+") as h5:
+        gyr = h5["thigh/gyr"][()]
+        gyr[1000, 1] = 1e30
+        gyr[1500, 0] = 3000.0  # large, but what deg/s read as rad/s gives: kept
+        h5["thigh/gyr"][...] = gyr
+    rec = imucal.load_recording(path)
+    assert np.isnan(rec.sensors["thigh"].gyr[1000]).all()
+    assert rec.sensors["thigh"].gyr[1500, 0] == 3000.0
+    run = axis(path, "--end", 14)
+    assert run.returncode == 0, run.stderr
+    assert ("sensor 'thigh' gyr: 1 reading(s) beyond 10000 rad/s, the first 1e+30 at t=10 s "
+            "(sample 1000): not a physical reading") in run.stderr
+
+
 def test_a_sensor_that_starts_late_does_not_shorten_the_others(clean, tmp_path):
     path = damaged(clean, tmp_path, "late.h5", [("foot", "acc", 0.0, 2.0)])
     run = axis(path)
