@@ -304,7 +304,7 @@ spheroidal. "Late" simulates each joint separately with its second sensor's cloc
 late (knee: `clock_offset={{"shank": 0.02}}`, ankle: `{{"foot": 0.02}}`), so the true
 offset is +20 ms for both. The simulated accelerometers have no offset or scale error,
 while the ankle centres' 1-sigma carries the default `--acc-error` of 0.05 m/s^2
-([quality.md](quality.md#how-the-uncertainty-is-computed-and-why)): that part, 4-13 mm
+([quality.md](quality.md#how-the-uncertainty-is-computed-and-why)): that part, 6-13 mm
 on the protocol, is most of their sigma here, and their error / sigma is small.
 
 Errors are worst / median over the seeds. Knee axis: the larger of the j1 and j2 angles
