@@ -700,7 +700,8 @@ def _job(ctx: typer.Context, command: str, sensors: str | None, settings, **opti
 #: Settings fields (as their messages name them) -> the options that set them.
 _OPTIONS = {"restarts": "--restarts", "seed": "--seed", "cutoff": "--cutoff",
             "subsample": "--subsample", "max_samples": "--max-samples", "sign": "--sign",
-            "j2_sign": "--j2-sign", "time offset": "--time-offset", "joint": "--joint"}
+            "j2_sign": "--j2-sign", "time offset": "--time-offset", "joint": "--joint",
+            "acc_error": "--acc-error"}
 
 
 def _usage_error(ctx: typer.Context, text: str) -> typer.BadParameter:
