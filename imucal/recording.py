@@ -557,7 +557,7 @@ def _nonphysical(arr: np.ndarray, name: str, kind: str) -> list[tuple]:
 
 def _nonphysical_notes(corrupt: list[tuple], time: np.ndarray) -> list[str]:
     return [f"sensor '{name}' {kind}: {count} reading(s) beyond {NONPHYSICAL[kind]:g} "
-            f"{'rad/s' if kind == 'gyr' else 'm/s^2'}, the first {value:.3g} at t="
+            f"{'rad/s' if kind == 'gyr' else 'm/s^2'}, the first {value:.6g} at t="
             f"{time[i]:g} s (sample {i}): not a physical reading (a corrupt packet?), "
             "treated as missing"
             for name, kind, count, i, value in corrupt]

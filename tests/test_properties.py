@@ -32,7 +32,7 @@ from test_loaders import write_h5
 
 from imucal.errors import InputError
 from imucal.loaders import HDF5_SIGNATURE, load_recording
-from imucal.recording import Recording, make_recording
+from imucal.recording import NONPHYSICAL, Recording, make_recording
 
 # Modest example counts keep the whole file to a few seconds (the same tests ran clean on
 # 20 times as many examples); derandomized, every run tries the same examples, so a
@@ -148,10 +148,15 @@ def test_csv_with_arbitrary_numbers_loads_or_says_why(values, timed):
         path.write_text("\n".join(lines) + "\n")
         rec = check_outcome(lambda: load_recording(path, rate=None if timed else 50.0),
                             str(path))
-    if rec is not None and np.isfinite(values).all():
-        # Finite numbers are never altered on the way in (units are SI by default).
+    limits = np.repeat([NONPHYSICAL["gyr"], NONPHYSICAL["acc"]], 3)
+    if rec is not None and np.isfinite(values).all() and (np.abs(values) <= limits).all():
+        # Finite numbers are never altered on the way in (units are SI by default) ...
         np.testing.assert_array_equal(rec.sensors["a"].gyr, values[:, :3])
         assert rec.n_samples == n
+    elif rec is not None:
+        # ... but readings no sensor gives (a corrupt packet) are gaps, like NaN
+        assert (np.abs(rec.sensors["a"].gyr) <= NONPHYSICAL["gyr"]).all()
+        assert (np.abs(rec.sensors["a"].acc) <= NONPHYSICAL["acc"]).all()
 
 
 # ------------------------------------------------------ arbitrary arrays and attributes
