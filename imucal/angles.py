@@ -925,7 +925,7 @@ def _extrapolated(jc, sigma_deg: np.ndarray, flex: np.ndarray, beyond: np.ndarra
     rate_rms = float(np.sqrt(np.mean(moving**2)))  # deg/s
     count, end = int(past.sum()), "last" if past[-1] else "first"
     return (np.hypot(sigma_deg, rate_rms * beyond),
-            f"{jc.name}: the {end} {count} samples ({1000 * count / rate:.0f} ms) read "
+            f"{jc.name}: the {end} {count} samples (up to {1000 * beyond.max():.0f} ms) read "
             f"{jc.sensors[1]} beyond its recording (the calibration's clock offset of "
             f"{1000 * clock_offset(jc):+.0f} ms): extrapolated, their 1-sigma grows with the "
             f"RMS flexion rate ({rate_rms:.0f} deg/s) to {rate_rms * beyond.max():.1f} deg")

@@ -176,7 +176,6 @@ def axis(
         "positive/negative, e.g. --sign +x --j2-sign +x when both sensors' x axes point "
         "laterally.")] = "auto",
     time_offset: TimeOffset = "auto",
-    acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     force: Force = False,
     trace: Trace = False,
     jobs: Jobs = 1,

@@ -60,9 +60,9 @@ MAX_INTERPOLATED_FRACTION = 0.05
 #: Readings beyond these, in SI units, are no measurement but a corrupt packet (a value
 #: of 1e30): they are treated as missing, like NaN. Far above any body-worn sensor's range
 #: (4000 deg/s = 70 rad/s; 400 g = 3900 m/s^2) and above what a unit mistake gives
-#: (deg/s read as rad/s: some thousands; mG read as m/s^2: some ten thousands), which the
-#: unit checks name instead.
-NONPHYSICAL = {"gyr": 1e4, "acc": 1e5}
+#: (deg/s or mrad/s read as rad/s: some ten thousands; mG read as m/s^2 or as g: some
+#: ten thousands, up to 1e5 for 10 g read as g), which the unit checks name instead.
+NONPHYSICAL = {"gyr": 1e5, "acc": 1e6}
 
 #: Common spellings of the accepted units, used only to suggest the right name.
 _UNIT_ALIASES = {

@@ -29,6 +29,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -285,7 +286,7 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
             # meanwhile reaches this process once the workers are up, and is passed on
             # below. Stopping earlier is no cure: the fork server would go on to start
             # workers that then fail to attach to this process's gone semaphores.
-            with held():
+            with held(), _safe_path():
                 try:
                     for task in pending:
                         futures.append(executor.submit(_pool_work, task))
@@ -395,13 +396,8 @@ def _context(start_method):
             start_method = "fork"
         else:
             start_method = "forkserver" if "forkserver" in methods else "spawn"
-    if start_method != "fork":
-        # Both start a fresh interpreter with "-c", which puts the current folder first on
-        # sys.path, and the fork server ignores the parent's path it is given (CPython
-        # 3.11): a folder named "imucal" where the user stands (the parent of a checkout)
-        # then shadowed the installed package in every worker (exit 3 for every file, an
-        # independent review). Python 3.11 leaves it out when asked to.
-        os.environ.setdefault("PYTHONSAFEPATH", "1")
+    if start_method == "forkserver" and sys.version_info < (3, 11):
+        start_method = "spawn"  # see _safe_path: spawn takes this process's sys.path
     context = multiprocessing.get_context(start_method)
     if start_method == "fork":
         for module in WORKER_MODULES:
@@ -409,6 +405,25 @@ def _context(start_method):
     elif start_method == "forkserver":
         context.set_forkserver_preload(list(WORKER_MODULES))
     return context
+
+
+@contextmanager
+def _safe_path():
+    """While workers start: the fork server's fresh interpreter ("-c") puts the current
+    folder first on sys.path and ignores the parent's path it is given (CPython 3.11), so
+    a folder named "imucal" where the user stands (the parent of a checkout) shadowed the
+    installed package in every worker: exit 3 for every file (a new-user review). Python
+    3.11 leaves the folder out when asked (PYTHONSAFEPATH); the variable is restored
+    afterwards, so the caller's later subprocesses keep their usual path."""
+    before = os.environ.get("PYTHONSAFEPATH")
+    os.environ["PYTHONSAFEPATH"] = "1"
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop("PYTHONSAFEPATH", None)
+        else:
+            os.environ["PYTHONSAFEPATH"] = before
 
 
 def _limit_threads() -> None:

@@ -98,6 +98,8 @@ def test_no_module_imports_the_command_line():
          "Invalid value for '--acc-error': acc_error must be in [0, 5], got -0.1"),
         (["calibrate", "--acc-error", "50"],
          "Invalid value for '--acc-error': acc_error must be in [0, 5], got 50"),
+        # the axis (eq. 1) uses no accelerometer error: accepted and ignored before
+        (["axis", "--acc-error", "50"], "No such option: --acc-error"),
         (["axis", "--sensors", "thigh"], "Invalid value for '--sensors': needs two different"),
         (["axis", "--start", "8", "--end", "2"],
          "Invalid value for '--end': must be after --start (8 s), got 2 s"),

@@ -204,6 +204,16 @@ def test_a_dying_worker_fails_only_its_recording(monkeypatch):
     assert "worker process died" in outcomes[2].error
 
 
+def test_a_study_from_python_leaves_the_environment_as_it_was(study, monkeypatch):
+    # the workers start with PYTHONSAFEPATH (see the test above); left set, the caller's
+    # later Python subprocesses lost their script's folder on sys.path
+    monkeypatch.delenv("PYTHONSAFEPATH", raising=False)
+    outcomes = list(study_module.process_recordings(JOB, [str(study["a"]), str(study["b"])],
+                                                    jobs=2, start_method="forkserver"))
+    assert [o.exit_code for o in outcomes] == [0, 0]
+    assert "PYTHONSAFEPATH" not in os.environ
+
+
 def test_resolve_jobs():
     assert study_module.resolve_jobs(4, 2) == 2
     assert study_module.resolve_jobs(1, 10) == 1

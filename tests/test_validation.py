@@ -131,14 +131,14 @@ def test_a_corrupt_reading_is_treated_as_missing_and_named(clean, tmp_path):
     with h5py.File(path, "r+") as h5:
         gyr = h5["thigh/gyr"][()]
         gyr[1000, 1] = 1e30
-        gyr[1500, 0] = 3000.0  # large, but what deg/s read as rad/s gives: kept
+        gyr[1500, 0] = 30000.0  # large, but what mrad/s read as rad/s gives: kept
         h5["thigh/gyr"][...] = gyr
     rec = imucal.load_recording(path)
     assert np.isnan(rec.sensors["thigh"].gyr[1000]).all()
-    assert rec.sensors["thigh"].gyr[1500, 0] == 3000.0
+    assert rec.sensors["thigh"].gyr[1500, 0] == 30000.0
     run = axis(path, "--end", 14)
     assert run.returncode == 0, run.stderr
-    assert ("sensor 'thigh' gyr: 1 reading(s) beyond 10000 rad/s, the first 1e+30 at t=10 s "
+    assert ("sensor 'thigh' gyr: 1 reading(s) beyond 100000 rad/s, the first 1e+30 at t=10 s "
             "(sample 1000): not a physical reading") in run.stderr
 
 
