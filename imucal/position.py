@@ -65,6 +65,7 @@ from .quality import (
     uncertainty_warning,
 )
 from .recording import ACC_UNITS
+from .rest import GRAVITY_M_S2, LOCAL_GRAVITY_SPREAD_M_S2, norm_at_rest
 from .restarts import (
     competing_agreement,
     disagreement_warning,
@@ -134,6 +135,9 @@ MAX_PLAUSIBLE_OFFSET_M = 1.0
 #: would cover those too but take `good` from 10 of 77 clean protocol ankles.
 #: docs/method.md has the numbers.
 MODEL_MOVE_FACTOR = 3.0
+#: A sensor reading further from 1 g at rest than this many 1-sigmas of ``acc_error``
+#: along gravity gets a warning (:func:`_acc_at_rest_warnings`).
+ACC_REST_SIGMAS = 3.0
 
 
 @dataclass(kw_only=True)
@@ -352,6 +356,7 @@ def _estimate(g1, a1, g2, a2, rate, axis, s: PositionSettings, bias_removed: boo
         return result
     quality = _quality(prepared, s, fit, line, bias)
     warnings, blocking = _diagnose(prepared, s, fit.estimate, quality, line)
+    warnings += _acc_at_rest_warnings(((g1, a1), (g2, a2)), rate, s.acc_error)
     if axis_result is not None:
         blocking.extend(f"axis: {w}" for w in axis_result.blocking)
         warnings.extend(f"axis: {w}" for w in axis_result.warnings)
@@ -966,6 +971,28 @@ def _acc_error_move(full: _SpheroidalProblem, x: np.ndarray, jac: np.ndarray,
     move = free @ s  # (6, 12): the centre's shift per unit (prior-scaled) error
     return {k: float(1000 * np.sqrt(np.sum(move[sl] ** 2)))
             for k, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6)))}
+
+
+def _acc_at_rest_warnings(sensors, rate: float, acc_error: float) -> list[str]:
+    """A warning per sensor whose reading at rest (:func:`imucal.rest.norm_at_rest`) is
+    further from 1 g than ``ACC_REST_SIGMAS`` of the error ``acc_error`` allows along
+    gravity (an offset and a scale error: sqrt(2) ``acc_error``), beyond local gravity's
+    spread: the accelerometer part of the 1-sigma then assumes too little. The shared
+    real recording's sensors read 9.69-10.15 m/s^2 at rest."""
+    out = []
+    for which, (gyr, acc) in zip(("first", "second"), sensors, strict=True):
+        norm = norm_at_rest(gyr, acc, rate)
+        if norm is None:
+            continue
+        off = abs(norm - GRAVITY_M_S2)
+        if off > ACC_REST_SIGMAS * np.sqrt(2) * acc_error + LOCAL_GRAVITY_SPREAD_M_S2:
+            out.append(
+                f"the {which} sensor reads {norm:.2f} m/s^2 at rest, {off:.2f} from 1 g: its "
+                f"accelerometer is further off than --acc-error {acc_error:g} m/s^2 "
+                "assumes, so the 1-sigma may be too small where the motion cannot tell "
+                "such an error from a move of the centre; calibrate the accelerometers, "
+                f"or pass --acc-error {off:.2f}")
+    return out
 
 
 def _weighted(data, size) -> tuple:

@@ -30,6 +30,21 @@ GRAVITY_TOLERANCE = 0.05
 #: one physical axis can show, deg: sensor noise and soft tissue at rest move each
 #: angle by a degree or two, and an axis within its few-degree uncertainty by as much.
 MAX_MISMATCH_DEG = 20.0
+#: 1 g, m/s^2, and how far local gravity strays from it (9.78 at the equator to 9.83 at
+#: the poles, less with height): what a resting accelerometer should read.
+GRAVITY_M_S2 = 9.81
+LOCAL_GRAVITY_SPREAD_M_S2 = 0.03
+
+
+def norm_at_rest(gyr, acc, rate: float) -> float | None:
+    """Median over the sensor's own still periods (:func:`still_periods` of ``gyr`` alone)
+    of the magnitude of its mean specific force, m/s^2; None without a still period. An
+    exact accelerometer reads 1 g there; an offset or scale error shows along gravity."""
+    periods = still_periods([gyr], rate)
+    if not periods:
+        return None
+    acc = np.asarray(acc, float)
+    return float(np.median([np.linalg.norm(acc[a:b].mean(axis=0)) for a, b in periods]))
 
 
 def still_periods(gyrs, rate: float, min_s: float = STILL_MIN_S) -> list[tuple[int, int]]:

@@ -135,3 +135,17 @@ def test_spectral_cutoff_sums_each_sensors_whole_spectrum():
         expected = np.clip(CUTOFF_PER_MOTION_FREQUENCY * f_motion, MIN_JOINT_CUTOFF_HZ,
                            default_joint_cutoff(rec.rate))
         assert spectral_cutoff(pair, rec.rate) == pytest.approx(expected)
+
+
+def test_an_accelerometer_off_at_rest_is_named():
+    from imucal.position import _acc_at_rest_warnings
+
+    still = np.zeros((500, 3))
+    exact, off = np.tile([0.0, 0.0, 9.82], (500, 1)), np.tile([0.0, 6.0, 8.2], (500, 1))
+    assert _acc_at_rest_warnings(((still, exact), (still, exact)), 100.0, 0.05) == []
+    (warning,) = _acc_at_rest_warnings(((still, exact), (still, off)), 100.0, 0.05)
+    assert warning.startswith("the second sensor reads 10.16 m/s^2 at rest, 0.35 from 1 g")
+    assert warning.endswith("or pass --acc-error 0.35")
+    assert _acc_at_rest_warnings(((still, off), (still, off)), 100.0, 0.1) == []
+    moving = np.tile([1.0, 0.0, 0.0], (500, 1))  # never at rest: nothing to compare
+    assert _acc_at_rest_warnings(((moving, off), (moving, off)), 100.0, 0.05) == []

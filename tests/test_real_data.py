@@ -204,3 +204,19 @@ def test_hinge_position_follows_the_pinned_relative_sign(real_recording):
     assert auto.line[0] > 0 and auto.line[3] > 0 or auto.line[0] < 0 and auto.line[3] < 0
     assert np.sign(pinned.line[0]) != np.sign(pinned.line[3])
     assert any("pinned j2 sign contradicts" in w for w in pinned.warnings)
+
+
+def test_accelerometers_off_at_rest_are_named(real_recording):
+    # the real sensors read 9.69-10.15 m/s^2 at rest: errors along gravity of up to 0.34
+    # m/s^2, seven times the default --acc-error; the joint centre says so
+    rec = real_recording
+    shank, foot = rec.sensor("left_shank"), rec.sensor("left_foot")
+    r = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, rate=rec.rate, seed=1,
+                          end=55.0)
+    assert any(w.startswith("the second sensor reads 10.14 m/s^2 at rest, 0.33 from 1 g")
+               for w in r.warnings), r.warnings
+    assert not any("the first sensor reads" in w for w in r.warnings)  # shank: 9.87
+    # told the errors' size, no warning
+    r = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, rate=rec.rate, seed=1,
+                          end=55.0, acc_error=0.33)
+    assert not any("at rest" in w for w in r.warnings)

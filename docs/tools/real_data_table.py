@@ -73,6 +73,8 @@ SHORT = {
     "the residual is lowest with the second sensor": "offset not applied",
     "the clock offset between the sensors may exceed": "offset at edge",
     "the axis is not one physical line": "gravity mismatch",
+    "the first sensor reads": "acc off at rest",
+    "the second sensor reads": "acc off at rest",
 }
 #: "the estimate is uncertain: ..., mostly because WHY": which component dominates.
 UNCERTAIN = {
