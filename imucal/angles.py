@@ -378,26 +378,29 @@ def detect_gait(flexion_deg: np.ndarray, rate: float) -> dict | None:
 # ----------------------------------------------------------------------------- calibration
 
 
+def _offset_number(jc, key: str) -> float | None:
+    """``key`` of the calibration axis's ``time_offset`` block, if a finite number."""
+    axis = jc.axis if isinstance(jc.axis, dict) else {}
+    offset = axis.get("time_offset")
+    value = offset.get(key) if isinstance(offset, dict) else None
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+    return float(value) if ok else None
+
+
 def clock_offset_sigma(jc) -> float:
     """The 1-sigma, s, of the clock offset :func:`clock_offset` returns (0 when none was
     applied, or when it was given, which is taken as exact)."""
-    axis = jc.axis if isinstance(jc.axis, dict) else {}
-    offset = axis.get("time_offset")
-    if not (isinstance(offset, dict) and offset.get("applied")):
-        return 0.0
-    value = offset.get("sigma_s")
-    ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-    return float(value) if ok and clock_offset(jc) else 0.0
+    block = jc.axis.get("time_offset") if isinstance(jc.axis, dict) else None
+    applied = isinstance(block, dict) and block.get("applied")
+    sigma = _offset_number(jc, "sigma_s")
+    return sigma if applied and sigma is not None and clock_offset(jc) else 0.0
 
 
 def clock_offset(jc) -> float:
     """The clock offset, s, the calibration's axis estimate applied between the hinge's
     sensors (positive: the second sensor's clock is late; docs/json.md), else 0."""
-    axis = jc.axis if isinstance(jc.axis, dict) else {}
-    offset = axis.get("time_offset")
-    value = offset.get("time_offset_s") if isinstance(offset, dict) else None
-    ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-    return float(value) if ok else 0.0
+    value = _offset_number(jc, "time_offset_s")
+    return 0.0 if value is None else value
 
 
 def _fused(rec, jc, smoothing_s: float, context=None):
