@@ -203,6 +203,7 @@ def axis(
         "imucal position walk.h5 | jq .o1",
         "imucal position walk.h5 --sensors thigh,shank --joint hinge",
         "imucal position walk.h5 --out ankle.json --plot ankle.png",
+        "imucal position circling.h5 --acc-error 0.01   # calibrated accelerometers",
         "imucal position study/*.h5 --jobs 0 > ankles.jsonl   # one process per core",
     )
 )
