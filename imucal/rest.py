@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .preprocess import lowpass
+from .recording import ACC_UNITS
 
 #: Both sensors turn slower than this (after a 2 Hz low-pass) in a still period, rad/s.
 STILL_RATE = 0.1
@@ -30,9 +31,10 @@ GRAVITY_TOLERANCE = 0.05
 #: one physical axis can show, deg: sensor noise and soft tissue at rest move each
 #: angle by a degree or two, and an axis within its few-degree uncertainty by as much.
 MAX_MISMATCH_DEG = 20.0
-#: 1 g, m/s^2, and how far local gravity strays from it (9.78 at the equator to 9.83 at
-#: the poles, less with height): what a resting accelerometer should read.
-GRAVITY_M_S2 = 9.81
+#: 1 g, m/s^2 (standard gravity, the one value imucal uses for it), and how far local
+#: gravity strays from it (9.78 at the equator to 9.83 at the poles, less with height):
+#: what a resting accelerometer should read.
+GRAVITY_M_S2 = ACC_UNITS["g"]
 LOCAL_GRAVITY_SPREAD_M_S2 = 0.03
 
 
