@@ -124,7 +124,7 @@ TimeOffset = Annotated[str, typer.Option(
     "of seconds to apply.")]
 AccError = Annotated[float, typer.Option(
     "--acc-error", metavar="M/S^2", help="1-sigma of each accelerometer's error at 1 g, "
-    "m/s^2: an offset of this size and a scale error of this / 9.81 per axis, carried "
+    "m/s^2: an offset of this size and a scale error of this / 1 g per axis, carried "
     "into the joint centre's 1-sigma where the motion cannot tell them from a move of the "
     "centre (steady circling). 0.02-0.1 after factory calibration; 0: calibrated.")]
 Scheduler = Annotated[str | None, typer.Option(
@@ -551,7 +551,7 @@ def simulate(
     """Simulate thigh-knee-shank-ankle-foot with sensors at random poses (paper Sec. III-A)."""
     with _errors(debug):
         from .report import clean
-        from .simulate import MOTIONS, parse_clock_offsets, parse_gyr_bias
+        from .simulate import MOTIONS, parse_clock_offsets, parse_sensor_bias
         from .simulate import simulate as run_simulation
         from .writers import save_recording
 
@@ -562,8 +562,8 @@ def simulate(
         if snr is not None and not math.isinf(snr) and (gyr_noise is not None
                                                         or acc_noise is not None):
             raise InputError("give --snr or --gyr-noise/--acc-noise (physical units), not both")
-        offsets, bias = parse_clock_offsets(clock_offset), parse_gyr_bias(gyr_bias)
-        acc_offsets = parse_gyr_bias(acc_bias, "--acc-bias", "m/s^2")
+        offsets, bias = parse_clock_offsets(clock_offset), parse_sensor_bias(gyr_bias)
+        acc_offsets = parse_sensor_bias(acc_bias, "--acc-bias", "m/s^2")
         if out.suffix.lower() not in {".h5", ".hdf5", ".csv"}:
             raise InputError(f"{out}: unknown output format '{out.suffix or out.name}'; use "
                              ".h5, .hdf5 or .csv")

@@ -138,7 +138,7 @@ class PositionSettings(AxisSettings):
         "spheroidal" (3 rotational DOF, the ankle) or "hinge" (the knee).
     acc_error : float
         1-sigma of each accelerometer's error at 1 g, m/s^2, >= 0: a constant offset of
-        this size per axis and a scale error of ``acc_error / 9.81`` per axis, neither
+        this size per axis and a scale error of ``acc_error`` / 1 g per axis, neither
         fitted; the joint centre's 1-sigma carries what the motion cannot tell from them
         (0: calibrated accelerometers).
     """

@@ -1153,10 +1153,10 @@ def _sensor_items(items: list[str], option: str, usage: str):
         yield item, name, value
 
 
-def parse_gyr_bias(items: list[str] | None, option: str = "--gyr-bias", unit: str = "rad/s"):
-    """``["0.02"]`` -> 0.02 (every sensor, random directions); ``["shank=0.02",
-    "foot=0.01,0,0"]`` -> ``{"shank": 0.02, "foot": (0.01, 0.0, 0.0)}`` (``unit``; also
-    parses ``--acc-bias`` in m/s^2)."""
+def parse_sensor_bias(items: list[str] | None, option: str = "--gyr-bias", unit: str = "rad/s"):
+    """``--gyr-bias`` (rad/s) or ``--acc-bias`` (m/s^2, with ``option``, ``unit``):
+    ``["0.02"]`` -> 0.02 (every sensor, random directions); ``["shank=0.02",
+    "foot=0.01,0,0"]`` -> ``{"shank": 0.02, "foot": (0.01, 0.0, 0.0)}``."""
     if not items:
         return None
     if len(items) == 1 and "=" not in items[0]:
