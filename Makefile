@@ -38,7 +38,7 @@ test: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest
 
 ## sweep: the real-data crash sweep with 100 restarts for every estimator (the suite
-## runs the position estimators with 25)
+## runs the position estimators with 25) and the 1 h recording on a second seed
 sweep: $(STAMP)
 	IMUCAL_SWEEP_FULL=1 OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 \
 		$(BIN)/python -m pytest tests/test_crash_sweep.py
