@@ -33,6 +33,7 @@ the shared clock's value there.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,6 +49,11 @@ RATE_REFUSE = 0.10
 #: Grid points this close to a device sample (in sample periods) are taken as that
 #: sample: float rounding of the time stamps must not turn a copy into an interpolation.
 SNAP = 1e-6
+#: A device whose stamps or counter leave more than this share of its span without
+#: samples is refused: one corrupt stamp (1e18 us in a 10 s file) read as dropped packets
+#: asked for petabytes of gaps (exit 3), and a recording that mostly is gaps is no
+#: recording.
+MAX_DROPPED_SHARE = 0.9
 
 
 @dataclass
@@ -188,10 +194,30 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
                 f"{what}: no time stamps and no sample rate in the file; give --rate "
                 "(the rate the device recorded at, Hz)"
             )
+        if not (math.isfinite(use) and use > 0):
+            given = "--rate" if rate else "the file's header"
+            raise InputError(f"{what}: {given} gives the sample rate {use:g} Hz, which is "
+                             "no rate; give --rate (the rate the device recorded at, Hz)")
         period = 1.0 / float(use)
         a = float(c[0]) * period  # the counters of one export are shared: align on them
+    _check_dropped(k, period, what, origin)
     return _Clock(k=k, a=float(a), period=float(period), dropped=int(k[-1] + 1 - n),
                   source_of_time=origin, stamp_rate=stamps)
+
+
+def _check_dropped(k: np.ndarray, period: float, what: str, origin: str) -> None:
+    """InputError naming the largest jump where the sample indices ``k`` leave more
+    than :data:`MAX_DROPPED_SHARE` of the device's span without samples."""
+    span = int(k[-1]) + 1
+    if span - k.size <= MAX_DROPPED_SHARE * span:
+        return
+    i = int(np.argmax(np.diff(k)))
+    jump = int(k[i + 1] - k[i])
+    raise InputError(
+        f"{what}: a jump of {jump * period:.6g} s ({jump - 1} samples) in its {origin} at "
+        f"row {i + 2} of the data leaves {(span - k.size) / span:.1%} of its time without "
+        "samples: a corrupt value or a long pause in logging; cut the file there"
+    )
 
 
 def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> Aligned:
@@ -204,8 +230,9 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
     clocks, notes = {}, []
     for s in sensors:
         what = f"{source}: sensor '{s.name}'"
-        if s.gyr.shape[0] < 2:
-            raise InputError(f"{what} has {s.gyr.shape[0]} sample(s); a recording needs more")
+        if s.gyr.shape[0] < 3:  # (two stamps neither give a clock nor span a grid)
+            raise InputError(f"{what} has {s.gyr.shape[0]} sample(s); a recording needs at "
+                             "least 3")
         clk = _clock(s, what, rate)
         dev_rate = 1.0 / clk.period
         if not MIN_RATE_HZ <= dev_rate <= MAX_RATE_HZ:

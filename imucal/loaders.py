@@ -41,6 +41,7 @@ if TYPE_CHECKING:  # pandas is imported where CSV is parsed: it costs ~0.2 s of 
     import pandas as pd
 
 from .errors import InputError
+from .errors import one_line as _one_line
 from .recording import Recording, check_units, make_recording
 
 __all__ = ["load_recording", "HDF5_SIGNATURE"]
@@ -95,6 +96,7 @@ def load_recording(
         One line naming the file and the problem, for every unusable input.
     """
     try:
+        _check_given_rate(path, rate)
         recording = _load(path, rate=rate, gyr_units=gyr_units, acc_units=acc_units)
         if names is not None:
             from .sensor_map import apply_sensor_map
@@ -106,6 +108,20 @@ def load_recording(
         if "\n" in message or "\r" in message:  # a column name or library text with newlines
             raise InputError(_one_line(message)) from None
         raise
+
+
+def _check_given_rate(path, rate) -> None:
+    """InputError unless a given ``rate`` is a sample rate imucal reads: checked before
+    any format's reader, which would otherwise each meet inf or 0 in its own way (a
+    vendor export divided by it: exit 3)."""
+    if rate is None:
+        return
+    from .preprocess import check_rate
+
+    try:
+        check_rate(rate)
+    except InputError as err:
+        raise InputError(f"{path}: --rate: {err}") from None
 
 
 def _load(path, *, rate, gyr_units, acc_units) -> Recording:
@@ -312,10 +328,6 @@ def _guarded(parser, arg, source: str, *, what: str):
     except Exception as err:  # final guard: parsers must only ever raise InputError
         detail = _one_line(str(err)) or type(err).__name__
         raise InputError(f"{source}: could not read {what} file: {detail}") from None
-
-
-def _one_line(text: str) -> str:
-    return " ".join(text.split())
 
 
 def _short_list(names, limit: int = 12) -> str:

@@ -648,3 +648,130 @@ def test_info_names_the_grid_and_the_devices_interpolated_onto_it(tmp_path):
     assert "own rate Hz" in run.stdout
     thigh = [ln for ln in lines if ln.startswith("Thigh ")][-1]
     assert thigh.split()[2] == "59.9988"
+
+
+# ------------------------------------------------ inputs a fuzz audit found crashing (exit 3)
+
+def _last_value(path, column: int, value: str, sep: str):
+    """Replace one column of a text export's last data row."""
+    lines = path.read_text().rstrip("\n").split("\n")
+    cells = lines[-1].split(sep)
+    cells[column] = value
+    lines[-1] = sep.join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("case", ["ximu3 stamp", "xsens counter", "apdm stamp"])
+def test_one_corrupt_stamp_or_counter_is_named_not_read_as_dropped_packets(tmp_path, case):
+    # the last stamp 1e18 us (or counter 1e12) asked for petabytes of "dropped" samples:
+    # MemoryError, exit 3
+    import h5py
+
+    rec = short()
+    if case == "ximu3 stamp":
+        folder = write("ximu3", rec, tmp_path)
+        _last_value(folder / "Foot 65577B4B (USB)" / "Inertial.csv", 0, "1e18", ",")
+        sensor, what = "Foot", "time stamps"
+    elif case == "xsens counter":
+        folder = write("xsens", rec, tmp_path, newer=True)
+        for f in folder.iterdir():  # no SampleTimeFine: the counter gives the clock
+            lines = [ln.split("\t") for ln in f.read_text().rstrip("\n").split("\n")]
+            f.write_text("\n".join("\t".join(c[:1] + c[2:]) if not c[0].startswith("//")
+                                   else c[0] for c in lines) + "\n")
+        path = sorted(folder.iterdir())[0]
+        _last_value(path, 0, "1000000000000", "\t")
+        sensor, what = path.stem.rsplit("_", 1)[1], "packet counter"
+        # a header rate for the counter to run at
+        path.write_text("// Update Rate: 100.0Hz\n" + path.read_text())
+        for f in sorted(folder.iterdir())[1:]:
+            f.write_text("// Update Rate: 100.0Hz\n" + f.read_text())
+    else:
+        folder = write("apdm", rec, tmp_path)
+        with h5py.File(folder, "r+") as h5:
+            t = h5["Sensors/1234/Time"][()]
+            t[-1] = 2**62
+            del h5["Sensors/1234/Time"]
+            h5["Sensors/1234/Time"] = t
+        sensor, what = "Right Thigh", "time stamps"
+    with pytest.raises(InputError, match=f"sensor '{sensor}': a jump of .* in its {what} at "
+                       "row 500 of the data leaves 100.0% of its time without samples"):
+        load_recording(folder)
+
+
+def test_a_header_rate_that_is_no_rate_is_refused(tmp_path):
+    # an Xsens export without SampleTimeFine and "Update Rate: 0.0Hz" divided by zero
+    folder = write("xsens", short(), tmp_path)
+    for f in folder.iterdir():
+        lines = [ln.split("\t") for ln in f.read_text().rstrip("\n").split("\n")]
+        text = "\n".join("\t".join(c[:1] + c[2:]) if not c[0].startswith("//") else c[0]
+                         for c in lines)
+        f.write_text(text.replace("Update Rate: 100.0Hz", "Update Rate: 0.0Hz") + "\n")
+    with pytest.raises(InputError, match="the file's header gives the sample rate 0 Hz, "
+                       "which is no rate; give --rate"):
+        load_recording(folder)
+    assert load_recording(folder, rate=100.0).rate == pytest.approx(100.0)
+    for f in folder.iterdir():
+        f.write_text(f.read_text().replace("Update Rate: 0.0Hz", "Update Rate: .Hz"))
+    with pytest.raises(InputError, match="the header's rate '// Update Rate: .Hz' is not a "
+                       "number of Hz; fix that line"):
+        load_recording(folder)
+
+
+@pytest.mark.parametrize("rate", [float("inf"), float("nan"), 0.0, 1e308])
+@pytest.mark.parametrize("fmt", ["dot", "apdm"])
+def test_a_given_rate_outside_the_range_is_refused_before_reading(fmt, tmp_path, rate):
+    # --rate inf on a DOT export divided by zero (exit 3); nan said "above 10000 Hz"
+    path = write(fmt, short(), tmp_path)
+    outside = rate > 0 and np.isfinite(rate)
+    with pytest.raises(InputError, match=re.escape(f"{path}: --rate: sample rate ") + (
+            r"1e\+308 Hz is outside the 1 to 10000 Hz of body-worn IMUs" if outside else
+            f"must be a positive number of Hz, got {rate}")):
+        load_recording(path, rate=rate)
+
+
+def test_shimmer_device_without_any_stamp_is_skipped_and_named(tmp_path):
+    # rows whose first device is empty made the first data row look like the units row,
+    # and a device without stamps raised numpy's "index 0 is out of bounds"
+    path = write("shimmer", short(), tmp_path)
+    lines = path.read_text().rstrip("\n").split("\n")
+    rows = [ln.split("\t") for ln in lines[3:]]
+    path.write_text("\n".join(lines[:3] + ["\t".join([""] + r[1:]) for r in rows]) + "\n")
+    loaded = load_recording(path)
+    assert sorted(loaded.sensors) == ["Shimmer_D0A8", "Shimmer_D0A9"]
+    assert "Shimmer_D0A7 skipped: no row has its Unix time stamp" in loaded.warnings
+
+
+def test_apdm_complex_data_skips_the_sensor_without_a_raw_warning(tmp_path, recwarn):
+    import h5py
+
+    path = write("apdm", short(), tmp_path)
+    with h5py.File(path, "r+") as h5:
+        acc = h5["Sensors/1234/Accelerometer"][()]
+        del h5["Sensors/1234/Accelerometer"]
+        h5["Sensors/1234/Accelerometer"] = acc.astype(np.complex64)
+    loaded = load_recording(path)
+    assert sorted(loaded.sensors) == ["Right Foot", "Right Lower Leg"]
+    assert any("1234 skipped" in w and "Accelerometer is not real numbers (complex64)" in w
+               for w in loaded.warnings)
+    assert not [w for w in recwarn if "Complex" in str(w.category)]
+
+
+def test_apdm_two_samples_and_no_sensors_are_named(tmp_path):
+    import h5py
+
+    path = write("apdm", short(), tmp_path)
+    with h5py.File(path, "r+") as h5:
+        for serial in list(h5["Sensors"]):
+            g = h5["Sensors"][serial]
+            for key in ("Time", "Accelerometer", "Gyroscope", "Magnetometer"):
+                data = g[key][:2]
+                del g[key]
+                g[key] = data
+    with pytest.raises(InputError, match="sensor 'Right Thigh' has 2 sample\\(s\\); a "
+                       "recording needs at least 3"):
+        load_recording(path)
+    with h5py.File(path, "r+") as h5:
+        for serial in list(h5["Sensors"]):
+            del h5["Sensors"][serial]
+    with pytest.raises(InputError, match=r"APDM file \(v5 layout\) holds no sensor$"):
+        load_recording(path)

@@ -238,3 +238,17 @@ def normalise_units(kind: str, text: str | None, default: str) -> str:
     if t == "mG" or low == "mg":
         return "mg"
     return table.get(low, t)
+
+
+def header_rate(text: str, pattern: re.Pattern, where: str) -> float | None:
+    """The sample rate, Hz, that ``pattern`` (one group: the number before "Hz") finds in
+    a header line ``text``; None where it finds none. InputError naming the line where
+    that "number" is none (``.Hz``, ``1.0.0Hz``)."""
+    m = pattern.search(text)
+    if m is None:
+        return None
+    try:
+        return float(m.group(1))
+    except ValueError:
+        raise InputError(f"{where}: the header's rate '{text.strip()[:60]}' is not a number "
+                         "of Hz; fix that line") from None

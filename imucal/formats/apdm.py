@@ -78,8 +78,9 @@ def read(path: Path, source: str | None = None) -> RawRecording:
             f"{source}: corrupted or truncated HDF5 file ({' '.join(str(err).split())})"
         ) from None
     if not sensors:
-        raise InputError(f"{source}: APDM file ({layout} layout) holds no readable sensor; "
-                         + "; ".join(notes))
+        why = "".join(f"; {n}" for n in notes)
+        raise InputError(f"{source}: APDM file ({layout} layout) holds no "
+                         f"{'readable sensor' if notes else 'sensor'}{why}")
     # Stamps are integer microseconds since 1970: subtract the earliest in integers, so
     # that seconds keep their microsecond precision (1.7e9 s as float64 would not).
     epoch = min(int(s.time[0]) for s in sensors)
@@ -113,7 +114,13 @@ _UNREADABLE = (KeyError, OSError, TypeError, ValueError, IndexError)
 def _sensor(label, serial, rate, acc_ds, gyr_ds, time_ds, source) -> RawSensor:
     """One sensor from its datasets (units from their attributes, SI by default). A
     ValueError names what does not match (the sensor is then skipped with it)."""
-    gyr, acc = np.asarray(gyr_ds[()], float), np.asarray(acc_ds[()], float)
+    raw = {"Gyroscope": gyr_ds[()], "Accelerometer": acc_ds[()]}
+    for key, values in raw.items():
+        # complex numbers would be cast to their real parts (with numpy's raw warning)
+        if not (np.issubdtype(np.asarray(values).dtype, np.integer)
+                or np.issubdtype(np.asarray(values).dtype, np.floating)):
+            raise ValueError(f"{key} is not real numbers ({np.asarray(values).dtype})")
+    gyr, acc = np.asarray(raw["Gyroscope"], float), np.asarray(raw["Accelerometer"], float)
     time = np.asarray(time_ds[()])
     shapes = {"Gyroscope": gyr.shape, "Accelerometer": acc.shape, "Time": time.shape}
     n = time.shape[0] if time.ndim == 1 else -1

@@ -22,6 +22,7 @@ from . import (
     RawSensor,
     export_files,
     head_text,
+    header_rate,
     parse_table,
     read_export,
     read_text,
@@ -103,7 +104,7 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
     tag = (meta.get("devicetag") or (mac and file.stem[:mac.start()].strip("_- "))
            or file.stem)
     serial = re.sub(r"[-:_]", ":", mac.group(1)).upper() if mac else None
-    rate = _RATE.search(meta.get("outputrate", ""))
+    rate = header_rate(meta.get("outputrate", ""), _RATE, where)
     counter = values[:, col["PacketCounter"]] if "PacketCounter" in col else None
     return RawSensor(
         name=tag, serial=serial,
@@ -112,6 +113,6 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
         gyr_units="deg/s", acc_units="m/s^2",
         time=values[:, col["SampleTimeFine"]] / US_PER_S, time_wrap=TIME_WRAP,
         counter=counter, counter_wrap=COUNTER_WRAP,
-        claimed_rate=float(rate.group(1)) if rate else None,
+        claimed_rate=rate,
         files=[file.name], notes=[f"{tag}: {n}" for n in notes],
     )

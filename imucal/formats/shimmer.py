@@ -54,7 +54,9 @@ def read(path: Path, source: str | None = None) -> RawRecording:
         cells = [c.strip().strip('"') for c in lines[row].split(sep)] if row < len(lines) else []
         if cells and all(c in ("CAL", "RAW", "UNCAL", "") for c in cells):
             row += 1
-        elif cells and not _numeric(cells[0]):
+        elif units_row is None and cells and not any(_numeric(c) for c in cells if c):
+            # (not the first cell alone: a data row whose first device has no sample
+            # there starts with an empty cell)
             units_row = cells
             row += 1
     values, notes = parse_table(lines[row:], sep, row + 1, source, names)
@@ -82,6 +84,9 @@ def read(path: Path, source: str | None = None) -> RawRecording:
             continue
         scale = 1.0 if d.get("time_units") in ("s", "secs") else 1e-3  # ms by default
         mine = np.isfinite(values[:, d["time"]])  # rows of this device (others: empty)
+        if not mine.any():
+            notes.append(f"{dev} skipped: no row has its Unix time stamp")
+            continue
         d["rows"] = mine
         sensors.append(RawSensor(
             name=dev, serial=dev.split("_", 1)[1],

@@ -23,6 +23,7 @@ from . import (
     RawSensor,
     export_files,
     head_text,
+    header_rate,
     parse_table,
     read_export,
     read_text,
@@ -96,9 +97,8 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
             time = fine / TICKS_PER_S
     rate = None
     for ln in comments:
-        m = _RATE.search(ln)
-        if m:
-            rate = float(m.group(1))
+        found = header_rate(ln, _RATE, where)
+        rate = rate if found is None else found
     match = _FILE_ID.match(file.name)
     device = match.group(1).upper() if match else None
     if device is None:
