@@ -46,6 +46,19 @@ if TYPE_CHECKING:
 #: lasts about 1 s, and a 3 s kernel passes < 1e-15 of 1 Hz) while following any gyro
 #: bias that changes over tens of seconds; a bias that is constant is followed exactly.
 SMOOTHING_S = 3.0
+#: The kernel's half-width a calibration may carry, s: below a few samples there is no
+#: fusion, and far beyond a recording's length the kernel only costs time and memory
+#: (1e9 s asked for terabytes).
+SMOOTHING_RANGE_S = (0.01, 600.0)
+
+
+def check_smoothing(smoothing_s) -> float:
+    """``smoothing_s`` as a float within :data:`SMOOTHING_RANGE_S`, else InputError."""
+    low, high = SMOOTHING_RANGE_S
+    value = float(smoothing_s)
+    if not low <= value <= high:
+        raise InputError(f"smoothing_s must be from {low:g} to {high:g} s, got {value:g}")
+    return value
 #: Ridge of the local-linear fit's slope, as a fraction of the kernel's sigma: a drift
 #: that is linear within the kernel is still followed to within 4 % of its slope.
 RIDGE = 0.2
@@ -789,6 +802,8 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
     (True, ['time', 'knee_flexion_deg', 'knee_flexion_sigma_deg'])
     """
     pinned = _check_sign(flexion_sign)
+    if smoothing_s is not None:
+        smoothing_s = check_smoothing(smoothing_s)
     hinges = [j for j in calibration.hinges if j.usable and j.angle]
     if not hinges:
         raise InputError(f"{calibration.file or calibration.source}: the calibration has no "

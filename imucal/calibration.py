@@ -307,10 +307,10 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     >>> sorted(cal.joints), cal.joints["knee"].verdict
     (['ankle', 'knee'], 'good')
     """
-    from .angles import SMOOTHING_S
+    from .angles import SMOOTHING_S, check_smoothing
 
+    smoothing_s = check_smoothing(SMOOTHING_S if smoothing_s is None else smoothing_s)
     specs, notes = _joint_specs(recording, joints)
-    smoothing_s = SMOOTHING_S if smoothing_s is None else float(smoothing_s)
     out: dict[str, JointCalibration] = {}
     windows = []
     for spec in specs:
@@ -418,7 +418,9 @@ def load_calibration(path: str | Path) -> Calibration:
         raise InputError(f"{path}: not a calibration file (not a regular file)")
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+    # ValueError: json's own errors, and integers of thousands of digits; RecursionError:
+    # arrays nested a hundred thousand deep
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as err:
         raise InputError(f"{path}: not a calibration file (not readable as JSON: "
                          f"{str(err).splitlines()[0][:80]})") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
@@ -457,10 +459,15 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
 
     if e["joint"] not in KINDS:
         raise ValueError(f"joint '{name}' has unknown type {e['joint']!r}")
+    sensors = e["sensors"]
+    if not (isinstance(sensors, list) and len(sensors) == 2
+            and all(isinstance(n, str) for n in sensors)):
+        raise ValueError(f"joint '{name}' sensors is {repr(sensors)[:80]}, not "
+                         "the names of its two sensors")
     for block in ("axis", "position"):
         if e.get(block) is not None and not isinstance(e[block], dict):
             raise ValueError(f"joint '{name}' {block} is not a JSON object")
-    return JointCalibration(name=name, kind=e["joint"], sensors=tuple(e["sensors"]),
+    return JointCalibration(name=name, kind=e["joint"], sensors=tuple(sensors),
                             verdict=str(e["verdict"]), j1=vec("j1"), j2=vec("j2"),
                             o1=vec("o1"), o2=vec("o2"), warnings=list(e.get("warnings", [])),
                             axis=e.get("axis"), position=e.get("position"),
@@ -494,8 +501,14 @@ def _angle_from_doc(name: str, angle: dict | None, identified: bool = True) -> d
                              ("hinge_residual", True), ("acc_gyro_disagreement_deg", True)):
         if not (_finite(angle[key]) or (may_be_null and angle[key] is None)):
             raise bad(key, "a finite number")
-    if not angle["smoothing_s"] > 0:
-        raise bad("smoothing_s", "a positive number")
+    from .angles import SMOOTHING_RANGE_S
+
+    low, high = SMOOTHING_RANGE_S
+    if not low <= angle["smoothing_s"] <= high:
+        raise bad("smoothing_s", f"a kernel half-width from {low:g} to {high:g} s")
+    for key in ("hinge_residual", "acc_gyro_disagreement_deg"):
+        if angle[key] is not None and angle[key] < 0:
+            raise bad(key, "a number >= 0")
     limit = MAX_ANGLE_DEG if identified else np.inf
     if not abs(angle["zero_deg"]) <= limit:
         raise bad("zero_deg", f"an angle within +-{MAX_ANGLE_DEG:g} deg")

@@ -21,7 +21,7 @@ import typer
 
 from . import __version__
 from .atomic import check_not_inputs, check_writable, write_atomic, write_text_atomic
-from .errors import ImucalError, InputError, NotIdentifiableError
+from .errors import ImucalError, InputError, NotIdentifiableError, one_line
 from .signals import raise_on_signals
 from .signals import report as report_interruption
 from .signals import unreported as unreported_interruption
@@ -822,11 +822,11 @@ class _errors:
         if interruption is not None:  # one that the code it hit turned into another error
             raise typer.Exit(report_interruption(interruption))
         if isinstance(err, ImucalError):
-            _err(f"imucal: error: {err}")
+            _err(f"imucal: error: {one_line(err)}")
             raise typer.Exit(err.exit_code)
         if isinstance(err, OSError):
             where = f"{err.filename}: " if err.filename else ""
-            _err(f"imucal: error: {where}{err.strerror or err}")
+            _err(one_line(f"imucal: error: {where}{err.strerror or err}"))
             raise typer.Exit(2)
         _err(f"imucal: internal error: {type(err).__name__}: {err} (rerun with --debug and "
              "report it)")

@@ -21,3 +21,9 @@ class NotIdentifiableError(ImucalError):
     """The data cannot identify the requested quantity (joint did not move, wrong joint type)."""
 
     exit_code = 1
+
+
+def one_line(text: str) -> str:
+    """``text`` with every run of whitespace, newlines included, as one space: an error
+    is one stderr line even where it quotes a name or a library's text with newlines."""
+    return " ".join(str(text).split())

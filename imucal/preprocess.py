@@ -153,6 +153,12 @@ def check_rate(rate) -> float:
     return rate
 
 
+#: Lowest cut-off as a fraction of the rate: far below it the filter's poles sit on 1 to
+#: machine precision and its initial state cannot be solved for (1e-9 Hz at 100 Hz raised
+#: numpy's LinAlgError); 1e-8 still worked.
+MIN_CUTOFF_FRACTION = 1e-6
+
+
 def lowpass(x: np.ndarray, rate: float, cutoff: float | None,
             order: int = FILTER_ORDER) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` (N, ...) along time; ``cutoff`` None or 0: none.
@@ -168,6 +174,9 @@ def lowpass(x: np.ndarray, rate: float, cutoff: float | None,
         raise InputError(
             f"cut-off {cutoff:g} Hz must be below half the sample rate ({rate / 2:g} Hz)"
         )
+    if cutoff < MIN_CUTOFF_FRACTION * rate:
+        raise InputError(f"cut-off {cutoff:g} Hz is too low to filter at {rate:g} Hz (at "
+                         f"least {MIN_CUTOFF_FRACTION * rate:g} Hz; 0: no filter)")
     # a copy: scipy's filter wants a writable array, and the cached one must not change
     sos = _butterworth(int(order), float(cutoff), float(rate)).copy()
     padlen = min(x.shape[0] - 1, 3 * (2 * len(sos) + 1) * 4)
@@ -355,8 +364,10 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *,
     n = data[0].shape[0]
     if n < min_samples:
         every = f" (one sample in {step}, from the cut-off or --subsample)" if step > 1 else ""
+        offset = (f" and the time offset ({settings.time_offset:g} s: {edge / rate:g} s left "
+                  "out at each end)" if settings.time_offset else "")
         raise InputError(
-            f"only {n} sample{'' if n == 1 else 's'} left after window and "
+            f"only {n} sample{'' if n == 1 else 's'} left after window{offset} and "
             f"subsampling{every}; the {what} needs at least {min_samples} (about "
             f"{min_samples * step / rate:.1f} s of motion)"
         )

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import ImucalError, InputError, NotIdentifiableError
+from .errors import ImucalError, InputError, NotIdentifiableError, one_line
 from .recording import estimator_window
 from .signals import unreported
 
@@ -315,13 +315,13 @@ def error_of(err: BaseException, file: str) -> tuple[int, str]:
     (2, 'x.h5: No such file or directory')
     """
     if isinstance(err, ImucalError):
-        return err.exit_code, str(err)
+        return err.exit_code, one_line(err)
     if isinstance(err, OSError):
-        return 2, f"{err.filename or file}: {err.strerror or err}"
+        return 2, one_line(f"{err.filename or file}: {err.strerror or err}")
     if isinstance(err, MemoryError):
         return INTERNAL_ERROR, f"{file}: out of memory"
-    return INTERNAL_ERROR, (f"{file}: internal error: {type(err).__name__}: {err} (rerun this "
-                            "file alone with --debug and report it)")
+    return INTERNAL_ERROR, one_line(f"{file}: internal error: {type(err).__name__}: {err} "
+                                    "(rerun this file alone with --debug and report it)")
 
 
 def _run(job: Job, file: str, outcome: Outcome) -> None:

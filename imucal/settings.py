@@ -37,6 +37,9 @@ SUBSET_FRACTION = 0.5
 #: Default 1-sigma of an accelerometer's error at 1 g, m/s^2 (:class:`PositionSettings`):
 #: factory-calibrated MEMS accelerometers keep offsets of about 0.02-0.1 m/s^2.
 ACC_ERROR_M_S2 = 0.05
+#: Most restarts accepted: memory grows with restarts x samples (10 000 restarts of 3000
+#: samples: about 1 GB), and 100 already show whether the answer depends on the start.
+MAX_RESTARTS = 10_000
 #: Largest ``acc_error`` accepted, m/s^2 (half of g: a larger number is a unit mistake).
 MAX_ACC_ERROR_M_S2 = 5.0
 
@@ -48,7 +51,7 @@ class AxisSettings:
     Attributes
     ----------
     restarts : int
-        Number of random starts, >= 1.
+        Number of random starts, 1 to 10 000.
     seed : int or None
         Seed of the random starts and subsets, >= 0; None draws one.
     cutoff : float or None
@@ -96,7 +99,7 @@ class AxisSettings:
     time_origin: float = 0.0
 
     def __post_init__(self) -> None:
-        _check_int(self, "restarts", 1)
+        _check_int(self, "restarts", 1, MAX_RESTARTS)
         _check_int(self, "max_iterations", 1)
         if self.seed is not None:
             _check_int(self, "seed", 0)
@@ -184,7 +187,7 @@ class CalibrateSettings:
         if twice:
             raise InputError(f"joint '{twice[0]}' given twice")
         object.__setattr__(self, "joints", specs)
-        _check_int(self, "restarts", 1)
+        _check_int(self, "restarts", 1, MAX_RESTARTS)
         if self.seed is not None:
             _check_int(self, "seed", 0)
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
@@ -229,12 +232,14 @@ def check_time_offset(value) -> float | str:
     return value
 
 
-def _check_int(settings, name: str, low: int) -> None:
+def _check_int(settings, name: str, low: int, high: int | None = None) -> None:
     value = getattr(settings, name)
     if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value):
         raise InputError(f"{name} must be a whole number, got {value!r}")
     if value < low:
         raise InputError(f"{name} must be at least {low}, got {value}")
+    if high is not None and value > high:
+        raise InputError(f"{name} must be at most {high}, got {value}")
     object.__setattr__(settings, name, int(value))
 
 

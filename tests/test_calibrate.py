@@ -159,8 +159,15 @@ def test_load_calibration_errors(calibration, tmp_path):
 
 @pytest.mark.parametrize(("key", "value", "match"), [
     ("zero_deg", None, "angle.zero_deg is None, not a finite number"),
-    ("smoothing_s", 0, "angle.smoothing_s is 0, not a positive number"),
-    ("smoothing_s", -3, "angle.smoothing_s is -3, not a positive number"),
+    ("smoothing_s", 0, "angle.smoothing_s is 0, not a kernel half-width from 0.01 to 600 s"),
+    ("smoothing_s", -3, "angle.smoothing_s is -3, not a kernel half-width"),
+    # 1e-300 divided by zero, 1e9 asked for terabytes (exit 3, fuzz audit)
+    ("smoothing_s", 1e-300, "angle.smoothing_s is 1e-300, not a kernel half-width"),
+    ("smoothing_s", 1e9, "angle.smoothing_s is 1000000000.0, not a kernel half-width"),
+    ("hinge_residual", -1, "angle.hinge_residual is -1, not a number >= 0"),
+    ("acc_gyro_disagreement_deg", -5, "angle.acc_gyro_disagreement_deg is -5, not a number"),
+    ("sensors", ["thigh"], "knee' sensors is \\['thigh'\\], not the names of its two sensors"),
+    ("sensors", ["thigh", "shank", "foot"], "not the names of its two sensors"),
     ("hinge_residual", "x", "angle.hinge_residual is 'x', not a finite number"),
     ("flexion_sign", 0, "angle.flexion_sign is 0, not \\+1 or -1"),
     ("flexion_range_deg", [0, None], "angle.flexion_range_deg"),
@@ -178,7 +185,7 @@ def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, 
     # mirrored without a word, when the file was applied
     doc = calibration[0].to_document()
     knee = doc["joints"]["knee"]
-    (knee if key in ("j1", "axis") else knee["angle"])[key] = value
+    (knee if key in ("j1", "axis", "sensors") else knee["angle"])[key] = value
     (tmp_path / "edited.json").write_text(json.dumps(doc))
     with pytest.raises(InputError, match="edited.json: damaged calibration file.*" + match):
         load_calibration(tmp_path / "edited.json")
@@ -269,3 +276,30 @@ def test_a_knee_calibrate_could_not_identify_loads_with_its_verdict(calibration,
     (tmp_path / "edited.json").write_text(json.dumps(doc))
     with pytest.raises(InputError, match="angle.zero_deg is 37471.9, not an angle within"):
         load_calibration(tmp_path / "edited.json")
+
+
+@pytest.mark.parametrize("smoothing_s", [1e-300, 0.0, 1e9, float("nan")])
+def test_an_implausible_fusion_kernel_is_a_usage_error(calibration, smoothing_s):
+    # 1e-300 s divided by zero and 1e9 s asked for terabytes inside the fusion (exit 3)
+    from imucal import joint_angles
+
+    rec, _ = simulate(seed=2, mounting_seed=11, motion="gait", duration=8.0)
+    with pytest.raises(InputError, match="smoothing_s must be from 0.01 to 600 s"):
+        calibrate(rec, smoothing_s=smoothing_s)
+    with pytest.raises(InputError, match="smoothing_s must be from 0.01 to 600 s"):
+        joint_angles(rec, calibration[0], smoothing_s=smoothing_s)
+
+
+def test_a_sensor_name_with_a_newline_is_reported_on_one_line(calibration, tmp_path):
+    from conftest import run_imucal
+
+    from imucal.writers import save_recording
+
+    doc = calibration[0].to_document()
+    doc["joints"]["knee"]["sensors"] = ["th\u00efgh\n", "shank"]
+    (tmp_path / "cal.json").write_text(json.dumps(doc))
+    rec, _ = simulate(seed=2, mounting_seed=11, motion="gait", duration=8.0)
+    save_recording(rec, tmp_path / "walk.h5")
+    run = run_imucal("angles", tmp_path / "walk.h5", "-c", tmp_path / "cal.json", text=True)
+    assert run.returncode == 2
+    assert run.stderr.count("\n") == 1 and "no sensor 'th\u00efgh '" in run.stderr

@@ -138,6 +138,9 @@ def test_another_mounting_exits_1_with_the_evidence_unless_force(cal_file, tmp_p
     (None, "calibration file not found"),
     ("{", "not a calibration file (not readable as JSON"),
     ('{"command": "axis"}', "an imucal 'axis' result"),
+    # a RecursionError and a ValueError of json: exit 3 before (fuzz audit)
+    ("[" * 100_000, "not a calibration file (not readable as JSON: maximum recursion"),
+    ('{"format_version": ' + "9" * 5000 + "}", "not readable as JSON: Exceeds the limit"),
 ])
 def test_a_missing_or_broken_calibration_exits_2_naming_it(tmp_path, content, phrase):
     cal = tmp_path / "cal.json"

@@ -35,6 +35,8 @@ def test_position_settings_object_gives_the_keyword_result():
 @pytest.mark.parametrize(("kwargs", "phrase"), [
     ({"sign": "bogus"}, "sign must be one of"),
     ({"restarts": 0}, "restarts must be at least 1"),
+    # 1e20 restarts: numpy's "Maximum allowed dimension exceeded", exit 3 (fuzz audit)
+    ({"restarts": 10**20}, "restarts must be at most 10000, got 100000000000000000000"),
     ({"subset": 1.5}, r"subset must be in \(0, 1\]"),
     ({"time_offset": "soon"}, "time offset must be auto or a number"),
     ({"start": 5.0, "end": 4.0}, "after its start"),

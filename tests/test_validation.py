@@ -232,3 +232,20 @@ def test_a_window_of_one_sample_says_so():
     with pytest.raises(InputError, match=r"r.h5: the window t=9.99 to 10 s holds 1 "
                                          r"sample\(s\); at least 2 are needed"):
         rec.select(["a", "b"], 9.99, None)
+
+
+def test_a_cut_off_too_low_to_design_a_filter_is_named():
+    # --cutoff 1e-9: numpy's LinAlgError from the filter's initial state, exit 3
+    rec, _ = simulate(seed=1, duration=6.0)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    with pytest.raises(InputError, match=r"cut-off 1e-09 Hz is too low to filter at 100 Hz "
+                                         r"\(at least 0.0001 Hz; 0: no filter\)"):
+        imucal.estimate_axis(th.gyr, sh.gyr, rate=100.0, cutoff=1e-9, restarts=2, seed=1)
+
+
+def test_a_time_offset_that_leaves_no_samples_says_so():
+    rec, _ = simulate(seed=1, duration=6.0)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    with pytest.raises(InputError, match=r"only 0 samples left after window and the time "
+                                         r"offset \(3 s: 3.01 s left out at each end\)"):
+        imucal.estimate_axis(th.gyr, sh.gyr, rate=100.0, time_offset=3.0, restarts=2, seed=1)
