@@ -194,10 +194,10 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
                 f"{what}: no time stamps and no sample rate in the file; give --rate "
                 "(the rate the device recorded at, Hz)"
             )
-        if not (math.isfinite(use) and use > 0):
-            given = "--rate" if rate else "the file's header"
-            raise InputError(f"{what}: {given} gives the sample rate {use:g} Hz, which is "
-                             "no rate; give --rate (the rate the device recorded at, Hz)")
+        if not (math.isfinite(use) and use > 0):  # (a given --rate is checked on loading)
+            raise InputError(f"{what}: the file's header gives the sample rate {use:g} Hz, "
+                             "which is no rate; give --rate (the rate the device recorded "
+                             "at, Hz)")
         period = 1.0 / float(use)
         a = float(c[0]) * period  # the counters of one export are shared: align on them
     _check_dropped(k, period, what, origin)

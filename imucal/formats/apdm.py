@@ -114,13 +114,12 @@ _UNREADABLE = (KeyError, OSError, TypeError, ValueError, IndexError)
 def _sensor(label, serial, rate, acc_ds, gyr_ds, time_ds, source) -> RawSensor:
     """One sensor from its datasets (units from their attributes, SI by default). A
     ValueError names what does not match (the sensor is then skipped with it)."""
-    raw = {"Gyroscope": gyr_ds[()], "Accelerometer": acc_ds[()]}
+    raw = {"Gyroscope": np.asarray(gyr_ds[()]), "Accelerometer": np.asarray(acc_ds[()])}
     for key, values in raw.items():
         # complex numbers would be cast to their real parts (with numpy's raw warning)
-        if not (np.issubdtype(np.asarray(values).dtype, np.integer)
-                or np.issubdtype(np.asarray(values).dtype, np.floating)):
-            raise ValueError(f"{key} is not real numbers ({np.asarray(values).dtype})")
-    gyr, acc = np.asarray(raw["Gyroscope"], float), np.asarray(raw["Accelerometer"], float)
+        if values.dtype.kind not in "iuf":
+            raise ValueError(f"{key} is not real numbers ({values.dtype})")
+    gyr, acc = raw["Gyroscope"].astype(float), raw["Accelerometer"].astype(float)
     time = np.asarray(time_ds[()])
     shapes = {"Gyroscope": gyr.shape, "Accelerometer": acc.shape, "Time": time.shape}
     n = time.shape[0] if time.ndim == 1 else -1
