@@ -422,3 +422,24 @@ def test_a_recording_without_motion_gets_no_offset_or_fit_warning():
         assert r.blocking and ("barely" in r.blocking[0])
         text = " ".join(r.warnings)
         assert "factor 0.00" not in text and "inf%" not in text, text
+
+
+def test_a_small_offset_found_but_not_applied_is_no_good_axis_when_it_would_move_it():
+    # shank 10 ms late on 10 s of circling: found (8.3 ms) but below the cost ratio that
+    # applies it; the axis 2 deg off at a 1-sigma of 0.18 deg was `good` (an audit: 66 of
+    # 300 such runs with 5-10 ms offsets good beyond 3 sigma)
+    rec, truth = simulate(seed=5, duration=10.0, clock_offset={"shank": 0.01})
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(th.gyr, sh.gyr, rate=rec.rate, seed=1, acc1=th.acc, acc2=sh.acc)
+    assert not r.time_offset["applied"]
+    assert 0.006 < r.time_offset["estimated_s"] < 0.012
+    error = max(axis_error_deg(r.j1, r.j2, truth["j1"], truth["j2"]))
+    assert error > 3 * max(r.uncertainty_deg.values())  # the 1-sigma does not carry it
+    moved = [w for w in r.warnings if w.startswith("with the second sensor read +8.")]
+    assert len(moved) == 1 and "j1 would move by" in moved[0] and "in sync" in moved[0]
+    assert r.verdict == "use with care"
+    # in sync, the same motion keeps its verdict: no such warning
+    rec, _ = simulate(seed=5, duration=10.0)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_axis(th.gyr, sh.gyr, rate=rec.rate, seed=1, acc1=th.acc, acc2=sh.acc)
+    assert r.verdict == "good" and not any("would move" in w for w in r.warnings)

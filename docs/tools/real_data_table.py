@@ -71,6 +71,7 @@ SHORT = {
     "motion stays": "line",
     "directions of the point across": "across-axis weak",
     "the residual is lowest with the second sensor": "offset not applied",
+    "with the second sensor read": "offset would move it",
     "the clock offset between the sensors may exceed": "offset at edge",
     "the axis is not one physical line": "gravity mismatch",
     "the first sensor reads": "acc off at rest",
@@ -469,7 +470,9 @@ FOOTER = """
   squared residual by a factor of only 1.06-1.51, are model errors (soft tissue lagging
   the bone, a knee that is not a hinge) that a shift partly mimics. This is why an
   offset must improve the fit by 1.6 x to be applied; the larger ones (at least 10 ms,
-  clear of twice their sigma) appear as the warning "offset not applied". The right knee
+  clear of twice their sigma) appear as the warning "offset not applied", and those
+  whose refit would move the estimate by more than 3 of its 1-sigma as "offset would
+  move it". The right knee
   centre in 55-100 s comes closest (1.51). The ankle centres' and hips' best shifts are
   -19 to +8 ms at 1.00-1.19 (the right ankle fitted as a hinge in 55-100 s: -113 ms at
   1.46). On simulated data a real 20 ms offset gives cost ratios of 1.5-3 (circling at
