@@ -501,11 +501,13 @@ def _angle_from_doc(name: str, angle: dict | None, identified: bool = True) -> d
                              ("hinge_residual", True), ("acc_gyro_disagreement_deg", True)):
         if not (_finite(angle[key]) or (may_be_null and angle[key] is None)):
             raise bad(key, "a finite number")
-    from .angles import SMOOTHING_RANGE_S
+    from .angles import SMOOTHING_RANGE_S, check_smoothing
 
-    low, high = SMOOTHING_RANGE_S
-    if not low <= angle["smoothing_s"] <= high:
-        raise bad("smoothing_s", f"a kernel half-width from {low:g} to {high:g} s")
+    try:
+        check_smoothing(angle["smoothing_s"])
+    except InputError:
+        raise bad("smoothing_s", "a kernel half-width from {:g} to {:g} s".format(
+            *SMOOTHING_RANGE_S)) from None
     for key in ("hinge_residual", "acc_gyro_disagreement_deg"):
         if angle[key] is not None and angle[key] < 0:
             raise bad(key, "a number >= 0")

@@ -396,7 +396,9 @@ def _unapplied_move_warning(result, found: Offset, rate: float, per_s: dict,
         return []
     total = getattr(result, f"uncertainty_{unit}")
     moves = {k: v * abs(found.delta_s) for k, v in per_s.items()}
-    ratios = {k: moves[k] / total[k] if total[k] > 0 else np.inf for k in moves}
+    # (a 1-sigma of 0 with no move is no warning)
+    ratios = {k: moves[k] / total[k] if total[k] > 0 else (np.inf if moves[k] > 0 else 0.0)
+              for k in moves}
     worst = max(ratios, key=ratios.get)
     if not ratios[worst] > UNAPPLIED_MOVE_SIGMAS:
         return []
