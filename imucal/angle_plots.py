@@ -24,6 +24,17 @@ def gait_cycles(flexion_deg: np.ndarray, peaks: np.ndarray) -> np.ndarray:
     return np.interp(pos, np.arange(flexion_deg.shape[0]), flexion_deg)
 
 
+def zero_label(zero: dict) -> str:
+    """What 0 deg is, short enough for a title: the method's first clause (its details in
+    parentheses stay in the JSON) and where the zero was taken, e.g. "calibration: most
+    extended still period at 3.2 s (calibration trial)". (Cut at a fixed length, the
+    title read "... the 1st percentile of flexion )".)"""
+    label = zero["method"].split(" (")[0]
+    if zero.get("time_s") is not None:
+        label += f" at {zero['time_s']:.1f} s ({zero['time_in']})"
+    return label
+
+
 def plot_angles(result, path: str | Path, *, truth: dict | None = None,
                 gyro_only: bool = True) -> None:
     """Write the figure of a :class:`imucal.angles.JointAngles` to ``path`` (PNG, PDF or SVG
@@ -57,7 +68,7 @@ def plot_angles(result, path: str | Path, *, truth: dict | None = None,
         if truth and j.name in truth:
             ax.plot(t, truth[j.name], color="k", lw=0.7, ls="--", label="truth")
         status = "fits" if j.fits else "DOES NOT FIT the calibration"
-        ax.set_title(f"{j.name}: flexion (+ = flexion, 0 = {j.zero['method'][:60]}); {status}",
+        ax.set_title(f"{j.name}: flexion (+ = flexion, 0 = {zero_label(j.zero)}); {status}",
                      fontsize=9)
         ax.set_xlabel("time (s)")
         ax.set_ylabel("flexion (deg)")

@@ -493,3 +493,20 @@ def test_figure_and_gait_cycles(session, tmp_path):
     assert (tmp_path / "a.png").stat().st_size > 10_000
     with pytest.raises(InputError, match="unknown figure format"):
         plot_angles(result, tmp_path / "a.jpg")
+
+
+def test_figure_title_names_the_zero_without_cutting_it():
+    from imucal.angle_plots import zero_label
+
+    still = {"method": "calibration: most extended still period (>= 1 s, both sensors below "
+                       "0.1 rad/s)", "time_s": 3.25, "time_in": "calibration trial"}
+    assert zero_label(still) == ("calibration: most extended still period at 3.2 s "
+                                 "(calibration trial)")
+    percentile = {"method": "calibration: no still period: the 1st percentile of flexion (the "
+                            "most extended posture of the calibration trial, not necessarily a "
+                            "straight knee)", "time_s": None, "time_in": "calibration trial"}
+    assert zero_label(percentile) == ("calibration: no still period: the 1st percentile of "
+                                      "flexion")
+    user = {"method": "user time (mean over +-0.1 s)", "time_s": 12.0,
+            "time_in": "this recording"}
+    assert zero_label(user) == "user time at 12.0 s (this recording)"
