@@ -707,7 +707,7 @@ class JointAngles:
         atomically."""
         from pathlib import Path
 
-        from .atomic import write_atomic
+        from .atomic import write_atomic, write_hdf5_atomic
         from .report import dumps
 
         path = Path(path)
@@ -716,19 +716,15 @@ class JointAngles:
         if suffix == ".csv":
             write_atomic(path, lambda tmp: frame.to_csv(tmp, index=False, float_format="%.6g"))
         elif suffix in (".h5", ".hdf5"):
-            import h5py
-
             attrs = self._column_attrs()
 
-            def write_h5(tmp):
-                # creation order: a reader lists the columns as the CSV has them
-                with h5py.File(tmp, "w", track_order=True) as f:
-                    for col in frame.columns:
-                        f.create_dataset(col, data=frame[col].to_numpy()).attrs.update(
-                            attrs[col])
-                    f.attrs["imucal"] = dumps(self.to_document())
+            def fill(f):
+                # creation order (track_order): a reader lists the columns as the CSV has
+                for col in frame.columns:
+                    f.create_dataset(col, data=frame[col].to_numpy()).attrs.update(attrs[col])
+                f.attrs["imucal"] = dumps(self.to_document())
 
-            write_atomic(path, write_h5)
+            write_hdf5_atomic(path, fill)
         else:
             raise InputError(f"{path}: unknown table format '{path.suffix or path.name}'; "
                              "angles are written as .csv or .h5")

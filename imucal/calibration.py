@@ -411,7 +411,13 @@ def load_calibration(path: str | Path) -> Calibration:
     """Read a calibration file written by :meth:`Calibration.write` (or ``imucal
     calibrate``). InputError naming the file for a missing file, a file that is not JSON
     or not a calibration, another format version, or a joint without its vectors."""
+    if str(path) == "-":
+        raise InputError("-: a calibration is read from a file, not standard input; save it "
+                         "first (imucal calibrate REC -o cal.json)")
     path = Path(path)
+    if path.is_symlink() and not path.exists():
+        raise InputError(f"{path}: calibration file not found (a symbolic link to nothing, "
+                         "or a loop)")
     if not path.exists():
         raise InputError(f"{path}: calibration file not found")
     if not path.is_file():  # a folder, /dev/null, a pipe

@@ -10,6 +10,7 @@ summaries and errors go to stderr. Exit status: 0 success, 1 the data cannot ans
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -88,8 +89,15 @@ PositionCutoff = Annotated[float | None, typer.Option(
 Subsample = Annotated[int | None, typer.Option(min=1, help="Use every k-th sample; default: all "
                                                "without a filter, else about 2.5 per cut-off "
                                                "period.", show_default=False)]
+def _dash_is_stdout(value: Path | None) -> Path | None:
+    """``--out -``: standard output, as a REC of ``-`` is standard input (it wrote a file
+    named '-')."""
+    return None if value is not None and str(value) == "-" else value
+
+
 Out = Annotated[Path | None, typer.Option("--out", "-o", help="Write the JSON here instead of "
-                                          "stdout.", show_default=False)]
+                                          "stdout (- : stdout).", show_default=False,
+                                          callback=_dash_is_stdout)]
 Plot = Annotated[Path | None, typer.Option(help="Write a convergence figure; the file "
                                            "name's extension picks the format: .png, .pdf or "
                                            ".svg.", show_default=False)]
@@ -286,8 +294,8 @@ def calibrate(
     time_offset: TimeOffset = "auto",
     acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     out: Annotated[Path | None, typer.Option(
-        "--out", "-o", help="Write the calibration file (JSON) here instead of stdout.",
-        show_default=False)] = None,
+        "--out", "-o", help="Write the calibration file (JSON) here instead of stdout (- : "
+        "stdout).", show_default=False, callback=_dash_is_stdout)] = None,
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
@@ -352,8 +360,8 @@ def angles(
         "--calibration", "-c", metavar="CAL.json", show_default=False,
         help="Calibration file written by imucal calibrate (same sensors, same mounting).")],
     out: Annotated[Path | None, typer.Option(
-        "--out", "-o", show_default=False,
-        help="Write the table here instead of CSV on stdout: .csv, or .h5/.hdf5 (one "
+        "--out", "-o", show_default=False, callback=_dash_is_stdout,
+        help="Write the table here instead of CSV on stdout (- : stdout): .csv, or .h5/.hdf5 (one "
         "dataset per column with its units and, for a joint, its sensors and frame as "
         "attributes; the JSON summary as the root attribute 'imucal').")] = None,
     plot: Annotated[Path | None, typer.Option(
@@ -837,6 +845,9 @@ def _check_outputs(out, plot, rec, sensor_map=None) -> None:
     if plot is not None:
         from .plots import FORMATS
 
+        if not plot.suffix and plot.name.lower() in FORMATS:  # ".png" is a name, no extension
+            raise InputError(f"{plot}: give the figure a name before its extension, e.g. "
+                             f"fit{plot.name}")
         if plot.suffix.lower() not in FORMATS:
             raise InputError(f"{plot}: unknown figure format '{plot.suffix or plot.name}'; "
                              f"--plot writes PNG, PDF or SVG by the file name's extension "
@@ -944,6 +955,31 @@ def _err(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
 
 
+class _ClosedStdout:
+    """Standard output when its descriptor was closed (``>&-``): writing the data fails
+    with a message (it failed on None: exit 3), flushing nothing is no error."""
+
+    def write(self, text):
+        raise OSError(errno.EBADF, "standard output is closed: nothing can be written "
+                      "there (give --out FILE, or do not close it)")
+
+    def flush(self):
+        pass
+
+    def isatty(self):
+        return False
+
+
+def _closed_streams() -> None:
+    """With standard error closed (``2>&-``), messages are dropped: ``print`` to a
+    missing sys.stderr writes to stdout, into the JSON or CSV. With standard output
+    closed, writing data to it is an error (:class:`_ClosedStdout`)."""
+    if sys.stderr is None:
+        sys.stderr = open(os.devnull, "w")  # for the rest of the process
+    if sys.stdout is None:
+        sys.stdout = _ClosedStdout()
+
+
 def _version_callback(value: bool) -> None:
     if value:
         print(f"imucal {__version__}")
@@ -968,6 +1004,13 @@ def main() -> None:
     # parallel work is done across recordings (--jobs). A setting in the environment wins.
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")
+    _closed_streams()
+    try:
+        os.getcwd()
+    except OSError:  # every relative path, and a study's worker processes, need it
+        _err("imucal: error: the current folder no longer exists (it was deleted or moved); "
+             "change to another folder")
+        sys.exit(2)
     raise_on_signals()
     try:
         code = app(standalone_mode=False)
@@ -985,7 +1028,7 @@ def main() -> None:
         else:
             ctx = getattr(err, "ctx", None)
             command = ctx.command_path if ctx is not None else "imucal"
-            _err(f"imucal: error: {err.format_message()} (see '{command} --help')")
+            _err(f"imucal: error: {one_line(err.format_message())} (see '{command} --help')")
         code = 2
     interruption = unreported_interruption()  # one that came while typer parsed
     if interruption is not None:

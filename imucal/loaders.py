@@ -26,8 +26,11 @@ Every problem is reported as one :class:`~imucal.errors.InputError` naming the f
 from __future__ import annotations
 
 import difflib
+import errno
 import io
+import os
 import re
+import stat
 import sys
 from collections.abc import Mapping
 from dataclasses import replace
@@ -49,6 +52,10 @@ __all__ = ["load_recording", "HDF5_SIGNATURE"]
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 HDF5_SUFFIXES = {".h5", ".hdf5"}
 CSV_SUFFIXES = {".csv", ".txt"}
+#: Most bytes read from standard input or another stream (a pipe, a device): a file
+#: there has no size to check first, and /dev/zero never ends. 4 GiB is a day of seven
+#: sensors at 100 Hz as CSV; a larger recording is read from a file.
+MAX_STREAM_BYTES = 4 << 30
 
 _KINDS = ("gyr", "acc")
 _AXES = ("x", "y", "z")
@@ -127,20 +134,14 @@ def _check_given_rate(path, rate) -> None:
 def _load(path, *, rate, gyr_units, acc_units) -> Recording:
     if str(path) == "-":
         source = "<stdin>"
-        data = _read_stdin()
-        if data.startswith(HDF5_SIGNATURE):
-            parsed = _guarded(_parse_hdf5, io.BytesIO(data), source, what="HDF5")
-        else:
-            parsed = _guarded(_parse_csv, data, source, what="CSV")
+        parsed = _parse_bytes(_read_stdin(), source)
+    elif _is_stream(path, source := str(path)):
+        # a pipe (<(...), /dev/stdin, a FIFO) or a device: it can be read only once, so
+        # it is read whole and parsed as standard input is (each format's sniffing
+        # reopened it, and lost what the one before had read)
+        parsed = _parse_bytes(_read_stream(path, source), source)
     else:
         path = Path(path)
-        source = str(path)
-        try:
-            exists = path.exists()
-        except (OSError, ValueError) as err:  # e.g. a name too long, or with a NUL byte
-            raise InputError(f"{source}: invalid file name ({err})") from None
-        if not exists:
-            raise InputError(f"{source}: no such file")
         vendor = _vendor(path, source)
         if vendor is not None:
             return _from_vendor(vendor, path, source, rate=rate, gyr_units=gyr_units,
@@ -301,12 +302,71 @@ def _read_stdin() -> bytes:
     if stream is None:
         raise InputError("<stdin>: standard input is not available")
     try:
-        data = stream.read()
+        terminal = stream.isatty()
+    except (OSError, ValueError):
+        terminal = False
+    if terminal:  # it would wait, silently, for a recording typed in
+        raise InputError("<stdin>: standard input is a terminal; pipe a recording in "
+                         "(imucal axis - < rec.csv) or give its file name")
+    try:
+        data = _read_capped(stream, "<stdin>")
     except (OSError, ValueError) as err:  # ValueError: read from a closed stream
         raise InputError(f"<stdin>: cannot read standard input ({err})") from None
     if not data:
         raise InputError("<stdin>: standard input is empty (nothing was piped in)")
     return data
+
+
+def _is_stream(path, source: str) -> bool:
+    """Whether ``path`` is an existing file that is neither regular nor a folder (a pipe,
+    a FIFO, a device); InputError naming why it cannot be looked at."""
+    if source == "":  # an unset shell variable ("$f"): Path("") would be the folder "."
+        raise InputError("'': empty file name")
+    try:
+        st = os.stat(path)
+    except ValueError as err:  # a NUL byte in the name
+        raise InputError(f"{source}: invalid file name ({err})") from None
+    except OSError as err:
+        reasons = {errno.ENOENT: "no such file", errno.ELOOP: "symbolic link loop",
+                   errno.ENOTDIR: "no such file (a part of the path is not a folder)"}
+        if err.errno == errno.ENOTDIR and source.endswith("/") and os.path.isfile(source[:-1]):
+            reasons[errno.ENOTDIR] = "is a file, not a folder (drop the trailing '/')"
+        reason = reasons.get(err.errno)
+        if reason is None:
+            kind = "invalid file name" if err.errno == errno.ENAMETOOLONG else "cannot read file"
+            reason = f"{kind} ({err.strerror or err})"
+        raise InputError(f"{source}: {reason}") from None
+    return not (stat.S_ISREG(st.st_mode) or stat.S_ISDIR(st.st_mode))
+
+
+def _read_stream(path, source: str) -> bytes:
+    try:
+        with open(path, "rb") as fh:
+            data = _read_capped(fh, source)
+    except OSError as err:
+        raise InputError(f"{source}: cannot read file ({err.strerror or err})") from None
+    if not data:
+        raise InputError(f"{source}: file is empty")
+    return data
+
+
+def _read_capped(stream, source: str) -> bytes:
+    """All of ``stream``, InputError beyond ``MAX_STREAM_BYTES`` or memory."""
+    try:
+        data = stream.read(MAX_STREAM_BYTES + 1)
+    except MemoryError:
+        raise InputError(f"{source}: too large to load into memory") from None
+    if len(data) > MAX_STREAM_BYTES:
+        raise InputError(f"{source}: more than {MAX_STREAM_BYTES >> 30} GiB without an end; "
+                         "save the recording to a file and give its name")
+    return data
+
+
+def _parse_bytes(data: bytes, source: str):
+    """A whole recording read from a stream: imucal's HDF5 or CSV."""
+    if data.startswith(HDF5_SIGNATURE):
+        return _guarded(_parse_hdf5, io.BytesIO(data), source, what="HDF5")
+    return _guarded(_parse_csv, data, source, what="CSV")
 
 
 def _read_bytes(path: Path, source: str, limit: int = -1) -> bytes:

@@ -24,12 +24,13 @@ Sensors the map does not mention keep their names. See docs/formats.md.
 
 from __future__ import annotations
 
+import errno
 import json
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 
-from .errors import InputError
+from .errors import InputError, one_line
 from .recording import Recording, _norm
 
 __all__ = ["read_sensor_map", "apply_sensor_map"]
@@ -44,17 +45,24 @@ def read_sensor_map(path: str | Path) -> dict[str, str]:
     :class:`InputError` names the file and the line for anything else."""
     source = str(path)
     p = Path(path)
+    if source == "-":
+        raise InputError("-: --map reads a file, not standard input; save the map to a file")
     try:
         if p.is_dir():
             raise InputError(f"{source}: --map needs a file, this is a folder")
-        if p.stat().st_size > MAX_MAP_BYTES:
-            raise InputError(f"{source}: too large for a sensor map "
-                             f"({p.stat().st_size} bytes); is it a recording?")
-        data = p.read_bytes()
+        # read up to the limit rather than trusting the size: a device or a pipe has
+        # none (/dev/zero never ends)
+        with open(p, "rb") as fh:
+            data = fh.read(MAX_MAP_BYTES + 1)
+        if len(data) > MAX_MAP_BYTES:
+            raise InputError(f"{source}: too large for a sensor map (more than "
+                             f"{MAX_MAP_BYTES} bytes); is it a recording?")
     except FileNotFoundError:
         raise InputError(f"{source}: no such file (--map)") from None
     except OSError as err:
-        raise InputError(f"{source}: cannot read sensor map ({err.strerror or err})") from None
+        reason = ("symbolic link loop" if err.errno == errno.ELOOP
+                  else f"cannot read sensor map ({err.strerror or err})")
+        raise InputError(f"{source}: {reason}") from None
     if b"\x00" in data:
         raise InputError(f"{source}: not a sensor map (it contains binary data; is it a "
                          "recording?)")
@@ -72,6 +80,11 @@ def read_sensor_map(path: str | Path) -> dict[str, str]:
         except json.JSONDecodeError as err:
             raise InputError(f"{source}: invalid JSON at line {err.lineno}, column "
                              f"{err.colno}: {err.msg}") from None
+        # ValueError: an integer of thousands of digits; RecursionError: arrays nested a
+        # hundred thousand deep
+        except (ValueError, RecursionError) as err:
+            detail = one_line(str(err))[:80] or type(err).__name__
+            raise InputError(f"{source}: invalid JSON ({detail})") from None
         for key, value in pairs:
             if not isinstance(value, str):
                 raise InputError(f"{source}: the name for {key!r} must be text, got "

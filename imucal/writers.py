@@ -11,11 +11,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 import pandas as pd
 
-from .atomic import write_atomic
+from .atomic import write_atomic, write_hdf5_atomic
 from .errors import InputError
 from .recording import Recording
 
@@ -65,22 +64,25 @@ def save_recording(
         raise InputError(f"{path}: is a folder; give a file name ending in {suffix}")
 
     extra = dict(extra_attrs or {})
-    write_atomic(path, lambda tmp: write(recording, tmp, extra))
+    if write is _write_hdf5:
+        # (track_order: readers list the sensor groups in the recording's order)
+        write_hdf5_atomic(path, lambda h5: _write_hdf5(recording, h5, extra))
+    else:
+        write_atomic(path, lambda tmp: write(recording, tmp, extra))
 
 
-def _write_hdf5(recording: Recording, tmp: Path, extra_attrs: dict) -> None:
-    # track_order: readers list the sensor groups in the recording's order, not alphabetically
-    with h5py.File(tmp, "w", track_order=True) as h5:
-        for key, value in extra_attrs.items():
-            if key != "sample_rate":
-                h5.attrs[key] = value
-        h5.attrs["sample_rate"] = float(recording.rate)
-        h5.create_dataset("time", data=np.asarray(recording.time, dtype=np.float64))
-        for name, sensor in recording.sensors.items():
-            group = h5.create_group(name)
-            for kind, unit in (("gyr", "rad/s"), ("acc", "m/s^2")):
-                data = np.asarray(getattr(sensor, kind), dtype=np.float64)
-                group.create_dataset(kind, data=data).attrs["units"] = unit
+def _write_hdf5(recording: Recording, h5, extra_attrs: dict) -> None:
+    """Fill the open, empty ``h5py.File`` ``h5`` with ``recording``."""
+    for key, value in extra_attrs.items():
+        if key != "sample_rate":
+            h5.attrs[key] = value
+    h5.attrs["sample_rate"] = float(recording.rate)
+    h5.create_dataset("time", data=np.asarray(recording.time, dtype=np.float64))
+    for name, sensor in recording.sensors.items():
+        group = h5.create_group(name)
+        for kind, unit in (("gyr", "rad/s"), ("acc", "m/s^2")):
+            data = np.asarray(getattr(sensor, kind), dtype=np.float64)
+            group.create_dataset(kind, data=data).attrs["units"] = unit
 
 
 def _write_csv(recording: Recording, tmp: Path, extra_attrs: dict) -> None:

@@ -1,0 +1,205 @@
+"""Odd invocations: outputs that are not regular files (FIFOs, links), inputs that can be
+read only once (pipes), link loops, empty names, closed standard streams, and files that
+never end. Each case once ended in exit 3, a hang, lost data or a replaced device."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import pytest
+from conftest import run_imucal as _run_imucal
+
+from imucal import loaders
+from imucal.errors import InputError
+from imucal.sensor_map import read_sensor_map
+
+
+def run_imucal(*args, **kwargs):
+    return _run_imucal(*args, text=True, **kwargs)
+
+
+SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5"
+AXIS = ("axis", SAMPLE, "--sensors", "thigh,shank", "--seed", 1, "--restarts", 5, "-q")
+
+
+def _feed(data: bytes) -> str:
+    """A path that reads ``data`` once, as a shell's ``<(...)`` does (/dev/fd/N of a pipe
+    whose writer closes at the end)."""
+    read, write = os.pipe()
+
+    def writer():
+        with os.fdopen(write, "wb") as fh:
+            try:
+                fh.write(data)
+            except BrokenPipeError:
+                pass
+    threading.Thread(target=writer, daemon=True).start()
+    return f"/dev/fd/{read}"
+
+
+def _reader(path: Path, box: list) -> threading.Thread:
+    def read():
+        with open(path, "rb") as fh:
+            box.append(fh.read())
+    thread = threading.Thread(target=read, daemon=True)
+    thread.start()
+    return thread
+
+
+@pytest.mark.skipif(not Path("/dev/fd").exists(), reason="needs /dev/fd (Linux, macOS)")
+@pytest.mark.parametrize("kind", ["h5", "csv"])
+def test_a_pipe_as_rec_is_read_once_and_whole(tmp_path, kind):
+    # every format's sniffer reopened the path: the first 8 KB were lost ("no sensor
+    # columns found" for CSV, "not an HDF5 file" for HDF5)
+    path = SAMPLE
+    if kind == "csv":
+        path = tmp_path / "c.csv"
+        assert run_imucal("convert", SAMPLE, path).returncode == 0
+    piped = run_imucal(*AXIS[:1], _feed(path.read_bytes()), *AXIS[2:])
+    assert piped.returncode == 0, piped.stderr
+    direct = run_imucal(*AXIS[:1], path, *AXIS[2:])
+    assert json.loads(piped.stdout)["j1"] == json.loads(direct.stdout)["j1"]
+
+
+def test_a_stream_without_an_end_is_refused_at_the_cap(monkeypatch):
+    monkeypatch.setattr(loaders, "MAX_STREAM_BYTES", 1000)
+    with pytest.raises(InputError, match="more than 0 GiB without an end"):
+        loaders.load_recording(_feed(b"time,a_gyr_x\n" + b"0,0\n" * 1000))
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
+def test_out_to_a_fifo_writes_through_it(tmp_path):
+    # --out renamed its temporary file over the target: a FIFO (or /dev/null, /dev/stdout
+    # when run as root) became a plain file, and a reader got nothing
+    fifo = tmp_path / "out.fifo"
+    os.mkfifo(fifo)
+    box: list = []
+    thread = _reader(fifo, box)
+    run = run_imucal(*AXIS, "--out", fifo)
+    thread.join(10)
+    assert run.returncode == 0, run.stderr
+    assert fifo.is_fifo()
+    assert json.loads(box[0])["command"] == "axis"
+
+
+def test_out_through_a_link_replaces_the_file_and_keeps_the_link(tmp_path):
+    target = tmp_path / "target.json"
+    target.write_text("old")
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    run = run_imucal(*AXIS, "--out", link)
+    assert run.returncode == 0, run.stderr
+    assert link.is_symlink()
+    assert json.loads(target.read_text())["command"] == "axis"
+
+
+def test_out_dash_is_stdout(tmp_path):
+    run = run_imucal(*AXIS, "--out", "-", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert json.loads(run.stdout)["command"] == "axis"
+    assert not (tmp_path / "-").exists()
+
+
+def test_out_name_at_the_file_system_limit(tmp_path):
+    # the hidden temporary name (".NAME.random.probe") went past 255 bytes: "folder is
+    # not writable"
+    out = tmp_path / ("N" * 250 + ".json")
+    run = run_imucal(*AXIS, "--out", out)
+    assert run.returncode == 0, run.stderr
+    assert json.loads(out.read_text())["command"] == "axis"
+
+
+def test_link_loops_and_empty_names_are_named(tmp_path):
+    loop = tmp_path / "loop.h5"
+    loop.symlink_to(loop)
+    for args in ((*AXIS[:1], loop, *AXIS[2:]), (*AXIS, "--map", loop),
+                 ("axis", loop, SAMPLE, "--out", tmp_path / "s.jsonl", "-q")):
+        run = run_imucal(*args)
+        assert run.returncode == 2, run.stderr  # was 3: RuntimeError from Path.resolve
+        assert "symbolic link loop" in run.stderr
+    run = run_imucal("axis", "")  # an unset "$f" read the current folder
+    assert run.returncode == 2
+    assert "'': empty file name" in run.stderr
+    run = run_imucal("axis", f"{SAMPLE}/")
+    assert run.returncode == 2
+    assert "is a file, not a folder" in run.stderr
+
+
+def test_map_files_that_are_not_maps(tmp_path):
+    big = tmp_path / "bigint.json"
+    big.write_text('{"thigh": ' + "9" * 5000 + "}")
+    deep = tmp_path / "deep.json"
+    deep.write_text('{"a": ' + "[" * 100_000 + "]" * 100_000 + "}")
+    for path in (big, deep):
+        with pytest.raises(InputError, match="invalid JSON"):  # was ValueError, RecursionError
+            read_sensor_map(path)
+    # a stream has no size to check first: /dev/zero was read until memory ran out
+    with pytest.raises(InputError, match="too large for a sensor map"):
+        read_sensor_map(_feed(b"a = b\n" * 400_000))
+    with pytest.raises(InputError, match="not standard input"):
+        read_sensor_map("-")
+
+
+def test_calibration_from_stdin_is_named():
+    run = run_imucal("angles", SAMPLE, "-c", "-")
+    assert run.returncode == 2
+    assert "not standard input" in run.stderr
+
+
+def test_stdin_on_a_terminal_is_refused(monkeypatch):
+    class Terminal:
+        def isatty(self):
+            return True
+
+        def read(self, *args):  # a real terminal waits here for typed input
+            return b""
+
+    monkeypatch.setattr(sys, "stdin", type("Stdin", (), {"buffer": Terminal()})())
+    with pytest.raises(InputError, match="standard input is a terminal"):
+        loaders.load_recording("-")
+
+
+def test_usage_errors_and_figure_names_are_one_clear_line():
+    run = run_imucal("calibrate", SAMPLE, "--joint", "kn\nee=hinge:thigh,shank")
+    assert run.returncode == 2
+    assert len(run.stderr.strip().splitlines()) == 1
+    run = run_imucal(*AXIS, "--plot", ".png")
+    assert run.returncode == 2
+    assert "give the figure a name before its extension" in run.stderr
+
+
+def _process(*args, **popen):
+    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
+                          capture_output=True, timeout=120, **popen)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="closes descriptors in the child")
+def test_closed_standard_streams():
+    # stdout closed (>&-): exit 3 from writing to None; now one line and exit 2
+    run = _process(*AXIS, stdout=None, preexec_fn=lambda: os.close(1))
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.decode().count("\n") == 1
+    assert "standard output is closed" in run.stderr.decode()
+    # stderr closed (2>&-): the summary and warnings went to stdout, into the JSON
+    run = subprocess.run([sys.executable, "-m", "imucal", *map(str, AXIS[:-1])],
+                         stdout=subprocess.PIPE, preexec_fn=lambda: os.close(2), timeout=120)
+    assert run.returncode == 0
+    assert json.loads(run.stdout)["command"] == "axis"
+
+
+@pytest.mark.skipif(os.name != "posix", reason="removes the working folder")
+def test_a_deleted_working_folder_is_named(tmp_path):
+    gone = tmp_path / "gone"
+    gone.mkdir()
+
+    def enter_and_remove():
+        os.chdir(gone)
+        os.rmdir(gone)
+    run = _process(*AXIS, "--out", "x.json", preexec_fn=enter_and_remove)
+    assert run.returncode == 2
+    assert "the current folder no longer exists" in run.stderr.decode()
