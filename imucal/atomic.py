@@ -11,8 +11,10 @@ from __future__ import annotations
 import errno
 import io
 import os
+import re
 import shutil
 import stat
+import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -24,7 +26,14 @@ from .signals import held
 def check_writable(path: str | Path) -> Path:
     """Fail early (before any computation) when ``path`` cannot be written."""
     path = Path(path)
+    fd = descriptor_of(path)
+    if fd is not None:
+        if not _writable_descriptor(fd):
+            raise InputError(f"{path}: descriptor {fd} is not open for writing")
+        return path
     if _through(path):
+        if stat.S_ISBLK(os.stat(path).st_mode):
+            raise InputError(f"{path}: is a block device (a disk); give a file name")
         if not os.access(path, os.W_OK):
             raise InputError(f"{path}: cannot write to it (permission denied)")
         return path  # (not opened here: a FIFO would wait for its reader)
@@ -64,11 +73,44 @@ def _target(path: Path) -> Path:
     return Path(os.path.realpath(path)) if os.path.islink(path) else path
 
 
+def descriptor_of(path: Path) -> int | None:
+    """The descriptor N that ``path`` names (``/dev/stdout``, ``/dev/fd/N``,
+    ``/proc/self/fd/N``, links to them), else None. Such a target is written through that
+    very descriptor: it shares the shell's file position, so what the shell writes before
+    and after (``{ echo H; imucal ... -o /dev/stdout; } > f``, ``> log 2>&1``) stays in
+    order; a file opened anew would write over it."""
+    p = os.path.abspath(path)
+    for _ in range(40):  # the kernel's own limit on links followed
+        match = _FD_PATH.match(p)
+        if match and match["pid"] in (None, "self", str(os.getpid())):
+            return int(match["fd"])
+        if not os.path.islink(p):
+            return None
+        p = os.path.normpath(os.path.join(os.path.dirname(p), os.readlink(p)))
+    return None
+
+
+_FD_PATH = re.compile(r"^/(?:dev|proc/(?P<pid>self|\d+))/fd/(?P<fd>\d+)$")
+
+
+def _writable_descriptor(fd: int) -> bool:
+    try:
+        import fcntl
+    except ImportError:  # (no descriptor paths without it)
+        return False
+    try:
+        mode = fcntl.fcntl(fd, fcntl.F_GETFL) & os.O_ACCMODE
+    except OSError:
+        return False
+    return mode in (os.O_WRONLY, os.O_RDWR)
+
+
 def _through(path: Path) -> bool:
-    """Whether ``path`` is written through rather than replaced: an existing file that is
-    not a regular one (a device, a FIFO, a terminal), or a regular file reached through
-    /proc's descriptor links (``/dev/stdout`` redirected to a file: the shell opened it,
-    perhaps to append)."""
+    """Whether ``path`` is written through rather than replaced: a descriptor
+    (:func:`descriptor_of`), an existing file that is not a regular one (a device, a FIFO,
+    a terminal), or a regular file another process holds open (``/proc/PID/fd/N``)."""
+    if descriptor_of(path) is not None:
+        return True
     try:
         st = os.stat(path)
     except (OSError, ValueError):
@@ -139,22 +181,35 @@ def _suffix(path: Path) -> str:
 
 
 def _write_through(path: Path, write: Callable[[Path], None]) -> None:
-    """Write a device, FIFO or descriptor link: the whole output is made in a temporary
-    file first (writers need a file name, and a failure then writes nothing), then copied
-    in (appended: a shell's ``>>`` keeps what was there)."""
+    """Write a descriptor, device or FIFO: the whole output is made in a temporary file
+    first (writers need a file name, and a failure then writes nothing), then copied in:
+    through the descriptor itself where ``path`` names one (:func:`descriptor_of`), else
+    through ``path`` opened for writing."""
     tmp = None
     try:
-        with held():
-            fd, name = tempfile.mkstemp(prefix=".imucal.", suffix=_suffix(path))
-            tmp = Path(name)
-            os.close(fd)
-        write(tmp)
-        with open(tmp, "rb") as src, open(path, "ab") as dst:
-            shutil.copyfileobj(src, dst)
-    except BaseException as err:
-        if isinstance(err, OSError):
-            raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
-        raise
+        try:
+            with held():
+                fd, name = tempfile.mkstemp(prefix=".imucal.", suffix=_suffix(path))
+                tmp = Path(name)
+                os.close(fd)
+            write(tmp)
+        except OSError as err:
+            raise InputError(f"{path}: cannot make the output in the temporary folder "
+                             f"'{tempfile.gettempdir()}' first ({err.strerror or err})"
+                             ) from None
+        descriptor = descriptor_of(path)
+        if descriptor is not None:
+            if descriptor == 1:
+                sys.stdout.flush()  # what the command printed there comes first
+            target = os.fdopen(os.dup(descriptor), "wb")  # the same file position
+        else:
+            target = open(path, "wb")  # closed by the with block below
+        with open(tmp, "rb") as src, target:
+            shutil.copyfileobj(src, target)
+    except BrokenPipeError:
+        raise  # the reader stopped: the command line's SIGPIPE exit, as for stdout
+    except OSError as err:
+        raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
     finally:
         if tmp is not None:
             tmp.unlink(missing_ok=True)
@@ -169,10 +224,13 @@ def write_hdf5_atomic(path: str | Path, fill: Callable) -> None:
     """
     import h5py
 
-    buffer = io.BytesIO()
-    with h5py.File(buffer, "w", track_order=True) as h5:
-        fill(h5)
-    data = buffer.getvalue()
+    try:
+        buffer = io.BytesIO()
+        with h5py.File(buffer, "w", track_order=True) as h5:
+            fill(h5)
+        data = buffer.getvalue()
+    except MemoryError:
+        raise InputError(f"{path}: not enough memory to build the HDF5 file") from None
     write_atomic(path, lambda tmp: tmp.write_bytes(data))
 
 

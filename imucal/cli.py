@@ -973,7 +973,17 @@ class _ClosedStdout:
 def _closed_streams() -> None:
     """With standard error closed (``2>&-``), messages are dropped: ``print`` to a
     missing sys.stderr writes to stdout, into the JSON or CSV. With standard output
-    closed, writing data to it is an error (:class:`_ClosedStdout`)."""
+    closed, writing data to it is an error (:class:`_ClosedStdout`). A closed descriptor
+    0, 1 or 2 is held by /dev/null: the next file opened would get it, and what a library
+    or a worker process writes to 1 or 2 would land in that file."""
+    for fd in (0, 1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            spare = os.open(os.devnull, os.O_RDWR)  # the lowest free descriptor: fd
+            if spare != fd:
+                os.dup2(spare, fd)
+                os.close(spare)
     if sys.stderr is None:
         sys.stderr = open(os.devnull, "w")  # for the rest of the process
     if sys.stdout is None:
@@ -1021,6 +1031,9 @@ def main() -> None:
     except Exception as err:
         # Usage errors (unknown option, unparsable value, missing argument) come from the
         # click layer typer builds on; they carry exit_code 2 and format_message().
+        if isinstance(err, OSError):  # e.g. --help with standard output closed
+            _err(one_line(f"imucal: error: {err.strerror or err}"))
+            sys.exit(2)
         if getattr(err, "exit_code", None) != 2 or not hasattr(err, "format_message"):
             raise
         if type(err).__name__ == "NoArgsIsHelpError":

@@ -342,6 +342,9 @@ def _is_stream(path, source: str) -> bool:
 def _read_stream(path, source: str) -> bytes:
     try:
         with open(path, "rb") as fh:
+            if fh.isatty():  # /dev/stdin or /dev/tty on a terminal: it would wait
+                raise InputError(f"{source}: is a terminal; pipe a recording in or give "
+                                 "its file name")
             data = _read_capped(fh, source)
     except OSError as err:
         raise InputError(f"{source}: cannot read file ({err.strerror or err})") from None
@@ -350,15 +353,32 @@ def _read_stream(path, source: str) -> bytes:
     return data
 
 
+#: Bytes per read of a stream: a read of the whole allowance at once reserves it first.
+STREAM_CHUNK = 1 << 20
+
+
 def _read_capped(stream, source: str) -> bytes:
-    """All of ``stream``, InputError beyond ``MAX_STREAM_BYTES`` or memory."""
+    """All of ``stream``, in chunks, InputError beyond ``MAX_STREAM_BYTES`` or memory."""
     try:
-        data = stream.read(MAX_STREAM_BYTES + 1)
+        os.set_blocking(stream.fileno(), True)  # a non-blocking pipe read as empty
+    except (AttributeError, OSError, ValueError, io.UnsupportedOperation):
+        pass
+    chunks, size = [], 0
+    try:
+        while size <= MAX_STREAM_BYTES:
+            chunk = stream.read(min(STREAM_CHUNK, MAX_STREAM_BYTES + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        data = b"".join(chunks)
     except MemoryError:
         raise InputError(f"{source}: too large to load into memory") from None
-    if len(data) > MAX_STREAM_BYTES:
-        raise InputError(f"{source}: more than {MAX_STREAM_BYTES >> 30} GiB without an end; "
-                         "save the recording to a file and give its name")
+    if size > MAX_STREAM_BYTES:
+        cap = (f"{MAX_STREAM_BYTES >> 30} GiB" if MAX_STREAM_BYTES >= 1 << 30
+               else f"{MAX_STREAM_BYTES} bytes")
+        raise InputError(f"{source}: more than {cap} without an end; save the recording to "
+                         "a file and give its name")
     return data
 
 

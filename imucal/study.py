@@ -163,6 +163,10 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
         check_not_inputs([("--out", out)], files + ([sensor_map] if sensor_map else []))
         check_writable(out)
     if scheduler is not None:
+        if _descriptor_paths(files):
+            raise InputError(f"{_descriptor_paths(files)[0]}: a pipe of this command "
+                             "(<(...), /dev/fd/N) cannot be read on a cluster; save the "
+                             "recording to a file the workers see")
         from .cluster import connect
 
         client = connect(scheduler)
@@ -171,6 +175,12 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
     else:
         client = None
         jobs = resolve_jobs(jobs, len(files))
+        if jobs > 1 and _descriptor_paths(files):
+            # (a worker process has no such descriptor: it read "no such file")
+            jobs = 1
+            if not quiet:
+                _err(f"imucal {command}: {_descriptor_paths(files)[0]} is a pipe of this "
+                     "command (<(...), /dev/fd/N): the recordings run in this process")
         where = f"with {jobs} process{'es' if jobs > 1 else ''}"
     progress = _Progress(len(files), f"imucal {command}",
                          enabled=not quiet and _is_terminal(sys.stderr))
@@ -549,6 +559,14 @@ def _is_terminal(stream) -> bool:
 def _short(names: list[str], limit: int = 3) -> str:
     more = f" and {len(names) - limit} more" if len(names) > limit else ""
     return ", ".join(names[:limit]) + more
+
+
+def _descriptor_paths(files) -> list[str]:
+    """The RECs that name a descriptor of this process (/dev/fd/N, /dev/stdin, <(...)):
+    another process cannot open them."""
+    from .atomic import descriptor_of
+
+    return [str(f) for f in files if str(f) != "-" and descriptor_of(f) is not None]
 
 
 def _err(text: str) -> None:

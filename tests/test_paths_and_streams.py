@@ -4,6 +4,7 @@ never end. Each case once ended in exit 3, a hang, lost data or a replaced devic
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import subprocess
@@ -27,19 +28,25 @@ SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5"
 AXIS = ("axis", SAMPLE, "--sensors", "thigh,shank", "--seed", 1, "--restarts", 5, "-q")
 
 
-def _feed(data: bytes) -> str:
+@contextlib.contextmanager
+def _feed(data: bytes):
     """A path that reads ``data`` once, as a shell's ``<(...)`` does (/dev/fd/N of a pipe
-    whose writer closes at the end)."""
+    whose writer closes at the end); the pipe is closed, and its writer ended, on exit."""
     read, write = os.pipe()
 
     def writer():
         with os.fdopen(write, "wb") as fh:
             try:
                 fh.write(data)
-            except BrokenPipeError:
+            except BrokenPipeError:  # the reader stopped early (and closed below)
                 pass
-    threading.Thread(target=writer, daemon=True).start()
-    return f"/dev/fd/{read}"
+    thread = threading.Thread(target=writer, daemon=True)
+    thread.start()
+    try:
+        yield f"/dev/fd/{read}"
+    finally:
+        os.close(read)
+        thread.join(10)
 
 
 def _reader(path: Path, box: list) -> threading.Thread:
@@ -60,16 +67,24 @@ def test_a_pipe_as_rec_is_read_once_and_whole(tmp_path, kind):
     if kind == "csv":
         path = tmp_path / "c.csv"
         assert run_imucal("convert", SAMPLE, path).returncode == 0
-    piped = run_imucal(*AXIS[:1], _feed(path.read_bytes()), *AXIS[2:])
+    with _feed(path.read_bytes()) as piped_path:
+        piped = run_imucal(*AXIS[:1], piped_path, *AXIS[2:])
     assert piped.returncode == 0, piped.stderr
     direct = run_imucal(*AXIS[:1], path, *AXIS[2:])
     assert json.loads(piped.stdout)["j1"] == json.loads(direct.stdout)["j1"]
 
 
 def test_a_stream_without_an_end_is_refused_at_the_cap(monkeypatch):
-    monkeypatch.setattr(loaders, "MAX_STREAM_BYTES", 1000)
-    with pytest.raises(InputError, match="more than 0 GiB without an end"):
-        loaders.load_recording(_feed(b"time,a_gyr_x\n" + b"0,0\n" * 1000))
+    # read in chunks: one read of the whole allowance reserved 4 GiB before reading
+    # anything (a small pipe failed under a 3 GB memory limit)
+    monkeypatch.setattr(loaders, "MAX_STREAM_BYTES", 10_000)
+    monkeypatch.setattr(loaders, "STREAM_CHUNK", 1000)
+    with _feed(b"time,a_gyr_x\n" + b"0,0\n" * 100_000) as path:
+        with pytest.raises(InputError, match="more than 10000 bytes without an end"):
+            loaders.load_recording(path)
+    with _feed(SAMPLE.read_bytes()[:9000]) as path:  # under the cap: read whole
+        with pytest.raises(InputError, match="truncated HDF5"):
+            loaders.load_recording(path)
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
@@ -139,8 +154,9 @@ def test_map_files_that_are_not_maps(tmp_path):
         with pytest.raises(InputError, match="invalid JSON"):  # was ValueError, RecursionError
             read_sensor_map(path)
     # a stream has no size to check first: /dev/zero was read until memory ran out
-    with pytest.raises(InputError, match="too large for a sensor map"):
-        read_sensor_map(_feed(b"a = b\n" * 400_000))
+    with _feed(b"a = b\n" * 400_000) as path:
+        with pytest.raises(InputError, match="too large for a sensor map"):
+            read_sensor_map(path)
     with pytest.raises(InputError, match="not standard input"):
         read_sensor_map("-")
 
@@ -174,22 +190,38 @@ def test_usage_errors_and_figure_names_are_one_clear_line():
 
 
 def _process(*args, **popen):
+    popen.setdefault("stdout", subprocess.PIPE)
     return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
-                          capture_output=True, timeout=120, **popen)
+                          stderr=subprocess.PIPE, timeout=120, **popen)
 
 
 @pytest.mark.skipif(os.name != "posix", reason="closes descriptors in the child")
 def test_closed_standard_streams():
-    # stdout closed (>&-): exit 3 from writing to None; now one line and exit 2
-    run = _process(*AXIS, stdout=None, preexec_fn=lambda: os.close(1))
-    assert run.returncode == 2, run.stderr
-    assert run.stderr.decode().count("\n") == 1
-    assert "standard output is closed" in run.stderr.decode()
+    # stdout closed (>&-): exit 3 from writing to None (and a traceback for --help);
+    # now one line and exit 2
+    for args in (AXIS, ("--help",)):
+        run = _process(*args, stdout=None, preexec_fn=lambda: os.close(1))
+        assert run.returncode == 2, run.stderr
+        assert run.stderr.decode().count("\n") == 1
+        assert "standard output is closed" in run.stderr.decode()
     # stderr closed (2>&-): the summary and warnings went to stdout, into the JSON
     run = subprocess.run([sys.executable, "-m", "imucal", *map(str, AXIS[:-1])],
                          stdout=subprocess.PIPE, preexec_fn=lambda: os.close(2), timeout=120)
     assert run.returncode == 0
     assert json.loads(run.stdout)["command"] == "axis"
+
+
+@pytest.mark.skipif(not Path("/dev/fd/1").exists(), reason="needs /dev/fd")
+def test_out_to_a_descriptor_keeps_the_shells_order(tmp_path):
+    # --out /dev/fd/1 (or /dev/stdout) reopened the file: what the shell wrote next went
+    # over the start of the JSON; it now writes through the descriptor itself
+    log = tmp_path / "log.txt"
+    command = " ".join(f"'{a}'" for a in (sys.executable, "-m", "imucal", *AXIS))
+    script = f"{{ echo H; {command} --out /dev/fd/1; echo T; }} > '{log}'"
+    assert subprocess.run(["sh", "-c", script], timeout=120).returncode == 0
+    text = log.read_text()
+    assert text.startswith("H\n{") and text.endswith("}\nT\n")
+    assert json.loads(text[2:-2])["command"] == "axis"
 
 
 @pytest.mark.skipif(os.name != "posix", reason="removes the working folder")
@@ -203,3 +235,15 @@ def test_a_deleted_working_folder_is_named(tmp_path):
     run = _process(*AXIS, "--out", "x.json", preexec_fn=enter_and_remove)
     assert run.returncode == 2
     assert "the current folder no longer exists" in run.stderr.decode()
+
+
+@pytest.mark.skipif(not Path("/dev/fd").exists(), reason="needs /dev/fd (Linux, macOS)")
+def test_a_study_of_pipes_runs_in_this_process():
+    # worker processes have no such descriptor: each pipe read "no such file"
+    data = SAMPLE.read_bytes()
+    with _feed(data) as a, _feed(data) as b:
+        run = run_imucal("axis", a, b, *AXIS[2:-1], "--jobs", 2)
+    assert run.returncode == 0, run.stderr
+    lines = [json.loads(line) for line in run.stdout.splitlines()]
+    assert [line["exit_code"] for line in lines] == [0, 0]
+    assert "run in this process" in run.stderr
