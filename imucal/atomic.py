@@ -28,6 +28,9 @@ def check_writable(path: str | Path) -> Path:
     path = Path(path)
     fd = descriptor_of(path)
     if fd is not None:
+        if fd in CLOSED_AT_START:
+            raise InputError(f"{path}: descriptor {fd} was closed when imucal started "
+                             f"({fd}>&-): nothing can be written there")
         if not _writable_descriptor(fd):
             raise InputError(f"{path}: descriptor {fd} is not open for writing")
         return path
@@ -89,6 +92,11 @@ def descriptor_of(path: Path) -> int | None:
         p = os.path.normpath(os.path.join(os.path.dirname(p), os.readlink(p)))
     return None
 
+
+#: Standard descriptors (0-2) that were closed when the command started and are held
+#: by /dev/null since (:func:`imucal.cli.main`): writing "through" them would lose the
+#: output without a word.
+CLOSED_AT_START: set[int] = set()
 
 _FD_PATH = re.compile(r"^/(?:dev|proc/(?P<pid>self|\d+))/fd/(?P<fd>\d+)$")
 

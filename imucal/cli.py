@@ -21,7 +21,13 @@ from typing import Annotated
 import typer
 
 from . import __version__
-from .atomic import check_not_inputs, check_writable, write_atomic, write_text_atomic
+from .atomic import (
+    CLOSED_AT_START,
+    check_not_inputs,
+    check_writable,
+    write_atomic,
+    write_text_atomic,
+)
 from .errors import ImucalError, InputError, NotIdentifiableError, one_line
 from .signals import raise_on_signals
 from .signals import report as report_interruption
@@ -980,6 +986,7 @@ def _closed_streams() -> None:
         try:
             os.fstat(fd)
         except OSError:
+            CLOSED_AT_START.add(fd)
             spare = os.open(os.devnull, os.O_RDWR)  # the lowest free descriptor: fd
             if spare != fd:
                 os.dup2(spare, fd)

@@ -139,7 +139,13 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
         # a pipe (<(...), /dev/stdin, a FIFO) or a device: it can be read only once, so
         # it is read whole and parsed as standard input is (each format's sniffing
         # reopened it, and lost what the one before had read)
-        parsed = _parse_bytes(_read_stream(path, source), source)
+        try:
+            parsed = _parse_bytes(_read_stream(path, source), source)
+        except InputError as err:
+            if "no sensor columns found" not in str(err):
+                raise
+            raise InputError(f"{err}; vendor exports are read from their file or folder, "
+                             "not through a pipe") from None
     else:
         path = Path(path)
         vendor = _vendor(path, source)

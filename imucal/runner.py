@@ -173,6 +173,8 @@ class Job:
         last sample.
     rate, gyr_units, acc_units : loading options for files that lack them (CSV).
     sensor_map : a ``--map`` file, or None.
+    sensor_map_pairs : the map's (key, name) pairs as read once by a study
+        (:func:`imucal.study.run_study`), or None: each recording reads ``sensor_map``.
     force : report a result the data cannot identify (with its warnings) instead of
         failing with exit code 1.
     trace : add every restart's cost per iteration to the document.
@@ -187,6 +189,7 @@ class Job:
     gyr_units: str | None = None
     acc_units: str | None = None
     sensor_map: Path | None = None
+    sensor_map_pairs: tuple[tuple[str, str], ...] | None = None
     force: bool = False
     trace: bool = False
 
@@ -330,7 +333,14 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
     command = COMMANDS[job.command]
     names = job.sensors
     recording = load_recording(file, rate=job.rate, gyr_units=job.gyr_units,
-                               acc_units=job.acc_units, names=job.sensor_map)
+                               acc_units=job.acc_units,
+                               names=None if job.sensor_map_pairs is not None
+                               else job.sensor_map)
+    if job.sensor_map_pairs is not None:
+        from .sensor_map import apply_sensor_map
+
+        recording = apply_sensor_map(recording, dict(job.sensor_map_pairs),
+                                     source=str(job.sensor_map))
     if command.process is not None:
         command.process(job, recording, outcome)
         return

@@ -30,7 +30,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .atomic import check_not_inputs, check_writable, write_atomic
@@ -158,7 +158,10 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
     if sensor_map is not None:  # a broken map is one error, not one per recording
         from .sensor_map import read_sensor_map
 
-        read_sensor_map(sensor_map)
+        # read once, here: every recording gets its content (a map given as a pipe,
+        # --map <(...), was empty for all but the first reader, and a cluster's workers
+        # need not see the file)
+        job = replace(job, sensor_map_pairs=tuple(read_sensor_map(sensor_map).items()))
     if out is not None:
         check_not_inputs([("--out", out)], files + ([sensor_map] if sensor_map else []))
         check_writable(out)

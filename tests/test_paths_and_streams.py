@@ -199,11 +199,12 @@ def _process(*args, **popen):
 def test_closed_standard_streams():
     # stdout closed (>&-): exit 3 from writing to None (and a traceback for --help);
     # now one line and exit 2
-    for args in (AXIS, ("--help",)):
+    for args in (AXIS, ("--help",), (*AXIS, "--out", "/dev/stdout")):
         run = _process(*args, stdout=None, preexec_fn=lambda: os.close(1))
         assert run.returncode == 2, run.stderr
         assert run.stderr.decode().count("\n") == 1
-        assert "standard output is closed" in run.stderr.decode()
+        # (through /dev/stdout the output went to /dev/null, held for the closed 1)
+        assert "closed" in run.stderr.decode()
     # stderr closed (2>&-): the summary and warnings went to stdout, into the JSON
     run = subprocess.run([sys.executable, "-m", "imucal", *map(str, AXIS[:-1])],
                          stdout=subprocess.PIPE, preexec_fn=lambda: os.close(2), timeout=120)
@@ -247,3 +248,21 @@ def test_a_study_of_pipes_runs_in_this_process():
     lines = [json.loads(line) for line in run.stdout.splitlines()]
     assert [line["exit_code"] for line in lines] == [0, 0]
     assert "run in this process" in run.stderr
+
+
+@pytest.mark.skipif(not Path("/dev/fd").exists(), reason="needs /dev/fd (Linux, macOS)")
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_study_reads_a_piped_map_once(jobs):
+    # each recording read the map again: from a pipe every one but the first found it
+    # empty (--jobs 1) or missing (--jobs 2)
+    text = b"thigh = upper\nshank = lower\nfoot = end\n"
+    with _feed(text) as path:
+        run = run_imucal("axis", SAMPLE, SAMPLE, "--sensors", "upper,lower", "--seed", 1,
+                         "--restarts", 5, "--map", path, "--jobs", jobs, "-q")
+    assert run.returncode == 0, run.stderr
+    lines = [json.loads(line) for line in run.stdout.splitlines()]
+    assert [line["exit_code"] for line in lines] == [0, 0]
+    with _feed(text) as path:
+        single = run_imucal("axis", SAMPLE, "--sensors", "upper,lower", "--seed", 1,
+                            "--restarts", 5, "--map", path, "-q")
+    assert lines[0]["result"]["j1"] == json.loads(single.stdout)["j1"]
