@@ -115,8 +115,8 @@ def _writable_descriptor(fd: int) -> bool:
 
 def _through(path: Path) -> bool:
     """Whether ``path`` is written through rather than replaced: a descriptor
-    (:func:`descriptor_of`), an existing file that is not a regular one (a device, a FIFO,
-    a terminal), or a regular file another process holds open (``/proc/PID/fd/N``)."""
+    (:func:`descriptor_of`), or an existing file that is not a regular one (a device, a
+    FIFO, a terminal)."""
     if descriptor_of(path) is not None:
         return True
     try:
@@ -125,18 +125,7 @@ def _through(path: Path) -> bool:
         return False  # missing (created) or unusable (named by check_writable)
     if stat.S_ISDIR(st.st_mode):
         return False
-    return not stat.S_ISREG(st.st_mode) or _via_proc(path)
-
-
-def _via_proc(path: Path) -> bool:
-    p = os.path.abspath(path)
-    for _ in range(40):  # the kernel's own limit on links followed
-        if os.path.realpath(os.path.dirname(p)).startswith("/proc/"):
-            return True
-        if not os.path.islink(p):
-            return False
-        p = os.path.join(os.path.realpath(os.path.dirname(p)), os.readlink(p))
-    return False
+    return not stat.S_ISREG(st.st_mode)
 
 
 def _prefix(path: Path) -> str:

@@ -139,13 +139,7 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
         # a pipe (<(...), /dev/stdin, a FIFO) or a device: it can be read only once, so
         # it is read whole and parsed as standard input is (each format's sniffing
         # reopened it, and lost what the one before had read)
-        try:
-            parsed = _parse_bytes(_read_stream(path, source), source)
-        except InputError as err:
-            if "no sensor columns found" not in str(err):
-                raise
-            raise InputError(f"{err}; vendor exports are read from their file or folder, "
-                             "not through a pipe") from None
+        parsed = _parse_bytes(_read_stream(path, source), source)
     else:
         path = Path(path)
         vendor = _vendor(path, source)
@@ -642,10 +636,11 @@ def _map_columns(header: list[str], source: str) -> dict:
             ignored.append(name)
 
     if not found:
-        # stdin carries imucal's own CSV only: a vendor export piped in read as a CSV
-        # whose columns were 'sep=', ''
+        # stdin and pipes carry imucal's own CSV only: a vendor export piped in read as a
+        # CSV whose columns were 'sep=', ''
         piped = ("; vendor exports are read from their file or folder, not from standard "
-                 "input" if source == "<stdin>" else "")
+                 "input or a pipe" if source == "<stdin>" or not os.path.isfile(source)
+                 else "")
         raise InputError(
             f"{source}: no sensor columns found; columns in the file: {_short_list(header)}; "
             f"expected {_EXPECTED_COLUMNS}{piped}"

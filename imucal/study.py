@@ -165,9 +165,10 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
     if out is not None:
         check_not_inputs([("--out", out)], files + ([sensor_map] if sensor_map else []))
         check_writable(out)
+    piped = _descriptor_paths(files)
     if scheduler is not None:
-        if _descriptor_paths(files):
-            raise InputError(f"{_descriptor_paths(files)[0]}: a pipe of this command "
+        if piped:
+            raise InputError(f"{piped[0]}: a pipe of this command "
                              "(<(...), /dev/fd/N) cannot be read on a cluster; save the "
                              "recording to a file the workers see")
         from .cluster import connect
@@ -178,11 +179,11 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
     else:
         client = None
         jobs = resolve_jobs(jobs, len(files))
-        if jobs > 1 and _descriptor_paths(files):
+        if jobs > 1 and piped:
             # (a worker process has no such descriptor: it read "no such file")
             jobs = 1
             if not quiet:
-                _err(f"imucal {command}: {_descriptor_paths(files)[0]} is a pipe of this "
+                _err(f"imucal {command}: {piped[0]} is a pipe of this "
                      "command (<(...), /dev/fd/N): the recordings run in this process")
         where = f"with {jobs} process{'es' if jobs > 1 else ''}"
     progress = _Progress(len(files), f"imucal {command}",
