@@ -407,6 +407,10 @@ def _worst(verdicts: list[str]) -> str:
 # ----------------------------------------------------------------------------- file
 
 
+#: Largest calibration file read, bytes (one of every joint of both legs: about 60 KB).
+MAX_FILE_BYTES = 10_000_000
+
+
 def load_calibration(path: str | Path) -> Calibration:
     """Read a calibration file written by :meth:`Calibration.write` (or ``imucal
     calibrate``). InputError naming the file for a missing file, a file that is not JSON
@@ -420,10 +424,19 @@ def load_calibration(path: str | Path) -> Calibration:
                          "or a loop)")
     if not path.exists():
         raise InputError(f"{path}: calibration file not found")
-    if not path.is_file():  # a folder, /dev/null, a pipe
+    if path.is_dir():
         raise InputError(f"{path}: not a calibration file (not a regular file)")
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        # read once, up to a limit: a pipe (-c <(...)) can be read only once, and a
+        # device has no size to check first (/dev/zero never ends)
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_FILE_BYTES + 1)
+        if not data:
+            raise InputError(f"{path}: not a calibration file (it is empty)")
+        if len(data) > MAX_FILE_BYTES:
+            raise InputError(f"{path}: not a calibration file (more than {MAX_FILE_BYTES} "
+                             "bytes; is it a recording?)")
+        doc = json.loads(data.decode("utf-8"))
     # ValueError: json's own errors, and integers of thousands of digits; RecursionError:
     # arrays nested a hundred thousand deep
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as err:

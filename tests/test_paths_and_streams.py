@@ -266,3 +266,17 @@ def test_a_study_reads_a_piped_map_once(jobs):
         single = run_imucal("axis", SAMPLE, "--sensors", "upper,lower", "--seed", 1,
                             "--restarts", 5, "--map", path, "-q")
     assert lines[0]["result"]["j1"] == json.loads(single.stdout)["j1"]
+
+
+@pytest.mark.skipif(not Path("/dev/fd").exists(), reason="needs /dev/fd (Linux, macOS)")
+def test_a_calibration_through_a_pipe(tmp_path):
+    # refused before ("not a regular file"), while REC and --map accept pipes
+    from imucal.calibration import load_calibration
+
+    cal = tmp_path / "cal.json"
+    assert run_imucal("calibrate", SAMPLE, "--seed", 1, "--restarts", 5, "-q",
+                      "--out", cal).returncode == 0
+    with _feed(cal.read_bytes()) as path:
+        assert set(load_calibration(path).joints) == set(load_calibration(cal).joints)
+    with _feed(b"") as path, pytest.raises(InputError, match="it is empty"):
+        load_calibration(path)
