@@ -95,18 +95,30 @@ PositionCutoff = Annotated[float | None, typer.Option(
 Subsample = Annotated[int | None, typer.Option(min=1, help="Use every k-th sample; default: all "
                                                "without a filter, else about 2.5 per cut-off "
                                                "period.", show_default=False)]
+def _output_file(value: str | Path) -> Path:
+    """An output file's name, checked as typed: ``pathlib.Path`` drops a trailing '/'
+    (``--out res/`` wrote a file named 'res') and typer turns '' into '.'."""
+    if isinstance(value, Path):
+        return value
+    if value == "":
+        raise typer.BadParameter("an empty file name; give a file name")
+    if value.endswith(("/", os.sep)):
+        raise typer.BadParameter(f"'{value}' names a folder (it ends in '/'); give a file name")
+    return Path(value)
+
+
 def _dash_is_stdout(value: Path | None) -> Path | None:
     """``--out -``: standard output, as a REC of ``-`` is standard input (it wrote a file
     named '-')."""
     return None if value is not None and str(value) == "-" else value
 
 
-Out = Annotated[Path | None, typer.Option("--out", "-o", help="Write the JSON here instead of "
-                                          "stdout (- : stdout).", show_default=False,
-                                          callback=_dash_is_stdout)]
-Plot = Annotated[Path | None, typer.Option(help="Write a convergence figure; the file "
-                                           "name's extension picks the format: .png, .pdf or "
-                                           ".svg.", show_default=False)]
+Out = Annotated[Path | None, typer.Option(
+    "--out", "-o", metavar="FILE", help="Write the JSON here instead of stdout (- : stdout).",
+    show_default=False, parser=_output_file, callback=_dash_is_stdout)]
+Plot = Annotated[Path | None, typer.Option(
+    metavar="FILE", help="Write a convergence figure; the file name's extension picks the "
+    "format: .png, .pdf or .svg.", show_default=False, parser=_output_file)]
 Trace = Annotated[bool, typer.Option(
     "--trace", help="Also write every restart's cost per iteration into the JSON "
     "(restarts[].cost_trace, refined_cost_trace); by default each restart is summarised.")]
@@ -300,8 +312,9 @@ def calibrate(
     time_offset: TimeOffset = "auto",
     acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     out: Annotated[Path | None, typer.Option(
-        "--out", "-o", help="Write the calibration file (JSON) here instead of stdout (- : "
-        "stdout).", show_default=False, callback=_dash_is_stdout)] = None,
+        "--out", "-o", metavar="FILE", help="Write the calibration file (JSON) here instead "
+        "of stdout (- : stdout).", show_default=False, parser=_output_file,
+        callback=_dash_is_stdout)] = None,
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
@@ -366,13 +379,15 @@ def angles(
         "--calibration", "-c", metavar="CAL.json", show_default=False,
         help="Calibration file written by imucal calibrate (same sensors, same mounting).")],
     out: Annotated[Path | None, typer.Option(
-        "--out", "-o", show_default=False, callback=_dash_is_stdout,
+        "--out", "-o", metavar="FILE", show_default=False, parser=_output_file,
+        callback=_dash_is_stdout,
         help="Write the table here instead of CSV on stdout (- : stdout): .csv, or .h5/.hdf5 (one "
         "dataset per column with its units and, for a joint, its sensors and frame as "
         "attributes; the JSON summary as the root attribute 'imucal').")] = None,
     plot: Annotated[Path | None, typer.Option(
-        show_default=False, help="Write the figure (flexion over time with its 2-sigma "
-        "band, gait cycles when walking): .png, .pdf or .svg.")] = None,
+        metavar="FILE", show_default=False, parser=_output_file, help="Write the figure "
+        "(flexion over time with its 2-sigma band, gait cycles when walking): .png, .pdf or "
+        ".svg.")] = None,
     reference: Annotated[str | None, typer.Option(
         metavar="standing|SECONDS", show_default=False,
         help="What 0 deg means. Default: the calibration's zero (its trial's most extended "
@@ -509,7 +524,7 @@ def _angles_summary(result, out) -> None:
 )
 def simulate(
     out: Annotated[Path, typer.Argument(
-        metavar="OUT", show_default=False,
+        metavar="OUT", show_default=False, parser=_output_file,
         help="Output recording, .h5, .hdf5 or .csv; the truth goes to OUT.truth.json beside it.",
     )],
     seed: Seed = None,
@@ -662,6 +677,7 @@ def info(
 def convert(
     rec: Rec,
     out: Annotated[Path, typer.Argument(metavar="OUT", show_default=False,
+                                        parser=_output_file,
                                         help="Output file, .h5/.hdf5 or .csv.")],
     rate: Rate = None,
     gyr_units: GyrUnits = None,

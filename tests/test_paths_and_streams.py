@@ -120,6 +120,21 @@ def test_out_dash_is_stdout(tmp_path):
     assert not (tmp_path / "-").exists()
 
 
+@pytest.mark.parametrize("args", [
+    (*AXIS, "--out", "res/"), (*AXIS, "--plot", "figs/"), (*AXIS, "--out", ""),
+    ("simulate", "sims/", "--duration", 2), ("convert", SAMPLE, "conv/"),
+])
+def test_an_output_named_as_a_folder_or_empty_is_refused(tmp_path, args):
+    # "--out res/" wrote a file named "res" (pathlib drops the slash), "--out ''" became
+    # "." ("is a folder")
+    run = run_imucal(*args, cwd=tmp_path)
+    assert run.returncode == 2
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1, run.stderr
+    assert ("ends in '/'" in lines[0]) or ("an empty file name" in lines[0]), lines[0]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_out_name_at_the_file_system_limit(tmp_path):
     # the hidden temporary name (".NAME.random.probe") went past 255 bytes: "folder is
     # not writable"
