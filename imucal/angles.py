@@ -26,6 +26,8 @@ the zero is an anatomical convention (docs/angles.md). The calibration and its f
 from __future__ import annotations
 
 import math
+import numbers
+import os
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -55,10 +57,14 @@ SMOOTHING_RANGE_S = (0.01, 600.0)
 def check_smoothing(smoothing_s) -> float:
     """``smoothing_s`` as a float within :data:`SMOOTHING_RANGE_S`, else InputError."""
     low, high = SMOOTHING_RANGE_S
+    if isinstance(smoothing_s, bool) or not isinstance(smoothing_s, numbers.Real):
+        raise InputError(f"smoothing_s must be a number of seconds, got {smoothing_s!r}")
     value = float(smoothing_s)
     if not low <= value <= high:
         raise InputError(f"smoothing_s must be from {low:g} to {high:g} s, got {value:g}")
     return value
+
+
 #: Ridge of the local-linear fit's slope, as a fraction of the kernel's sigma: a drift
 #: that is linear within the kernel is still followed to within 4 % of its slope.
 RIDGE = 0.2
@@ -705,12 +711,10 @@ class JointAngles:
         with its ``units``, ``description`` and, for a joint, ``joint``, ``sensors`` and
         ``frame`` attributes; the summary document as the root attribute ``imucal``),
         atomically."""
-        from pathlib import Path
-
-        from .atomic import write_atomic, write_hdf5_atomic
+        from .atomic import as_path, write_atomic, write_hdf5_atomic
         from .report import dumps
 
-        path = Path(path)
+        path = as_path(path, "an output file name")
         suffix = path.suffix.lower()
         frame = self.to_frame()
         if suffix == ".csv":
@@ -797,6 +801,13 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
     >>> walk.fits, list(walk.to_frame().columns)
     (True, ['time', 'knee_flexion_deg', 'knee_flexion_sigma_deg'])
     """
+    from .calibration import Calibration, check_recording
+
+    check_recording(recording)
+    if not isinstance(calibration, Calibration):
+        hint = (" (load it first: imucal.load_calibration(path))"
+                if isinstance(calibration, str | os.PathLike) else "")
+        raise InputError(f"expected a Calibration, got {type(calibration).__name__}{hint}")
     pinned = _check_sign(flexion_sign)
     if smoothing_s is not None:
         smoothing_s = check_smoothing(smoothing_s)

@@ -134,6 +134,16 @@ def _prefix(path: Path) -> str:
     return f".{path.name[:40]}."
 
 
+def as_path(path, what: str = "a file name") -> Path:
+    """``path`` (str, bytes or os.PathLike) as a Path, else InputError: None or a number
+    from a notebook failed as a TypeError deep inside."""
+    if isinstance(path, bytes):
+        path = os.fsdecode(path)
+    if not isinstance(path, str | os.PathLike):
+        raise InputError(f"expected {what} (str or pathlib.Path), got {type(path).__name__}")
+    return Path(path)
+
+
 def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
     """Call ``write(tmp)`` to create a temporary file beside ``path``, then rename it.
 
@@ -141,7 +151,7 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
     the usual umask-based permissions rather than tempfile's 0600. A target that is not a
     regular file is written through (:func:`_write_through`).
     """
-    path = Path(path)
+    path = as_path(path, "an output file name")
     if _through(path):
         _write_through(path, write)
         return
@@ -221,6 +231,7 @@ def write_hdf5_atomic(path: str | Path, fill: Callable) -> None:
     """
     import h5py
 
+    path = as_path(path, "an output file name")
     try:
         buffer = io.BytesIO()
         with h5py.File(buffer, "w", track_order=True) as h5:

@@ -365,7 +365,7 @@ def _check_acc(g1, acc1, acc2):
         raise InputError("give both acc1 and acc2, or neither")
     if acc1 is None:
         return None, None
-    acc1, acc2 = check_pair(acc1, acc2)
+    acc1, acc2 = check_pair(acc1, acc2, "acc")
     if acc1.shape != g1.shape:
         raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, "
                          f"{acc1.shape[0]})")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -308,7 +309,15 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     (['ankle', 'knee'], 'good')
     """
     from .angles import SMOOTHING_S, check_smoothing
+    from .settings import AxisSettings, CalibrateSettings
 
+    check_recording(recording)
+    # usage errors before any joint runs (each joint's estimate would stop on them, and
+    # they came back as joints marked `failed`); the window against the recording too
+    CalibrateSettings(restarts=restarts, seed=seed, time_offset=time_offset,
+                      acc_error=acc_error)
+    AxisSettings(start=start, end=end)
+    recording.window_slice(start, end)
     smoothing_s = check_smoothing(SMOOTHING_S if smoothing_s is None else smoothing_s)
     specs, notes = _joint_specs(recording, joints)
     out: dict[str, JointCalibration] = {}
@@ -335,6 +344,15 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
         sensors={n: dict(recording.sensor_info.get(n, {}), units_in_file=dict(
             recording.units.get(n, {}))) for n in used},
     )
+
+
+def check_recording(recording) -> None:
+    """InputError unless ``recording`` is a :class:`Recording` (a file name, say, failed
+    with an AttributeError deep inside)."""
+    if not isinstance(recording, Recording):
+        hint = (" (load it first: imucal.load_recording(path))"
+                if isinstance(recording, str | os.PathLike) else "")
+        raise InputError(f"expected a Recording, got {type(recording).__name__}{hint}")
 
 
 def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, time_offset,
@@ -415,6 +433,9 @@ def load_calibration(path: str | Path) -> Calibration:
     """Read a calibration file written by :meth:`Calibration.write` (or ``imucal
     calibrate``). InputError naming the file for a missing file, a file that is not JSON
     or not a calibration, another format version, or a joint without its vectors."""
+    from .atomic import as_path
+
+    path = as_path(path, "a calibration file name")
     if str(path) == "-":
         raise InputError("-: a calibration is read from a file, not standard input; save it "
                          "first (imucal calibrate REC -o cal.json)")

@@ -102,6 +102,10 @@ def load_recording(
     InputError
         One line naming the file and the problem, for every unusable input.
     """
+    if not isinstance(path, str):  # (a str keeps its trailing '/', which Path drops)
+        from .atomic import as_path
+
+        path = as_path(path, "a recording's file name")
     try:
         _check_given_rate(path, rate)
         recording = _load(path, rate=rate, gyr_units=gyr_units, acc_units=acc_units)

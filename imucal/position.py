@@ -323,8 +323,9 @@ def estimate_position(
         max_iterations=max_iterations, select=select, max_samples=max_samples, sign=sign,
         j2_sign=j2_sign, time_offset=time_offset, offset_search=offset_search,
         time_origin=time_origin, acc_error=acc_error)
+    axis = _check_axis(axis, s.joint)
     g1, g2 = check_pair(gyr1, gyr2)
-    a1, a2 = check_pair(acc1, acc2)
+    a1, a2 = check_pair(acc1, acc2, "acc")
     if g1.shape != a1.shape:
         raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, {a1.shape[0]})")
     rate = check_rate(rate)
@@ -381,6 +382,30 @@ def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> Positi
     # joint centre (docs/accuracy.md: 0 of 80 fits).
     return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate, s.offset_search), rate,
                            s.offset_search, _offset_moved, "mm", MAX_UNCERTAINTY_MM)
+
+
+def _check_axis(axis, joint: str):
+    """``axis`` as given (None or an :class:`AxisResult`) or as two finite non-zero
+    3-vectors (float arrays), else InputError: a usage error before any work (a wrong
+    shape failed deep inside numpy, a zero axis as "no restart produced a finite
+    result", a third vector was ignored)."""
+    if axis is None:
+        return None
+    if joint != "hinge":
+        raise InputError(f"an axis is given only for joint='hinge' (got joint='{joint}')")
+    if isinstance(axis, AxisResult):
+        return axis
+    try:
+        j = np.asarray(axis, dtype=np.float64)
+    except (ValueError, TypeError):
+        j = None
+    if j is None or j.shape != (2, 3):
+        raise InputError("axis must be an AxisResult or two 3-vectors (j1, j2), in the "
+                         "first and second sensor's frames")
+    norms = np.linalg.norm(j, axis=1)
+    if not (np.isfinite(j).all() and (norms > 0).all()):
+        raise InputError(f"axis must be two finite non-zero 3-vectors, got {j.tolist()}")
+    return j[0], j[1]
 
 
 def _axis_line(p: Prepared, s: PositionSettings, axis):

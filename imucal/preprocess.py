@@ -9,6 +9,7 @@ motion carry almost the same information. docs/method.md explains the choices.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
@@ -23,6 +24,7 @@ from .recording import (
     MAX_LIMB_RATE,
     MAX_RATE_HZ,
     MIN_RATE_HZ,
+    NONPHYSICAL,
     acc_scale_doubt,
 )
 from .selection import Selection
@@ -128,15 +130,39 @@ def resolve_subsample(rate: float, cutoff: float | None, subsample: int | None) 
     return step
 
 
-def check_pair(a, b) -> tuple[np.ndarray, np.ndarray]:
-    """Two sensors' (N, 3) arrays as finite float64 of equal length, else InputError."""
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
+def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
+    """Two sensors' (N, 3) arrays of ``kind`` ("gyr", rad/s, or "acc", m/s^2) as finite
+    float64 of equal length, else InputError.
+
+    Readings beyond :data:`imucal.recording.NONPHYSICAL` are refused with their sample:
+    passed straight to an estimator (a recording treats them as missing), one corrupt
+    1e20 reading overflowed the single-precision restarts into "no restart produced a
+    finite result"."""
+    arrays = []
     for name, arr in (("first", a), ("second", b)):
+        try:
+            arr = np.asarray(arr)
+        except (ValueError, TypeError):  # ragged lists
+            raise InputError(f"{name} sensor's data is not an (N, 3) array of numbers") from None
+        if arr.dtype.kind not in "iuf":
+            got = {"c": "complex numbers", "U": "text", "S": "text", "b": "booleans"}.get(
+                arr.dtype.kind, f"{arr.dtype} values")
+            raise InputError(f"{name} sensor's data must be real numbers, got {got}")
+        arr = arr.astype(np.float64)
         if arr.ndim != 2 or arr.shape[1] != 3:
             raise InputError(f"{name} sensor's data has shape {arr.shape}, expected (N, 3)")
         if not np.isfinite(arr).all():
             raise InputError(f"{name} sensor's data contains NaN or Inf")
+        big = np.flatnonzero((np.abs(arr) > NONPHYSICAL[kind]).any(axis=1))
+        if big.size:
+            unit = "rad/s" if kind == "gyr" else "m/s^2"
+            raise InputError(
+                f"{name} sensor's {kind}: {big.size} reading(s) beyond {NONPHYSICAL[kind]:g} "
+                f"{unit}, the first {np.abs(arr[big[0]]).max():.6g} at sample {big[0]}: not a "
+                "physical reading (a corrupt packet?); repair or drop it (a recording from "
+                "imucal.make_recording treats such readings as missing)")
+        arrays.append(arr)
+    a, b = arrays
     if a.shape != b.shape:
         raise InputError(f"sensors have different lengths ({a.shape[0]} and {b.shape[0]})")
     return a, b
@@ -144,6 +170,8 @@ def check_pair(a, b) -> tuple[np.ndarray, np.ndarray]:
 
 def check_rate(rate) -> float:
     """A sample rate in Hz within the plausible range of body-worn IMUs, else InputError."""
+    if isinstance(rate, bool) or not isinstance(rate, numbers.Real):
+        raise InputError(f"sample rate must be a positive number of Hz, got {rate!r}")
     rate = float(rate)
     if not np.isfinite(rate) or rate <= 0:
         raise InputError(f"sample rate must be a positive number of Hz, got {rate}")
@@ -344,6 +372,10 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *,
         second = tuple(None if x is None else shifted(x, rate, settings.time_offset)
                        for x in second)
     n_all = first[0].shape[0]
+    if n_all < min_samples:  # (before the filters: their derivative needs a few samples)
+        raise InputError(f"only {n_all} sample{'' if n_all == 1 else 's'} given; the {what} "
+                         f"needs at least {min_samples} (about {min_samples / rate:.1f} s of "
+                         "motion)")
     win = window_slice(n_all, rate, settings.start, settings.end)
     if settings.time_offset:
         # within the offset of either end the second sensor read at t + offset is no

@@ -14,6 +14,7 @@ which is what every estimator may assume.
 from __future__ import annotations
 
 import difflib
+import numbers
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -180,6 +181,25 @@ class Recording:
             )
         return used.sensors[name]
 
+    def window_slice(self, start: float | None = None, end: float | None = None) -> slice:
+        """The samples of the window ``[start, end)``, s on the recording's time axis
+        (None: its start / end); InputError naming the file for a window outside it."""
+        from .preprocess import window_slice
+
+        if start is None and end is None:
+            return slice(0, self.n_samples)
+        for what, value in (("start", start), ("end", end)):
+            if value is not None and (isinstance(value, bool)
+                                      or not isinstance(value, numbers.Real)):
+                raise InputError(f"{self.source}: window {what} must be a number of seconds, "
+                                 f"got {value!r}")
+        t0 = float(self.time[0])
+        try:
+            return window_slice(self.n_samples, self.rate, None if start is None else start - t0,
+                                None if end is None else end - t0, origin=t0)
+        except InputError as err:
+            raise InputError(f"{self.source}: {err}") from None
+
     def select(
         self,
         names,
@@ -219,21 +239,16 @@ class Recording:
             Finite data of the named sensors only, its ``warnings`` those that concern
             them (the file's ``notes``, repairs, units, stuck signals in the window).
         """
-        from .preprocess import window_slice
-
+        if isinstance(names, str):
+            names = [names]
         names = list(dict.fromkeys(self.resolve(name) for name in names))
+        if not names:
+            raise InputError(f"{self.source}: no sensor named; sensors in this recording: "
+                             f"{', '.join(self.sensors)}")
         data = {name: self._lookup(name) for name in names}
         n, rate, source = self.n_samples, self.rate, self.source
-        t0 = float(self.time[0])
-        if start is None and end is None:
-            w0, w1 = 0, n
-        else:
-            try:
-                win = window_slice(n, rate, None if start is None else start - t0,
-                                   None if end is None else end - t0, origin=t0)
-            except InputError as err:
-                raise InputError(f"{source}: {err}") from None
-            w0, w1 = win.start, win.stop
+        win = self.window_slice(start, end)
+        w0, w1 = win.start, win.stop
         arrays = {(name, kind): getattr(data[name], kind) for name in names
                   for kind in ("gyr", "acc")}
         gaps = {key: [g for g in self.gaps if (g.sensor, g.kind) == key] for key in arrays}
@@ -476,9 +491,17 @@ def make_recording(
     InputError
         With one line naming ``source`` and the problem.
     """
-    units = {_sensor_name(k): dict(v) for k, v in (units or {}).items()}
+    if not isinstance(sensors, Mapping):
+        raise InputError(f"{source}: sensors must be a mapping {{name: {{'gyr': array, "
+                         f"'acc': array}}}}, got {type(sensors).__name__}")
     if not sensors:
         raise InputError(f"{source}: no sensors found")
+    names = [_sensor_name(k) for k in sensors]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:  # (b"thigh" and "thigh": one replaced the other)
+        raise InputError(f"{source}: sensor '{twice[0]}' is given twice (under keys that "
+                         "differ only in type)")
+    units = _check_units_map(units, names, source)
 
     raw: dict[str, dict[str, np.ndarray]] = {}
     lengths = {}
@@ -538,6 +561,28 @@ def make_recording(
                   + _unit_warnings(finite, units) + _stuck_warnings(finite)),
         gaps=gaps, notes=tuple(notes), rate_from=rate_from,
     )
+
+
+def _check_units_map(units, names: list[str], source) -> dict[str, dict[str, str]]:
+    """``units`` as {sensor: {"gyr"/"acc": unit}}, every sensor one of ``names``, else
+    InputError: a misspelt sensor or kind ("Thigh", "gyro") left data in units it was not
+    in, silently."""
+    if units is None:
+        return {}
+    if not isinstance(units, Mapping) or not all(isinstance(v, Mapping)
+                                                 for v in units.values()):
+        raise InputError(f"{source}: units must be a mapping {{sensor: {{'gyr': unit, "
+                         f"'acc': unit}}}}, got {units!r:.80}")
+    out = {_sensor_name(k): dict(v) for k, v in units.items()}
+    for name, kinds in out.items():
+        if name not in names:
+            raise InputError(f"{source}: units given for sensor '{name}', which is not among "
+                             f"the sensors ({', '.join(names)})")
+        wrong = sorted(set(kinds) - {"gyr", "acc"}, key=str)
+        if wrong:
+            raise InputError(f"{source}: units of sensor '{name}': unknown kind '{wrong[0]}'; "
+                             "give 'gyr' and/or 'acc'")
+    return out
 
 
 def _nonphysical(arr: np.ndarray, name: str, kind: str) -> list[tuple]:

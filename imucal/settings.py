@@ -14,6 +14,7 @@ Example::
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import asdict, dataclass, fields
 
 from .errors import InputError
@@ -225,6 +226,8 @@ def check_time_offset(value) -> float | str:
         except ValueError:
             raise InputError(f"time offset must be auto or a number of seconds, got "
                              f"'{value}'") from None
+    if not _real(value):
+        raise InputError(f"time offset must be auto or a number of seconds, got {value!r}")
     value = float(value)
     if not math.isfinite(value) or abs(value) > MAX_TIME_OFFSET_S:
         raise InputError(f"time offset must be auto or a finite number of seconds within "
@@ -232,9 +235,15 @@ def check_time_offset(value) -> float | str:
     return value
 
 
+def _real(value) -> bool:
+    """A real number: Python's or numpy's (``np.int64(10)`` from a notebook's arrays),
+    never a bool."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
 def _check_int(settings, name: str, low: int, high: int | None = None) -> None:
     value = getattr(settings, name)
-    if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value):
+    if not _real(value) or not math.isfinite(value) or value != int(value):
         raise InputError(f"{name} must be a whole number, got {value!r}")
     if value < low:
         raise InputError(f"{name} must be at least {low}, got {value}")
@@ -246,7 +255,7 @@ def _check_int(settings, name: str, low: int, high: int | None = None) -> None:
 def _check_number(settings, name: str, *, low: float, high: float | None = None,
                   open_low: bool = False) -> None:
     value = getattr(settings, name)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+    if not _real(value) or not math.isfinite(value):
         raise InputError(f"{name} must be a finite number, got {value!r}")
     too_low = value <= low if open_low else value < low
     if too_low or (high is not None and value > high):

@@ -223,7 +223,7 @@ def test_rates_that_never_change_do_not_recurse_through_the_gyroscope_bias():
 def test_absurd_rates_end_in_one_line_without_numpy_warnings():
     # rates of 1e30 rad/s (a wrong scale): numpy printed a dozen overflow warnings, with
     # imucal's source lines, before the estimator's own "no restart produced a finite
-    # result"
+    # result"; now refused before any arithmetic, naming the first such sample
     import warnings
 
     from imucal import estimate_axis
@@ -233,7 +233,8 @@ def test_absurd_rates_end_in_one_line_without_numpy_warnings():
     rec, _ = simulate(seed=1, duration=5.0)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        with pytest.raises(ImucalError, match="no restart produced a finite result"):
+        with pytest.raises(ImucalError, match="beyond 100000 rad/s, the first .* at sample 0: "
+                           "not a physical reading"):
             estimate_axis(rec.sensor("thigh").gyr * 1e30, rec.sensor("shank").gyr * 1e30,
                           rate=rec.rate, restarts=5, seed=1)
     assert not [w for w in caught if issubclass(w.category, RuntimeWarning)]

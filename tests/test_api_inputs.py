@@ -1,0 +1,179 @@
+"""The Python API from a notebook: numpy scalars are numbers, and every wrong input is an
+InputError naming the problem (a fuzz of the public functions found TypeErrors,
+AttributeErrors and numpy's ValueErrors from deep inside, settings that came back as
+joints marked `failed`, units silently ignored and one sensor silently replacing
+another)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import imucal
+from imucal import InputError
+
+SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5"
+
+
+@pytest.fixture(scope="module")
+def rec():
+    return imucal.load_recording(SAMPLE)
+
+
+@pytest.fixture(scope="module")
+def pair(rec):
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    return th.gyr[:800], th.acc[:800], sh.gyr[:800], sh.acc[:800]
+
+
+@pytest.fixture(scope="module")
+def cal(rec):
+    return imucal.calibrate(rec, restarts=5, seed=1)
+
+
+def test_numpy_scalars_are_numbers(pair):
+    g1, _, g2, _ = pair
+    plain = imucal.estimate_axis(g1, g2, rate=100.0, restarts=5, seed=3, subset=0.5,
+                                 time_offset=0.0)
+    numpy = imucal.estimate_axis(g1, g2, rate=np.float32(100), restarts=np.int64(5),
+                                 seed=np.uint64(3), subset=np.float32(0.5),
+                                 time_offset=np.float64(0.0))
+    np.testing.assert_array_equal(numpy.j1, plain.j1)
+    assert numpy.verdict == plain.verdict
+    assert type(numpy.settings["restarts"]) is int and type(numpy.settings["seed"]) is int
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"restarts": float("nan")}, "restarts must be a whole number"),
+    ({"restarts": float("inf")}, "restarts must be a whole number"),
+    ({"seed": True}, "seed must be a whole number"),
+    ({"time_offset": None}, "time offset must be auto or a number"),
+    ({"rate": None}, "sample rate must be a positive number"),
+    ({"rate": "abc"}, "sample rate must be a positive number"),
+    ({"rate": np.array([100.0])}, "sample rate must be a positive number"),
+])
+def test_settings_of_the_wrong_type(pair, kwargs, message):
+    g1, _, g2, _ = pair
+    with pytest.raises(InputError, match=message):
+        imucal.estimate_axis(g1, g2, **{"rate": 100.0, **kwargs})
+
+
+@pytest.mark.parametrize("first, message", [
+    ("abc", "must be real numbers, got text"),
+    ({"x": 1}, "must be real numbers, got object"),
+    ([[1.0, 2.0, 3.0], [1.0, 2.0]] * 400, "is not an .N, 3. array of numbers"),
+    (None, "must be real numbers, got object"),
+])
+def test_data_that_are_not_arrays_of_numbers(pair, first, message):
+    _, _, g2, _ = pair
+    with pytest.raises(InputError, match=message):
+        imucal.estimate_axis(first, g2, rate=100.0)
+
+
+def test_complex_data_are_refused_not_cut_to_their_real_part(pair):
+    g1, _, g2, _ = pair
+    with pytest.raises(InputError, match="got complex numbers"):
+        imucal.estimate_axis(g1 + 1j, g2, rate=100.0)
+
+
+def test_a_corrupt_reading_is_named_by_its_sample(pair):
+    # 1e20 rad/s overflowed the single-precision restarts: "no restart produced a finite
+    # result"
+    g1, a1, g2, a2 = pair
+    bad = g1.copy()
+    bad[100] = 1e20
+    with pytest.raises(InputError, match=r"beyond 100000 rad/s, the first 1e\+20 at sample "
+                                         "100"):
+        imucal.estimate_axis(bad, g2, rate=100.0)
+    acc = a2.copy()
+    acc[7, 2] = -1e9
+    with pytest.raises(InputError, match=r"second sensor's acc: 1 reading\(s\) beyond 1e\+06 "
+                                         r"m/s\^2, the first 1e\+09 at sample 7"):
+        imucal.estimate_position(g1, a1, g2, acc, rate=100.0)
+
+
+def test_too_few_samples_for_a_joint_position(pair):
+    g1, a1, g2, a2 = pair
+    with pytest.raises(InputError, match="only 1 sample given; the joint position needs at "
+                                         "least 30"):
+        imucal.estimate_position(g1[:1], a1[:1], g2[:1], a2[:1], rate=100.0)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"joint": "hinge", "axis": (np.ones(2), np.ones(2))}, "two 3-vectors"),
+    ({"joint": "hinge", "axis": "x"}, "two 3-vectors"),
+    ({"joint": "hinge", "axis": np.ones((3, 3))}, "two 3-vectors"),
+    ({"joint": "hinge", "axis": np.zeros((2, 3))}, "finite non-zero"),
+    ({"joint": "hinge", "axis": ([0, 0, np.nan], [0, 0, 1])}, "finite non-zero"),
+    ({"axis": ([0, 0, 1], [0, 0, 1])}, "only for joint='hinge'"),
+])
+def test_a_given_axis_is_checked(pair, kwargs, message):
+    g1, a1, g2, a2 = pair
+    with pytest.raises(InputError, match=message):
+        imucal.estimate_position(g1, a1, g2, a2, rate=100.0, **kwargs)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"restarts": 0}, "restarts must be at least 1"),
+    ({"seed": -1}, "seed must be at least 0"),
+    ({"acc_error": -1.0}, r"acc_error must be in \[0, 5\]"),
+    ({"time_offset": "x"}, "time offset must be auto or a number"),
+    ({"start": 5.0, "end": 2.0}, "window end 2 s must be after its start 5 s"),
+    ({"start": 1000.0}, "window start 1000 s lies outside the recording"),
+    ({"smoothing_s": "abc"}, "smoothing_s must be a number of seconds"),
+])
+def test_calibrate_refuses_invalid_settings(rec, kwargs, message):
+    # they came back as a Calibration with every joint `failed`
+    with pytest.raises(InputError, match=message):
+        imucal.calibrate(rec, **kwargs)
+
+
+def test_objects_of_the_wrong_kind(rec, cal):
+    with pytest.raises(InputError, match=r"expected a Recording, got str \(load it first"):
+        imucal.calibrate(str(SAMPLE))
+    with pytest.raises(InputError, match="expected a Calibration, got NoneType"):
+        imucal.joint_angles(rec, None)
+    with pytest.raises(InputError, match=r"expected a Calibration, got str \(load it first"):
+        imucal.joint_angles(rec, "cal.json")
+    with pytest.raises(InputError, match="expected a Recording, got str"):
+        imucal.joint_angles(str(SAMPLE), cal)
+    with pytest.raises(InputError, match="smoothing_s must be a number of seconds"):
+        imucal.joint_angles(rec, cal, smoothing_s=[1])
+
+
+def test_make_recording_refuses_what_it_would_ignore(rec):
+    th = rec.sensor("thigh")
+    data = {"thigh": {"gyr": np.degrees(th.gyr), "acc": th.acc}}
+    with pytest.raises(InputError, match="units given for sensor 'Thigh', which is not"):
+        imucal.make_recording(data, rate=100.0, units={"Thigh": {"gyr": "deg/s"}})
+    with pytest.raises(InputError, match="unknown kind 'gyro'"):
+        imucal.make_recording(data, rate=100.0, units={"thigh": {"gyro": "deg/s"}})
+    with pytest.raises(InputError, match="units must be a mapping"):
+        imucal.make_recording(data, rate=100.0, units="deg/s")
+    with pytest.raises(InputError, match="sensor 'thigh' is given twice"):
+        imucal.make_recording({**data, b"thigh": data["thigh"]}, rate=100.0)
+    with pytest.raises(InputError, match="sensors must be a mapping"):
+        imucal.make_recording([th.gyr, th.acc], rate=100.0)
+    right = imucal.make_recording(data, rate=100.0, units={"thigh": {"gyr": "deg/s"}})
+    np.testing.assert_allclose(right.sensor("thigh").gyr, th.gyr)
+
+
+def test_select_and_paths_of_the_wrong_kind(rec, cal, tmp_path):
+    with pytest.raises(InputError, match="window start must be a number of seconds, got '1'"):
+        rec.select(["thigh"], "1")
+    with pytest.raises(InputError, match="no sensor named"):
+        rec.select([])
+    assert list(rec.select("thigh").sensors) == ["thigh"]
+    with pytest.raises(InputError, match="expected a recording's file name"):
+        imucal.load_recording(None)
+    assert imucal.load_recording(bytes(SAMPLE)).n_samples == rec.n_samples
+    with pytest.raises(InputError, match="expected a calibration file name"):
+        imucal.load_calibration(None)
+    with pytest.raises(InputError, match="expected an output file name"):
+        cal.write(None)
+    angles = imucal.joint_angles(rec, cal)
+    with pytest.raises(InputError, match="expected an output file name"):
+        angles.write(None)
+    assert list(tmp_path.iterdir()) == []
