@@ -806,6 +806,7 @@ class _HingeProblem:
         ``newton``: :meth:`normal` returns the exact Hessian where it is positive definite
         (see there); ``dtype``: precision of the element-wise work."""
         n = g1.shape[0]
+        self.n = n
         self.dtype = dtype
         self.newton = newton
         g1, g2 = g1.astype(dtype), g2.astype(dtype)

@@ -40,6 +40,11 @@ MIN_HESSIAN_EIGENVALUE = 1e-3
 #: Iteration limit of the cut-off sensitivity refits (:meth:`Stages.refit_each`): they
 #: start at the estimate, and a shift is only reported to a fraction of a degree or mm.
 SENSITIVITY_ITERATIONS = 10
+#: Restarts x samples one call of a problem's normal equations or cost works on at most:
+#: its work arrays grow with both (the joint position's 18 single-precision values per
+#: restart and sample), so 10 000 restarts of 3000 samples took 3.7 GB at once; beyond
+#: this size the restarts go through in blocks (100 restarts of 3000 samples: one).
+MAX_CELLS_PER_CALL = 1_000_000
 #: Entry (i, k) of a symmetric 3 x 3 matrix stored as its upper triangle (6,).
 SYMMETRIC = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
 
@@ -125,11 +130,11 @@ class Stages:
     Attributes
     ----------
     problem : ``(data, mask, dtype, newton) -> problem`` with ``normal(x, rows)`` and
-        ``cost(x, rows)`` for many restarts; ``data`` is a tuple of per-sample arrays
-        (first axis: samples), ``mask`` (R, N) 0/1 subset weights or None (all samples),
-        ``newton`` True for exact-Hessian steps where safe; it may offer
-        ``with_mask(mask)``, the same problem with other subset weights (no rebuilt
-        tables).
+        ``cost(x, rows)`` for many restarts and ``n``, its number of samples; ``data`` is
+        a tuple of per-sample arrays (first axis: samples), ``mask`` (R, N) 0/1 subset
+        weights or None (all samples), ``newton`` True for exact-Hessian steps where
+        safe; it may offer ``with_mask(mask)``, the same problem with other subset
+        weights (no rebuilt tables).
     retract : ``(x, step) -> x``: apply local steps (R, k) to states (R, s).
     distance : ``(x, y) -> d``: distance between states (units of ``agreement``).
     agreement : two restarts within this distance found the same estimate.
@@ -164,7 +169,9 @@ class Stages:
     def solve(self, problem, x0: np.ndarray, max_iterations: int,
               step_tolerance: float) -> BatchResult:
         """Batched Gauss-Newton / Newton on ``problem`` from every row of ``x0``."""
-        return gauss_newton(problem.normal, problem.cost, self.retract, x0,
+        block = max(1, MAX_CELLS_PER_CALL // max(1, problem.n))
+        return gauss_newton(in_blocks(problem.normal, block), in_blocks(problem.cost, block),
+                            self.retract, x0,
                             max_iterations=max_iterations, step_tolerance=step_tolerance,
                             cost_tolerance=self.cost_tolerance, max_step=self.max_step,
                             contraction=self.contraction)
@@ -190,6 +197,19 @@ class Stages:
         stacked = tuple(np.concatenate(parts) for parts in zip(*datasets, strict=True))
         return self.refit(stacked, own, np.repeat(x[None, :], len(datasets), axis=0),
                           max_iterations)
+
+
+def in_blocks(fn: Callable, block: int) -> Callable:
+    """``fn(x, rows)`` (a problem's ``normal`` or ``cost``) called on at most ``block``
+    restarts at a time, its results joined: the same values, bounded memory."""
+    def call(x, rows):
+        if x.shape[0] <= block:
+            return fn(x, rows)
+        parts = [fn(x[i:i + block], rows[i:i + block]) for i in range(0, x.shape[0], block)]
+        if isinstance(parts[0], tuple):
+            return tuple(np.concatenate(p) for p in zip(*parts, strict=True))
+        return np.concatenate(parts)
+    return call
 
 
 @dataclass

@@ -38,8 +38,9 @@ SUBSET_FRACTION = 0.5
 #: Default 1-sigma of an accelerometer's error at 1 g, m/s^2 (:class:`PositionSettings`):
 #: factory-calibrated MEMS accelerometers keep offsets of about 0.02-0.1 m/s^2.
 ACC_ERROR_M_S2 = 0.05
-#: Most restarts accepted: memory grows with restarts x samples (10 000 restarts of 3000
-#: samples: about 1 GB), and 100 already show whether the answer depends on the start.
+#: Most restarts accepted: memory grows with restarts x samples (10 000 restarts on the
+#: first 100 s of the shared real recording: peaks of 0.5 GB for the axis, 0.6 GB for the
+#: joint position), and 100 already show whether the answer depends on the start.
 MAX_RESTARTS = 10_000
 #: Largest ``acc_error`` accepted, m/s^2 (half of g: a larger number is a unit mistake).
 MAX_ACC_ERROR_M_S2 = 5.0

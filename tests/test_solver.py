@@ -272,3 +272,38 @@ def test_a_batch_of_repeated_rows_the_size_of_all_restarts_uses_their_own_subset
                            (_SpheroidalProblem(g, gd, a, g, gd, a[::-1].copy(), mask), x)):
         single = np.array([problem.cost(state[[r]], np.array([r]))[0] for r in rows])
         assert np.allclose(problem.cost(state[rows], rows), single, rtol=1e-12)
+
+
+def test_many_restarts_go_through_the_problem_in_blocks(monkeypatch):
+    """Beyond MAX_CELLS_PER_CALL restarts x samples a problem sees the restarts in blocks
+    (10 000 joint-position restarts of 3000 samples took 3.7 GB at once, now about 0.6):
+    no call is larger, and the estimate is the one of a single block, to the restarts'
+    single-precision rounding."""
+    import imucal.multistart as ms
+    from imucal import estimate_position
+    from imucal.position import _SpheroidalProblem
+
+    rec, _ = simulated(2)
+    sh, ft = rec.sensor("shank"), rec.sensor("foot")
+
+    def run():
+        return estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=rec.rate,
+                                 restarts=40, seed=4, time_offset=0)
+
+    cells = []
+    normal = _SpheroidalProblem.normal
+
+    def spy(self, x, rows):
+        cells.append(x.shape[0] * self.n)
+        return normal(self, x, rows)
+    monkeypatch.setattr(_SpheroidalProblem, "normal", spy)
+    whole = run()
+    assert max(cells) > 2 * 5000  # (the cap below splits the stages' calls)
+    cells.clear()
+    monkeypatch.setattr(ms, "MAX_CELLS_PER_CALL", 5000)
+    blocks = run()
+    assert max(cells) <= 5000
+    np.testing.assert_allclose(blocks.o1, whole.o1, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(blocks.o2, whole.o2, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(blocks.reached, whole.reached)
+    assert blocks.verdict == whole.verdict
