@@ -196,6 +196,14 @@ def _levenberg_marquardt(rows, jacobian, p: np.ndarray, tolerance: float) -> np.
             if converged:
                 break
         else:
+            # a step whose own model promises less than the convergence tolerance cannot
+            # be beaten by a more damped one (a shorter step promises less still): p sits
+            # at the minimum to that tolerance, as an accepted step that gained so little
+            # would say. Without this, a start at the minimum to rounding (the estimate)
+            # failed its step and raised the damping ten times over, one Jacobian each.
+            promised = -(grad @ step) - 0.5 * (step @ jtj @ step)
+            if promised < tolerance * cost:
+                break
             damping *= 10
             if damping > 1e8:
                 break
