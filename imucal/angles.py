@@ -735,6 +735,8 @@ class JointAngles:
 
 
 def _check_sign(flexion_sign) -> int | None:
+    if isinstance(flexion_sign, bool):  # (True == 1 read as "+")
+        raise InputError(f"flexion sign must be auto, + or -, got {flexion_sign!r}")
     if flexion_sign in ("auto", None):
         return None
     if flexion_sign in ("+", "-", 1, -1):
@@ -899,6 +901,8 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
         zero = {"method": method, "raw_deg": z, "time_s": t, "time_in": "this recording"}
     else:
         try:
+            if isinstance(reference, bool):  # (True read as 1 s)
+                raise TypeError
             t_ref = float(reference)
         except (TypeError, ValueError):
             raise InputError(f"reference must be None, 'standing' or a time in s, got "

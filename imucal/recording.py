@@ -807,7 +807,8 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
     if np.iscomplexobj(time):
         raise InputError(f"{source}: 'time' holds complex numbers; expected seconds")
     try:
-        time = np.asarray(time, dtype=np.float64).reshape(-1)
+        # a copy: the recording must not change when the caller's array does later
+        time = np.array(time, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError, OverflowError):
         raise InputError(f"{source}: 'time' is not numeric") from None
     if time.shape[0] != n:

@@ -17,6 +17,8 @@ import math
 import numbers
 from dataclasses import asdict, dataclass, fields
 
+import numpy as np
+
 from .errors import InputError
 from .selection import MAX_SAMPLES
 
@@ -124,6 +126,9 @@ class AxisSettings:
             if getattr(self, name) not in SIGNS:
                 raise InputError(f"{name} must be one of {', '.join(SIGNS)}, got "
                                  f"'{getattr(self, name)}'")
+        if not isinstance(self.select, bool | np.bool_):
+            # (bool("no") is True: a string left the selection on)
+            raise InputError(f"select must be True or False, got {self.select!r}")
         object.__setattr__(self, "select", bool(self.select))
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
 

@@ -177,3 +177,25 @@ def test_select_and_paths_of_the_wrong_kind(rec, cal, tmp_path):
     with pytest.raises(InputError, match="expected an output file name"):
         angles.write(None)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_values_that_python_reads_as_true_are_not_settings(pair, rec, cal):
+    # bool("no") is True (the selection stayed on); True == 1 read as flexion "+" and as
+    # a reference time of 1 s
+    g1, _, g2, _ = pair
+    with pytest.raises(InputError, match="select must be True or False, got 'no'"):
+        imucal.estimate_axis(g1, g2, rate=100.0, select="no")
+    with pytest.raises(InputError, match="flexion sign must be auto, . or -, got True"):
+        imucal.joint_angles(rec, cal, flexion_sign=True)
+    with pytest.raises(InputError, match="reference must be None, 'standing' or a time"):
+        imucal.joint_angles(rec, cal, reference=True)
+    assert imucal.estimate_axis(g1, g2, rate=100.0, restarts=3, seed=1,
+                                select=np.bool_(False)).settings["select"] is False
+
+
+def test_a_recording_keeps_its_own_time_axis(rec):
+    th = rec.sensor("thigh")
+    time = np.arange(th.gyr.shape[0]) / 100.0
+    made = imucal.make_recording({"thigh": {"gyr": th.gyr, "acc": th.acc}}, time=time)
+    time += 50.0  # the caller's array, changed later
+    assert made.time[0] == 0.0
