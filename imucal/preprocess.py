@@ -24,8 +24,9 @@ from .recording import (
     MAX_LIMB_RATE,
     MAX_RATE_HZ,
     MIN_RATE_HZ,
-    NONPHYSICAL,
+    SENSOR_RANGE,
     acc_scale_doubt,
+    corrupt_readings,
 )
 from .selection import Selection
 from .selection import select as select_samples
@@ -134,10 +135,11 @@ def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
     """Two sensors' (N, 3) arrays of ``kind`` ("gyr", rad/s, or "acc", m/s^2) as finite
     float64 of equal length, else InputError.
 
-    Readings beyond :data:`imucal.recording.NONPHYSICAL` are refused with their sample:
-    passed straight to an estimator (a recording treats them as missing), one corrupt
-    1e20 reading overflowed the single-precision restarts into "no restart produced a
-    finite result"."""
+    Readings that are no measurement (:func:`imucal.recording.corrupt_readings`) are
+    refused with their sample: passed straight to an estimator (a recording treats them
+    as missing), one corrupt 1e20 reading overflowed the single-precision restarts into
+    "no restart produced a finite result", and one of 1e3 rad/s made a good axis "not
+    identifiable"."""
     arrays = []
     for name, arr in (("first", a), ("second", b)):
         try:
@@ -153,13 +155,14 @@ def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
             raise InputError(f"{name} sensor's data has shape {arr.shape}, expected (N, 3)")
         if not np.isfinite(arr).all():
             raise InputError(f"{name} sensor's data contains NaN or Inf")
-        big = np.flatnonzero((np.abs(arr) > NONPHYSICAL[kind]).any(axis=1))
+        big = np.flatnonzero(corrupt_readings(arr, kind))
         if big.size:
             unit = "rad/s" if kind == "gyr" else "m/s^2"
             raise InputError(
-                f"{name} sensor's {kind}: {big.size} reading(s) beyond {NONPHYSICAL[kind]:g} "
-                f"{unit}, the first {np.abs(arr[big[0]]).max():.6g} at sample {big[0]}: not a "
-                "physical reading (a corrupt packet?); repair or drop it (a recording from "
+                f"{name} sensor's {kind}: {big.size} reading(s) beyond any body-worn sensor's "
+                f"range ({SENSOR_RANGE[kind]:g} {unit}), the first "
+                f"{np.abs(arr[big[0]]).max():.6g} at sample {big[0]}: not a physical reading "
+                "(a corrupt packet?); repair or drop it (a recording from "
                 "imucal.make_recording treats such readings as missing)")
         arrays.append(arr)
     a, b = arrays

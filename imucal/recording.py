@@ -64,6 +64,15 @@ MAX_INTERPOLATED_FRACTION = 0.05
 #: (deg/s or mrad/s read as rad/s: some ten thousands; mG read as m/s^2 or as g: some
 #: ten thousands, up to 1e5 for 10 g read as g), which the unit checks name instead.
 NONPHYSICAL = {"gyr": 1e5, "acc": 1e6}
+#: No body-worn sensor reads beyond these (SI units: 4000 deg/s, 400 g). A reading beyond
+#: them between readings below half of them is no measurement but a corrupt packet: one
+#: such gyroscope reading of 1e3 rad/s made a good knee axis "not identifiable", blamed
+#: on disagreeing stretches of the data, with a warning that the file was in deg/s. A
+#: unit mistake (deg/s read as rad/s) is no such spike: the readings around it are as
+#: large, 1 % of them beyond half the range, and the unit checks name it.
+SENSOR_RANGE = {"gyr": 70.0, "acc": 3924.0}
+#: Longest run of readings beyond :data:`SENSOR_RANGE` still taken for a corrupt packet.
+MAX_SPIKE_SAMPLES = 3
 
 #: Common spellings of the accepted units, used only to suggest the right name.
 _UNIT_ALIASES = {
@@ -585,13 +594,38 @@ def _check_units_map(units, names: list[str], source) -> dict[str, dict[str, str
     return out
 
 
-def _nonphysical(arr: np.ndarray, name: str, kind: str) -> list[tuple]:
-    """Readings of ``arr`` (N, 3, SI units) beyond :data:`NONPHYSICAL` set to NaN in place,
-    so they become gaps: [(name, kind, count, first index, its largest value)] or [].
-    Before, one 1e30 sample stopped every estimate with "no restart produced a finite
-    result", naming neither the sample nor the cause (a new-user review)."""
+def corrupt_readings(arr: np.ndarray, kind: str) -> np.ndarray:
+    """(N,) readings of ``arr`` (N, 3, SI units) that are no measurement: beyond
+    :data:`NONPHYSICAL`, or isolated spikes beyond :data:`SENSOR_RANGE` (runs of at most
+    :data:`MAX_SPIKE_SAMPLES` between readings below half of it, or the ends) in a
+    signal whose readings stay below half of it 99 % of the time."""
     with np.errstate(invalid="ignore"):
-        bad = np.isfinite(arr).all(axis=1) & (np.abs(arr) > NONPHYSICAL[kind]).any(axis=1)
+        size = np.abs(arr).max(axis=1)
+        finite = np.isfinite(size)
+        bad = finite & (size > NONPHYSICAL[kind])
+        over = finite & (size > SENSOR_RANGE[kind])
+        low = ~finite | (size < SENSOR_RANGE[kind] / 2)
+    if not over.any() or not np.percentile(size[finite], 99) < SENSOR_RANGE[kind] / 2:
+        # (when 1 % of the readings exceed half the range, the whole signal is in another
+        # unit, deg/s read as rad/s, and its fast moments are no spikes: the unit checks
+        # name it)
+        return bad
+    edges = np.diff(np.concatenate([[0], over.view(np.int8), [0]]))
+    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1),
+                           strict=True):  # (runs beyond the range: few, if any)
+        isolated = ((start == 0 or low[start - 1]) and (stop == size.size or low[stop]))
+        if stop - start <= MAX_SPIKE_SAMPLES and isolated:
+            bad[start:stop] = True
+    return bad
+
+
+def _nonphysical(arr: np.ndarray, name: str, kind: str) -> list[tuple]:
+    """Readings of ``arr`` (N, 3, SI units) that are no measurement
+    (:func:`corrupt_readings`) set to NaN in place, so they become gaps: [(name, kind,
+    count, first index, its largest value)] or []. Before, one 1e30 sample stopped every
+    estimate with "no restart produced a finite result", naming neither the sample nor
+    the cause (a new-user review)."""
+    bad = corrupt_readings(arr, kind)
     if not bad.any():
         return []
     i = int(np.flatnonzero(bad)[0])
@@ -601,8 +635,9 @@ def _nonphysical(arr: np.ndarray, name: str, kind: str) -> list[tuple]:
 
 
 def _nonphysical_notes(corrupt: list[tuple], time: np.ndarray) -> list[str]:
-    return [f"sensor '{name}' {kind}: {count} reading(s) beyond {NONPHYSICAL[kind]:g} "
-            f"{'rad/s' if kind == 'gyr' else 'm/s^2'}, the first {value:.6g} at t="
+    return [f"sensor '{name}' {kind}: {count} reading(s) beyond any body-worn sensor's "
+            f"range ({SENSOR_RANGE[kind]:g} {'rad/s' if kind == 'gyr' else 'm/s^2'}), the "
+            f"first {value:.6g} at t="
             f"{time[i]:g} s (sample {i}): not a physical reading (a corrupt packet?), "
             "treated as missing"
             for name, kind, count, i, value in corrupt]

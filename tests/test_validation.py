@@ -131,15 +131,21 @@ def test_a_corrupt_reading_is_treated_as_missing_and_named(clean, tmp_path):
     with h5py.File(path, "r+") as h5:
         gyr = h5["thigh/gyr"][()]
         gyr[1000, 1] = 1e30
-        gyr[1500, 0] = 30000.0  # large, but what mrad/s read as rad/s gives: kept
+        # beyond any sensor's range between ordinary readings (one of 1e3 rad/s made a
+        # good axis "not identifiable"): missing too
+        gyr[1200:1202, 2] = [1e3, -400.0]
+        # large, but as a stretch of mrad/s read as rad/s gives it (the unit checks' case,
+        # no spike): kept
+        gyr[1500:1510] *= 1000.0
         h5["thigh/gyr"][...] = gyr
     rec = imucal.load_recording(path)
     assert np.isnan(rec.sensors["thigh"].gyr[1000]).all()
-    assert rec.sensors["thigh"].gyr[1500, 0] == 30000.0
-    run = axis(path, "--end", 14)
+    assert np.isnan(rec.sensors["thigh"].gyr[1200:1202]).all()
+    assert np.isfinite(rec.sensors["thigh"].gyr[1500:1510]).all()
+    run = axis(path, "--end", 11)
     assert run.returncode == 0, run.stderr
-    assert ("sensor 'thigh' gyr: 1 reading(s) beyond 100000 rad/s, the first 1e+30 at t=10 s "
-            "(sample 1000): not a physical reading") in run.stderr
+    assert ("sensor 'thigh' gyr: 3 reading(s) beyond any body-worn sensor's range (70 rad/s), "
+            "the first 1e+30 at t=10 s (sample 1000): not a physical reading") in run.stderr
 
 
 def test_a_sensor_that_starts_late_does_not_shorten_the_others(clean, tmp_path):
