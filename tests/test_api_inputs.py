@@ -207,3 +207,25 @@ def test_a_recording_keeps_its_own_time_axis(rec):
     made = imucal.make_recording({"thigh": {"gyr": th.gyr, "acc": th.acc}}, time=time)
     time += 50.0  # the caller's array, changed later
     assert made.time[0] == 0.0
+
+
+def test_a_signal_in_another_unit_has_no_corrupt_readings(real_recording, pair):
+    # the fast moments of quiet stretches in deg/s or mg (80 "rad/s", heel strikes of
+    # 4-7 g as "m/s^2") were refused as corrupt packets; they stand at most 3.4 / 3.9
+    # times above their neighbours
+    from imucal.recording import corrupt_readings
+
+    for name in real_recording.sensors:
+        s = real_recording.sensor(name)
+        assert not corrupt_readings(np.degrees(s.gyr), "gyr").any()
+        assert not corrupt_readings(s.acc * 1000 / 9.81, "acc").any()
+    th, sh = real_recording.sensor("right_thigh"), real_recording.sensor("right_shank")
+    out = imucal.estimate_axis(np.degrees(th.gyr[2000:4000]), np.degrees(sh.gyr[2000:4000]),
+                               rate=100.0, restarts=5, seed=1)
+    assert any("deg/s" in w for w in out.warnings)
+    # a burst of five corrupt readings is one still
+    g1, _, g2, _ = pair
+    bad = g1.copy()
+    bad[500:505, 0] = 1e3
+    with pytest.raises(InputError, match=r"5 reading\(s\) beyond any body-worn sensor's range"):
+        imucal.estimate_axis(bad, g2, rate=100.0)
