@@ -26,7 +26,6 @@ the zero is an anatomical convention (docs/angles.md). The calibration and its f
 from __future__ import annotations
 
 import math
-import numbers
 import os
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
@@ -57,9 +56,13 @@ SMOOTHING_RANGE_S = (0.01, 600.0)
 def check_smoothing(smoothing_s) -> float:
     """``smoothing_s`` as a float within :data:`SMOOTHING_RANGE_S`, else InputError."""
     low, high = SMOOTHING_RANGE_S
-    if isinstance(smoothing_s, bool) or not isinstance(smoothing_s, numbers.Real):
+    from .settings import as_real
+
+    value = as_real(smoothing_s)
+    if value is None and not isinstance(smoothing_s, float | np.floating):
         raise InputError(f"smoothing_s must be a number of seconds, got {smoothing_s!r}")
-    value = float(smoothing_s)
+    if value is None:  # nan, inf
+        value = float(smoothing_s)
     if not low <= value <= high:
         raise InputError(f"smoothing_s must be from {low:g} to {high:g} s, got {value:g}")
     return value
@@ -734,8 +737,13 @@ class JointAngles:
                              "angles are written as .csv or .h5")
 
 
+def _is_bool(value) -> bool:
+    """Python's, numpy's or a 0-d array's True/False: Python reads True as 1."""
+    return isinstance(value, bool | np.bool_) or getattr(value, "dtype", None) == np.bool_
+
+
 def _check_sign(flexion_sign) -> int | None:
-    if isinstance(flexion_sign, bool):  # (True == 1 read as "+")
+    if _is_bool(flexion_sign):  # (True == 1 read as "+")
         raise InputError(f"flexion sign must be auto, + or -, got {flexion_sign!r}")
     if flexion_sign in ("auto", None):
         return None
@@ -901,8 +909,8 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
         zero = {"method": method, "raw_deg": z, "time_s": t, "time_in": "this recording"}
     else:
         try:
-            if isinstance(reference, bool):  # (True read as 1 s)
-                raise TypeError
+            if _is_bool(reference):
+                raise TypeError  # (True read as 1 s)
             t_ref = float(reference)
         except (TypeError, ValueError):
             raise InputError(f"reference must be None, 'standing' or a time in s, got "

@@ -237,6 +237,8 @@ def _joint_specs(recording: Recording, joints) -> tuple[list[JointSpec], list[st
                 f"({', '.join(recording.sensors)}); name sensors thigh/shank/foot/pelvis "
                 "(with left_/right_) or give the joints, e.g. knee=hinge:A,B")
         return specs, notes
+    if isinstance(joints, str | JointSpec):  # one joint (a str was read letter by letter)
+        joints = [joints]
     specs = [j if isinstance(j, JointSpec) else parse_joint_spec(j) for j in joints]
     if not specs:
         raise InputError("no joints given")

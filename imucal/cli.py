@@ -102,8 +102,8 @@ def _output_file(value: str | Path) -> Path:
         return value
     if value == "":
         raise typer.BadParameter("an empty file name; give a file name")
-    if value.endswith(("/", os.sep)):
-        raise typer.BadParameter(f"'{value}' names a folder (it ends in '/'); give a file name")
+    if os.path.basename(value) in ("", ".", ".."):  # ("res/." became 'res' too)
+        raise typer.BadParameter(f"'{value}' names a folder; give a file name")
     return Path(value)
 
 

@@ -201,7 +201,8 @@ def _levenberg_marquardt(rows, jacobian, p: np.ndarray, tolerance: float) -> np.
             # at the minimum to that tolerance, as an accepted step that gained so little
             # would say. Without this, a start at the minimum to rounding (the estimate)
             # failed its step and raised the damping ten times over, one Jacobian each.
-            promised = -(grad @ step) - 0.5 * (step @ jtj @ step)
+            # (the model's drop of cost = r.r: |r|^2 - |r + J step|^2)
+            promised = -(2.0 * (grad @ step) + step @ jtj @ step)
             if promised < tolerance * cost:
                 break
             damping *= 10

@@ -396,15 +396,19 @@ def _check_axis(axis, joint: str):
     if isinstance(axis, AxisResult):
         return axis
     try:
-        j = np.asarray(axis, dtype=np.float64)
+        j = np.asarray(axis)
+        if j.dtype.kind == "c":
+            raise TypeError
+        j = j.astype(np.float64)
     except (ValueError, TypeError):
         j = None
     if j is None or j.shape != (2, 3):
-        raise InputError("axis must be an AxisResult or two 3-vectors (j1, j2), in the "
+        raise InputError("axis must be an AxisResult or two real 3-vectors (j1, j2), in the "
                          "first and second sensor's frames")
-    norms = np.linalg.norm(j, axis=1)
-    if not (np.isfinite(j).all() and (norms > 0).all()):
+    size = np.abs(j).max(axis=1)
+    if not (np.isfinite(j).all() and (size > 0).all()):
         raise InputError(f"axis must be two finite non-zero 3-vectors, got {j.tolist()}")
+    j /= size[:, None]  # (1e200 overflowed the norm: a zero axis, silently)
     return j[0], j[1]
 
 

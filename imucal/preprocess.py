@@ -9,7 +9,6 @@ motion carry almost the same information. docs/method.md explains the choices.
 
 from __future__ import annotations
 
-import numbers
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
@@ -30,6 +29,7 @@ from .recording import (
 )
 from .selection import Selection
 from .selection import select as select_samples
+from .settings import as_real
 from .time_offset import shifted
 
 #: Default low-pass cut-off in Hz. Voluntary leg motion (circling, gait) has almost all
@@ -146,9 +146,14 @@ def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
             arr = np.asarray(arr)
         except (ValueError, TypeError):  # ragged lists
             raise InputError(f"{name} sensor's data is not an (N, 3) array of numbers") from None
+        if arr.dtype.kind == "O":  # numbers as objects (pandas' nullable Float64)
+            try:
+                arr = arr.astype(np.float64)
+            except (ValueError, TypeError):
+                pass
         if arr.dtype.kind not in "iuf":
             got = {"c": "complex numbers", "U": "text", "S": "text", "b": "booleans"}.get(
-                arr.dtype.kind, f"{arr.dtype} values")
+                arr.dtype.kind, "values that are not numbers")
             raise InputError(f"{name} sensor's data must be real numbers, got {got}")
         arr = arr.astype(np.float64)
         if arr.ndim != 2 or arr.shape[1] != 3:
@@ -173,11 +178,11 @@ def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
 
 def check_rate(rate) -> float:
     """A sample rate in Hz within the plausible range of body-worn IMUs, else InputError."""
-    if isinstance(rate, bool) or not isinstance(rate, numbers.Real):
-        raise InputError(f"sample rate must be a positive number of Hz, got {rate!r}")
-    rate = float(rate)
-    if not np.isfinite(rate) or rate <= 0:
-        raise InputError(f"sample rate must be a positive number of Hz, got {rate}")
+    number = as_real(rate)
+    if number is None or number <= 0:
+        shown = number if number is not None else repr(rate)
+        raise InputError(f"sample rate must be a positive number of Hz, got {shown}")
+    rate = number
     if not MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
         raise InputError(f"sample rate {rate:g} Hz is outside the {MIN_RATE_HZ:g} to "
                          f"{MAX_RATE_HZ:g} Hz of body-worn IMUs; check its units")

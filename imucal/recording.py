@@ -14,7 +14,6 @@ which is what every estimator may assume.
 from __future__ import annotations
 
 import difflib
-import numbers
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -95,6 +94,13 @@ class SensorData:
 
     gyr: np.ndarray
     acc: np.ndarray
+
+    def __post_init__(self) -> None:
+        # arrays, also when built by hand from lists (select failed on those)
+        for name in ("gyr", "acc"):
+            value = getattr(self, name)
+            if not isinstance(value, np.ndarray):
+                object.__setattr__(self, name, np.asarray(value, dtype=np.float64))
 
 
 @dataclass(frozen=True)
@@ -203,11 +209,14 @@ class Recording:
 
         if start is None and end is None:
             return slice(0, self.n_samples)
-        for what, value in (("start", start), ("end", end)):
-            if value is not None and (isinstance(value, bool)
-                                      or not isinstance(value, numbers.Real)):
-                raise InputError(f"{self.source}: window {what} must be a number of seconds, "
-                                 f"got {value!r}")
+        from .settings import as_real
+
+        given = {"start": start, "end": end}
+        for what, value in given.items():
+            if value is not None and as_real(value) is None:
+                raise InputError(f"{self.source}: window {what} must be a finite number of "
+                                 f"seconds, got {value!r}")
+        start, end = (None if v is None else as_real(v) for v in given.values())
         t0 = float(self.time[0])
         try:
             return window_slice(self.n_samples, self.rate, None if start is None else start - t0,
@@ -254,8 +263,13 @@ class Recording:
             Finite data of the named sensors only, its ``warnings`` those that concern
             them (the file's ``notes``, repairs, units, stuck signals in the window).
         """
-        if isinstance(names, str):
+        if isinstance(names, str | bytes) or (isinstance(names, np.ndarray) and names.ndim == 0):
             names = [names]
+        try:
+            names = [_sensor_name(n.item() if isinstance(n, np.ndarray) else n) for n in names]
+        except TypeError:  # (None, a number)
+            raise InputError(f"{self.source}: sensor names must be a name or a list of names, "
+                             f"got {names!r}") from None
         names = list(dict.fromkeys(self.resolve(name) for name in names))
         if not names:
             raise InputError(f"{self.source}: no sensor named; sensors in this recording: "
@@ -588,6 +602,11 @@ def _check_units_map(units, names: list[str], source) -> dict[str, dict[str, str
                                                  for v in units.values()):
         raise InputError(f"{source}: units must be a mapping {{sensor: {{'gyr': unit, "
                          f"'acc': unit}}}}, got {units!r:.80}")
+    keys = [_sensor_name(k) for k in units]
+    twice = sorted({k for k in keys if keys.count(k) > 1})
+    if twice:
+        raise InputError(f"{source}: units for sensor '{twice[0]}' given twice (under keys "
+                         "that differ only in type)")
     out = {_sensor_name(k): dict(v) for k, v in units.items()}
     for name, kinds in out.items():
         if name not in names:
@@ -819,6 +838,8 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
     """The rate and time axis of a recording, and notes on how they were reconciled."""
     if rate is not None:
         try:
+            if isinstance(rate, bool | np.bool_):  # (True read as 1 Hz)
+                raise TypeError
             rate = float(rate)
         except (TypeError, ValueError, OverflowError):
             raise InputError(

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import errno
 import json
+import os
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -137,7 +138,9 @@ def apply_sensor_map(recording: Recording, names: Mapping[str, str] | str | Path
     sensors keep their serials and labels in ``sensor_info``; ``provenance["sensor_map"]``
     records the map and what it renamed.
     """
-    if isinstance(names, (str, Path)):
+    if isinstance(names, str | bytes | os.PathLike):
+        if not isinstance(names, str):
+            names = os.fsdecode(names)
         source = source or str(names)
         names = read_sensor_map(names)
     else:

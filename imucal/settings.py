@@ -232,37 +232,53 @@ def check_time_offset(value) -> float | str:
         except ValueError:
             raise InputError(f"time offset must be auto or a number of seconds, got "
                              f"'{value}'") from None
-    if not _real(value):
-        raise InputError(f"time offset must be auto or a number of seconds, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value) or abs(value) > MAX_TIME_OFFSET_S:
+    number = as_real(value)
+    if number is None or abs(number) > MAX_TIME_OFFSET_S:
+        shown = f"{number:g}" if number is not None else repr(value)
         raise InputError(f"time offset must be auto or a finite number of seconds within "
-                         f"+-{MAX_TIME_OFFSET_S:g} s, got {value:g}")
-    return value
+                         f"+-{MAX_TIME_OFFSET_S:g} s, got {shown}")
+    return number
 
 
-def _real(value) -> bool:
-    """A real number: Python's or numpy's (``np.int64(10)`` from a notebook's arrays),
-    never a bool."""
-    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+def as_real(value) -> float | None:
+    """``value`` as a finite float when it is a real number (Python's or numpy's scalar,
+    ``np.int64(10)`` from a notebook's arrays, or a 0-d array such as ``np.load`` gives),
+    never a bool; else None."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value.item()
+    if not isinstance(value, numbers.Real) or isinstance(value, bool | np.bool_):
+        return None
+    try:
+        number = float(value)
+    except (OverflowError, ValueError):  # (10**400)
+        return None
+    return number if math.isfinite(number) else None
 
 
 def _check_int(settings, name: str, low: int, high: int | None = None) -> None:
     value = getattr(settings, name)
-    if not _real(value) or not math.isfinite(value) or value != int(value):
-        raise InputError(f"{name} must be a whole number, got {value!r}")
-    if value < low:
-        raise InputError(f"{name} must be at least {low}, got {value}")
-    if high is not None and value > high:
-        raise InputError(f"{name} must be at most {high}, got {value}")
-    object.__setattr__(settings, name, int(value))
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iu":
+        value = value.item()
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_):
+        whole = int(value)  # (exact for any size: 10**400 restarts is too many, not a crash)
+    else:
+        number = as_real(value)
+        if number is None or number != int(number):
+            raise InputError(f"{name} must be a whole number, got {value!r}")
+        whole = int(number)
+    if whole < low:
+        raise InputError(f"{name} must be at least {low}, got {whole}")
+    if high is not None and whole > high:
+        raise InputError(f"{name} must be at most {high}, got {whole}")
+    object.__setattr__(settings, name, whole)
 
 
 def _check_number(settings, name: str, *, low: float, high: float | None = None,
                   open_low: bool = False) -> None:
-    value = getattr(settings, name)
-    if not _real(value) or not math.isfinite(value):
-        raise InputError(f"{name} must be a finite number, got {value!r}")
+    given = getattr(settings, name)
+    value = as_real(given)
+    if value is None:
+        raise InputError(f"{name} must be a finite number, got {given!r}")
     too_low = value <= low if open_low else value < low
     if too_low or (high is not None and value > high):
         bounds = f"{'(' if open_low else '['}{low:g}, {'inf)' if high is None else f'{high:g}]'}"

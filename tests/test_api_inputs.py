@@ -49,7 +49,7 @@ def test_numpy_scalars_are_numbers(pair):
     ({"restarts": float("nan")}, "restarts must be a whole number"),
     ({"restarts": float("inf")}, "restarts must be a whole number"),
     ({"seed": True}, "seed must be a whole number"),
-    ({"time_offset": None}, "time offset must be auto or a number"),
+    ({"time_offset": None}, "time offset must be auto or a finite number"),
     ({"rate": None}, "sample rate must be a positive number"),
     ({"rate": "abc"}, "sample rate must be a positive number"),
     ({"rate": np.array([100.0])}, "sample rate must be a positive number"),
@@ -62,9 +62,9 @@ def test_settings_of_the_wrong_type(pair, kwargs, message):
 
 @pytest.mark.parametrize("first, message", [
     ("abc", "must be real numbers, got text"),
-    ({"x": 1}, "must be real numbers, got object"),
+    ({"x": 1}, "must be real numbers, got values that are not numbers"),
     ([[1.0, 2.0, 3.0], [1.0, 2.0]] * 400, "is not an .N, 3. array of numbers"),
-    (None, "must be real numbers, got object"),
+    (None, r"has shape \(\), expected \(N, 3\)"),
 ])
 def test_data_that_are_not_arrays_of_numbers(pair, first, message):
     _, _, g2, _ = pair
@@ -110,9 +110,9 @@ def test_too_few_samples_for_a_joint_position(pair):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"joint": "hinge", "axis": (np.ones(2), np.ones(2))}, "two 3-vectors"),
-    ({"joint": "hinge", "axis": "x"}, "two 3-vectors"),
-    ({"joint": "hinge", "axis": np.ones((3, 3))}, "two 3-vectors"),
+    ({"joint": "hinge", "axis": (np.ones(2), np.ones(2))}, "two real 3-vectors"),
+    ({"joint": "hinge", "axis": "x"}, "two real 3-vectors"),
+    ({"joint": "hinge", "axis": np.ones((3, 3))}, "two real 3-vectors"),
     ({"joint": "hinge", "axis": np.zeros((2, 3))}, "finite non-zero"),
     ({"joint": "hinge", "axis": ([0, 0, np.nan], [0, 0, 1])}, "finite non-zero"),
     ({"axis": ([0, 0, 1], [0, 0, 1])}, "only for joint='hinge'"),
@@ -128,6 +128,7 @@ def test_a_given_axis_is_checked(pair, kwargs, message):
     ({"seed": -1}, "seed must be at least 0"),
     ({"acc_error": -1.0}, r"acc_error must be in \[0, 5\]"),
     ({"time_offset": "x"}, "time offset must be auto or a number"),
+    ({"restarts": 10**400}, "restarts must be at most 10000"),
     ({"start": 5.0, "end": 2.0}, "window end 2 s must be after its start 5 s"),
     ({"start": 1000.0}, "window start 1000 s lies outside the recording"),
     ({"smoothing_s": "abc"}, "smoothing_s must be a number of seconds"),
@@ -169,7 +170,8 @@ def test_make_recording_refuses_what_it_would_ignore(rec):
 
 
 def test_select_and_paths_of_the_wrong_kind(rec, cal, tmp_path):
-    with pytest.raises(InputError, match="window start must be a number of seconds, got '1'"):
+    with pytest.raises(InputError, match="window start must be a finite number of seconds, "
+                                         "got '1'"):
         rec.select(["thigh"], "1")
     with pytest.raises(InputError, match="no sensor named"):
         rec.select([])
@@ -229,3 +231,59 @@ def test_a_signal_in_another_unit_has_no_corrupt_readings(real_recording, pair):
     bad[500:505, 0] = 1e3
     with pytest.raises(InputError, match=r"5 reading\(s\) beyond any body-worn sensor's range"):
         imucal.estimate_axis(bad, g2, rate=100.0)
+
+
+def test_numbers_in_other_containers(pair, rec, cal):
+    # 0-d arrays (np.load gives them), pandas' nullable Float64 columns, huge integers
+    import pandas as pd
+
+    g1, _, g2, _ = pair
+    plain = imucal.estimate_axis(g1, g2, rate=100.0, restarts=3, seed=1, time_offset=0.0)
+    other = imucal.estimate_axis(pd.DataFrame(g1).astype("Float64"), g2,
+                                 rate=np.array(100.0), restarts=np.array(3), seed=1,
+                                 time_offset=np.array(0.0))
+    np.testing.assert_array_equal(other.j1, plain.j1)
+    assert rec.select(["thigh"], np.array(1.5)).time[0] == 1.5
+    with pytest.raises(InputError, match="seed must be"):
+        imucal.estimate_axis(g1, g2, rate=100.0, seed=float(10**300) * 1e10)
+    with pytest.raises(InputError, match="window start must be a finite number"):
+        rec.select(["thigh"], 10**400)
+    with pytest.raises(InputError, match="sample rate must be a positive number"):
+        imucal.estimate_axis(g1, g2, rate=10**400)
+    with pytest.raises(InputError, match="flexion sign must be auto"):
+        imucal.joint_angles(rec, cal, flexion_sign=np.True_)
+    with pytest.raises(InputError, match="reference must be None"):
+        imucal.joint_angles(rec, cal, reference=np.array(True))
+
+
+def test_names_axes_and_maps_in_other_forms(pair, rec, tmp_path):
+    g1, a1, g2, a2 = pair
+    for names in (None, 3):
+        with pytest.raises(InputError, match="sensor names must be a name or a list"):
+            rec.select(names)
+    assert list(rec.select(b"thigh").sensors) == ["thigh"]
+    assert list(rec.select(np.array("thigh")).sensors) == ["thigh"]
+    one = imucal.calibrate(rec, joints="knee=hinge:thigh,shank", restarts=3, seed=1)
+    assert list(one.joints) == ["knee"]
+    # 1e200 overflowed the norm: the hinge line's j1 became 0, silently
+    big = imucal.estimate_position(g1, a1, g2, a2, rate=100.0, joint="hinge", restarts=3,
+                                   seed=1, axis=(1e200 * np.array([0.0, 0.0, 1.0]),
+                                                 np.array([0.0, 0.0, 2.0])))
+    unit = imucal.estimate_position(g1, a1, g2, a2, rate=100.0, joint="hinge", restarts=3,
+                                    seed=1, axis=([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]))
+    np.testing.assert_allclose(big.o1, unit.o1, atol=1e-9)
+    with pytest.raises(InputError, match="two real 3-vectors"):
+        imucal.estimate_position(g1, a1, g2, a2, rate=100.0, joint="hinge",
+                                 axis=np.ones((2, 3)) + 1j)
+    with pytest.raises(InputError, match="units for sensor 'thigh' given twice"):
+        imucal.make_recording({"thigh": {"gyr": g1, "acc": a1}}, rate=100.0,
+                              units={"thigh": {"gyr": "deg/s"}, b"thigh": {"acc": "m/s^2"}})
+    with pytest.raises(InputError, match="sample rate 'True' is not a number"):
+        imucal.make_recording({"thigh": {"gyr": g1, "acc": a1}}, rate=True)
+    hand = imucal.Recording(rate=100.0, sensors={"thigh": imucal.SensorData(
+        gyr=g1.tolist(), acc=a1.tolist())}, time=np.arange(len(g1)) / 100.0)
+    assert hand.select(["thigh"], 1.0, 2.0).n_samples == 100
+    names = tmp_path / "map.json"
+    names.write_text('{"thigh": "left_thigh"}')
+    mapped = imucal.load_recording(SAMPLE, names=bytes(names))
+    assert "left_thigh" in mapped.sensors

@@ -104,3 +104,26 @@ def test_a_knee_centre_sliding_along_its_axis_is_not_taken_for_a_bias(seed):
     r = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=100.0, seed=1, restarts=20,
                           joint="hinge", time_offset=0.0)
     assert not r.gyr_bias["applied"] and r.gyr_bias["cost_ratio"] < 1.5, r.gyr_bias
+
+
+def test_a_fit_started_at_its_minimum_takes_one_jacobian():
+    """A start at the minimum to rounding stops after its first step's model promises too
+    little: it raised the damping ten times over, one Jacobian each (the right ankle's
+    bias fit on the shared recording: 5 Jacobians)."""
+    from imucal.gyr_bias import TOLERANCE, _levenberg_marquardt
+
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(200, 4))
+    b = a @ np.array([1.0, -2.0, 0.5, 3.0]) + 0.1 * rng.normal(size=200)
+    best = np.linalg.lstsq(a, b, rcond=None)[0]
+    calls = []
+
+    def jacobian(p):
+        calls.append(p)
+        return a
+    out = _levenberg_marquardt(lambda p: a @ p - b, jacobian, best, TOLERANCE)
+    np.testing.assert_allclose(out, best, atol=1e-12)
+    assert len(calls) == 1
+    calls.clear()
+    out = _levenberg_marquardt(lambda p: a @ p - b, jacobian, best + 0.3, TOLERANCE)
+    np.testing.assert_allclose(out, best, atol=1e-6)  # from elsewhere it still converges

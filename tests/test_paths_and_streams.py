@@ -122,6 +122,7 @@ def test_out_dash_is_stdout(tmp_path):
 
 @pytest.mark.parametrize("args", [
     (*AXIS, "--out", "res/"), (*AXIS, "--plot", "figs/"), (*AXIS, "--out", ""),
+    (*AXIS, "--out", "res/."),
     ("simulate", "sims/", "--duration", 2), ("convert", SAMPLE, "conv/"),
 ])
 def test_an_output_named_as_a_folder_or_empty_is_refused(tmp_path, args):
@@ -131,7 +132,8 @@ def test_an_output_named_as_a_folder_or_empty_is_refused(tmp_path, args):
     assert run.returncode == 2
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1, run.stderr
-    assert ("ends in '/'" in lines[0]) or ("an empty file name" in lines[0]), lines[0]
+    assert ("names a folder; give a file name" in lines[0]) or ("an empty file name" in
+                                                                  lines[0]), lines[0]
     assert list(tmp_path.iterdir()) == []
 
 
