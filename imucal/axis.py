@@ -811,7 +811,7 @@ class _HingeProblem:
         self.newton = newton
         g1, g2 = g1.astype(dtype), g2.astype(dtype)
         if mask is not None:
-            mask = mask.astype(dtype)
+            mask = mask.astype(dtype, copy=False)
         self.g1, self.g2 = g1, g2
         self.g1t, self.g2t = np.ascontiguousarray(g1.T), np.ascontiguousarray(g2.T)
         self.gg1, self.gg2 = np.sum(g1 * g1, axis=1), np.sum(g2 * g2, axis=1)
@@ -838,7 +838,7 @@ class _HingeProblem:
         """The same data with other subset weights (see ``__init__``), sharing the tables."""
         other = object.__new__(type(self))  # a shallow copy
         other.__dict__.update(self.__dict__)
-        other.mask = None if mask is None else mask.astype(self.dtype)
+        other.mask = None if mask is None else mask.astype(self.dtype, copy=False)
         other.count = (float(self.g1.shape[0]) if mask is None
                        else mask.sum(axis=1, dtype=np.float64))
         other._work = None
@@ -871,9 +871,11 @@ class _HingeProblem:
         np.subtract(n1, n2, out=e)
         w = None
         if self.mask is not None:
-            w = self.mask[:, sl]
-            if not every_row(rows, self.mask.shape[0]):  # some stopped, or trials
-                w = np.take(w, rows, axis=0)
+            if every_row(rows, self.mask.shape[0]):
+                w = self.mask[:, sl]
+            else:  # some stopped, trials, or a block of them; (np.take of the column
+                # slice copied all of it first: 16 of 29 s for 4000 restarts of 10 000)
+                w = self.mask[rows, sl]
             # w is 0 or 1, so weighting e once weights e^2 and every product with e
             np.multiply(e, w, out=e)
         return d1, d2, n1, n2, e, w

@@ -693,7 +693,7 @@ class _SpheroidalProblem:
         the exact Hessian where it is safely positive definite."""
         self.dtype = dtype
         self.newton = newton
-        self.mask = None if mask is None else mask.astype(dtype)
+        self.mask = None if mask is None else mask.astype(dtype, copy=False)
         self.n = g1.shape[0]
         self.count = float(self.n) if mask is None else mask.sum(axis=1, dtype=np.float64)
         # Component-major layouts (3, N), so every sum over x, y, z adds three
@@ -719,7 +719,7 @@ class _SpheroidalProblem:
         """The same data with other subset weights (see ``__init__``), sharing the tables."""
         other = object.__new__(type(self))  # a shallow copy
         other.__dict__.update(self.__dict__)
-        other.mask = None if mask is None else mask.astype(self.dtype)
+        other.mask = None if mask is None else mask.astype(self.dtype, copy=False)
         other.count = float(self.n) if mask is None else mask.sum(axis=1, dtype=np.float64)
         other._work = None
         return other

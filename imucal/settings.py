@@ -41,8 +41,8 @@ SUBSET_FRACTION = 0.5
 #: factory-calibrated MEMS accelerometers keep offsets of about 0.02-0.1 m/s^2.
 ACC_ERROR_M_S2 = 0.05
 #: Most restarts accepted: memory grows with restarts x samples (10 000 restarts on the
-#: first 100 s of the shared real recording: peaks of 0.5 GB for the axis, 0.6 GB for the
-#: joint position), and 100 already show whether the answer depends on the start.
+#: first 100 s of the shared real recording: peaks of 0.5 GB, 0.63 GB with every one of
+#: its 10 000 samples), and 100 already show whether the answer depends on the start.
 MAX_RESTARTS = 10_000
 #: Largest ``acc_error`` accepted, m/s^2 (half of g: a larger number is a unit mistake).
 MAX_ACC_ERROR_M_S2 = 5.0

@@ -307,3 +307,17 @@ def test_many_restarts_go_through_the_problem_in_blocks(monkeypatch):
     np.testing.assert_allclose(blocks.o2, whole.o2, rtol=0, atol=1e-6)
     np.testing.assert_array_equal(blocks.reached, whole.reached)
     assert blocks.verdict == whole.verdict
+
+
+def test_subsets_drawn_in_blocks_are_one_draw(monkeypatch):
+    """The subset weights come in single precision, drawn in blocks of rows: the same
+    subsets as one draw of all (R, n) numbers (the estimates stay the same)."""
+    import imucal.restarts as restarts
+
+    whole = restarts.subset_mask(1000, 50, 0.5, np.random.default_rng(3))
+    monkeypatch.setattr(restarts, "MASK_DRAW_VALUES", 3000)  # blocks of 3 rows
+    blocks = restarts.subset_mask(1000, 50, 0.5, np.random.default_rng(3))
+    once = np.random.default_rng(3).random((50, 1000)) < 0.5
+    assert blocks.dtype == np.float32
+    np.testing.assert_array_equal(blocks, whole)
+    np.testing.assert_array_equal(blocks, once)
