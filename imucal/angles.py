@@ -37,6 +37,7 @@ from scipy.ndimage import gaussian_filter1d
 from .errors import InputError, NotIdentifiableError
 from .preprocess import derivative, lowpass
 from .rest import STILL_MIN_S, STILL_RATE, gravity_check, gravity_warning, still_periods
+from .settings import as_real, is_bool
 from .time_offset import shifted
 
 if TYPE_CHECKING:
@@ -56,8 +57,6 @@ SMOOTHING_RANGE_S = (0.01, 600.0)
 def check_smoothing(smoothing_s) -> float:
     """``smoothing_s`` as a float within :data:`SMOOTHING_RANGE_S`, else InputError."""
     low, high = SMOOTHING_RANGE_S
-    from .settings import as_real
-
     value = as_real(smoothing_s)
     if value is None and not isinstance(smoothing_s, float | np.floating):
         raise InputError(f"smoothing_s must be a number of seconds, got {smoothing_s!r}")
@@ -737,13 +736,8 @@ class JointAngles:
                              "angles are written as .csv or .h5")
 
 
-def _is_bool(value) -> bool:
-    """Python's, numpy's or a 0-d array's True/False: Python reads True as 1."""
-    return isinstance(value, bool | np.bool_) or getattr(value, "dtype", None) == np.bool_
-
-
 def _check_sign(flexion_sign) -> int | None:
-    if _is_bool(flexion_sign):  # (True == 1 read as "+")
+    if is_bool(flexion_sign):  # (True == 1 read as "+")
         raise InputError(f"flexion sign must be auto, + or -, got {flexion_sign!r}")
     if flexion_sign in ("auto", None):
         return None
@@ -909,7 +903,7 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
         zero = {"method": method, "raw_deg": z, "time_s": t, "time_in": "this recording"}
     else:
         try:
-            if _is_bool(reference):
+            if is_bool(reference):
                 raise TypeError  # (True read as 1 s)
             t_ref = float(reference)
         except (TypeError, ValueError):

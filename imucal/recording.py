@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import InputError
+from .settings import as_real, is_bool
 
 GYR_UNITS = {"rad/s": 1.0, "deg/s": np.pi / 180.0}
 ACC_UNITS = {"m/s^2": 1.0, "g": 9.80665}
@@ -209,14 +210,14 @@ class Recording:
 
         if start is None and end is None:
             return slice(0, self.n_samples)
-        from .settings import as_real
-
-        given = {"start": start, "end": end}
-        for what, value in given.items():
-            if value is not None and as_real(value) is None:
+        seconds = []
+        for what, value in (("start", start), ("end", end)):
+            number = None if value is None else as_real(value)
+            if value is not None and number is None:
                 raise InputError(f"{self.source}: window {what} must be a finite number of "
                                  f"seconds, got {value!r}")
-        start, end = (None if v is None else as_real(v) for v in given.values())
+            seconds.append(number)
+        start, end = seconds
         t0 = float(self.time[0])
         try:
             return window_slice(self.n_samples, self.rate, None if start is None else start - t0,
@@ -525,11 +526,7 @@ def make_recording(
                          f"'acc': array}}}}, got {type(sensors).__name__}")
     if not sensors:
         raise InputError(f"{source}: no sensors found")
-    names = [_sensor_name(k) for k in sensors]
-    twice = sorted({n for n in names if names.count(n) > 1})
-    if twice:  # (b"thigh" and "thigh": one replaced the other)
-        raise InputError(f"{source}: sensor '{twice[0]}' is given twice (under keys that "
-                         "differ only in type)")
+    names = _names_once([_sensor_name(k) for k in sensors], "sensor '{}' is", source)
     units = _check_units_map(units, names, source)
 
     raw: dict[str, dict[str, np.ndarray]] = {}
@@ -592,6 +589,17 @@ def make_recording(
     )
 
 
+def _names_once(names: list[str], what: str, source) -> list[str]:
+    """``names`` (keys made text), InputError if one comes twice: ``b"thigh"`` and
+    ``"thigh"`` are one sensor, and one entry silently replaced the other. ``what``
+    names the entry, ``{}`` standing for the name."""
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise InputError(f"{source}: {what.format(twice[0])} given twice (under keys that "
+                         "differ only in type)")
+    return names
+
+
 def _check_units_map(units, names: list[str], source) -> dict[str, dict[str, str]]:
     """``units`` as {sensor: {"gyr"/"acc": unit}}, every sensor one of ``names``, else
     InputError: a misspelt sensor or kind ("Thigh", "gyro") left data in units it was not
@@ -602,11 +610,7 @@ def _check_units_map(units, names: list[str], source) -> dict[str, dict[str, str
                                                  for v in units.values()):
         raise InputError(f"{source}: units must be a mapping {{sensor: {{'gyr': unit, "
                          f"'acc': unit}}}}, got {units!r:.80}")
-    keys = [_sensor_name(k) for k in units]
-    twice = sorted({k for k in keys if keys.count(k) > 1})
-    if twice:
-        raise InputError(f"{source}: units for sensor '{twice[0]}' given twice (under keys "
-                         "that differ only in type)")
+    _names_once([_sensor_name(k) for k in units], "units for sensor '{}'", source)
     out = {_sensor_name(k): dict(v) for k, v in units.items()}
     for name, kinds in out.items():
         if name not in names:
@@ -838,7 +842,7 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
     """The rate and time axis of a recording, and notes on how they were reconciled."""
     if rate is not None:
         try:
-            if isinstance(rate, bool | np.bool_):  # (True read as 1 Hz)
+            if is_bool(rate):  # (True read as 1 Hz)
                 raise TypeError
             rate = float(rate)
         except (TypeError, ValueError, OverflowError):

@@ -126,8 +126,7 @@ class AxisSettings:
             if getattr(self, name) not in SIGNS:
                 raise InputError(f"{name} must be one of {', '.join(SIGNS)}, got "
                                  f"'{getattr(self, name)}'")
-        if not isinstance(self.select, bool | np.bool_):
-            # (bool("no") is True: a string left the selection on)
+        if not is_bool(self.select):  # (bool("no") is True: a string left it on)
             raise InputError(f"select must be True or False, got {self.select!r}")
         object.__setattr__(self, "select", bool(self.select))
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
@@ -240,13 +239,19 @@ def check_time_offset(value) -> float | str:
     return number
 
 
+def is_bool(value) -> bool:
+    """Python's or numpy's True/False, also as a 0-d array: Python reads True as 1, so
+    no number, flag or time may be one."""
+    return isinstance(value, bool | np.bool_) or getattr(value, "dtype", None) == np.bool_
+
+
 def as_real(value) -> float | None:
     """``value`` as a finite float when it is a real number (Python's or numpy's scalar,
     ``np.int64(10)`` from a notebook's arrays, or a 0-d array such as ``np.load`` gives),
     never a bool; else None."""
     if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
         value = value.item()
-    if not isinstance(value, numbers.Real) or isinstance(value, bool | np.bool_):
+    if not isinstance(value, numbers.Real) or is_bool(value):
         return None
     try:
         number = float(value)
@@ -259,7 +264,7 @@ def _check_int(settings, name: str, low: int, high: int | None = None) -> None:
     value = getattr(settings, name)
     if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iu":
         value = value.item()
-    if isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_):
+    if isinstance(value, numbers.Integral) and not is_bool(value):
         whole = int(value)  # (exact for any size: 10**400 restarts is too many, not a crash)
     else:
         number = as_real(value)
