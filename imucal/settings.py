@@ -123,7 +123,8 @@ class AxisSettings:
             raise InputError(f"window end {self.end:g} s must be after its start "
                              f"{self.start:g} s")
         for name in ("sign", "j2_sign"):
-            if getattr(self, name) not in SIGNS:
+            # (an array compares element-wise: np.array('+x') passed, then failed inside)
+            if not isinstance(getattr(self, name), str) or getattr(self, name) not in SIGNS:
                 raise InputError(f"{name} must be one of {', '.join(SIGNS)}, got "
                                  f"'{getattr(self, name)}'")
         if not is_bool(self.select):  # (bool("no") is True: a string left it on)
@@ -157,7 +158,7 @@ class PositionSettings(AxisSettings):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if self.joint not in JOINTS:
+        if not isinstance(self.joint, str) or self.joint not in JOINTS:
             raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{self.joint}'")
         _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
 

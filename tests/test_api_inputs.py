@@ -53,6 +53,7 @@ def test_numpy_scalars_are_numbers(pair):
     ({"rate": None}, "sample rate must be a positive number"),
     ({"rate": "abc"}, "sample rate must be a positive number"),
     ({"rate": np.array([100.0])}, "sample rate must be a positive number"),
+    ({"sign": np.array("+x")}, "sign must be one of"),
 ])
 def test_settings_of_the_wrong_type(pair, kwargs, message):
     g1, _, g2, _ = pair
