@@ -28,7 +28,7 @@ from .atomic import (
     write_atomic,
     write_text_atomic,
 )
-from .errors import ImucalError, InputError, NotIdentifiableError, one_line
+from .errors import ImucalError, InputError, NotIdentifiableError, one_line, say
 from .signals import raise_on_signals
 from .signals import report as report_interruption
 from .signals import unreported as unreported_interruption
@@ -351,16 +351,16 @@ def calibrate(
         _check_outputs(out, None, rec[0], sensor_map)
         outcome = run(job, rec[0])
         for w in outcome.warnings:
-            _err(f"imucal: warning: {w}")
+            say(f"imucal: warning: {w}")
         if outcome.headline is not None and not quiet:
-            _err(outcome.headline)
+            say(outcome.headline)
         if outcome.document is None:
             raise outcome.exception
         _emit(outcome.document, out)
         if not quiet:
             _calibration_summary(outcome.document)
         if outcome.error is not None:
-            _err(f"imucal: error: {outcome.error}")
+            say(f"imucal: error: {outcome.error}")
         raise typer.Exit(outcome.exit_code)
 
 
@@ -441,11 +441,11 @@ def angles(
         result = joint_angles(recording, cal, reference=ref, flexion_sign=flexion_sign,
                               start=start, end=end)
         for w in result.warnings:
-            _err(f"imucal: warning: {recording.source}: {w}")
+            say(f"imucal: warning: {recording.source}: {w}")
         problems = []
         for j in result.joints.values():
             for w in j.warnings:
-                _err(f"imucal: warning: {w}")
+                say(f"imucal: warning: {w}")
             if not j.fits:
                 verdict = j.check["calibration_verdict"]
                 problems.append(f"joint '{j.name}': " + (
@@ -489,17 +489,17 @@ def _angles_summary(result, out) -> None:
     low, high = PLAUSIBLE_FLEXION_DEG
     doc = result.to_document()
     where = "stdout" if out is None else str(out)
-    _err(f"imucal angles: {doc['input']['path']}: {doc['input']['samples']} samples at "
+    say(f"imucal angles: {doc['input']['path']}: {doc['input']['samples']} samples at "
          f"{doc['input']['sample_rate_hz']:g} Hz, calibration {doc['calibration']} -> {where}")
     for j in doc["joints"].values():
         lo, hi = j["range_deg"]
         c = j["check"]
         gait = "" if j["gait"] is None else (f"; walking: {j['gait']['strides']} strides of "
                                              f"{j['gait']['stride_s']:.2f} s")
-        _err(f"  {j['column']}: {lo:.1f} to {hi:.1f} deg (median 1-sigma "
+        say(f"  {j['column']}: {lo:.1f} to {hi:.1f} deg (median 1-sigma "
              f"{j['sigma_deg']['median']:.2f} deg), sign {j['flexion_sign']:+d} from "
              f"{j['sign_source']}, 0 = {j['zero']['method']}{gait}")
-        _err(f"    fit check: {'fits' if j['fits'] else 'DOES NOT FIT'} (hinge residual "
+        say(f"    fit check: {'fits' if j['fits'] else 'DOES NOT FIT'} (hinge residual "
              f"{_num(c['hinge_residual'], '.3f')}, limit "
              f"{_num(c['hinge_residual_limit'], '.3f')}; acc-gyro disagreement "
              f"{_num(c['acc_gyro_disagreement_deg'], '.2f')} deg, limit "
@@ -611,7 +611,7 @@ def simulate(
         save_recording(recording, out)
         write_text_atomic(truth_path, json.dumps(clean(truth), indent=2) + "\n")
         if not quiet:
-            _err(f"imucal simulate: wrote {out} ({recording.n_samples} samples at "
+            say(f"imucal simulate: wrote {out} ({recording.n_samples} samples at "
                  f"{recording.rate:g} Hz, motion {motion}, seed {truth['settings']['seed']}) "
                  f"and {truth_path}")
 
@@ -701,8 +701,8 @@ def convert(
         save_recording(recording, out, extra_attrs=hdf5_attrs(recording))
         if not quiet:
             for w in recording.warnings:
-                _err(f"imucal: warning: {recording.source}: {w}")
-            _err(f"imucal convert: wrote {out} ({len(recording.sensors)} sensors, "
+                say(f"imucal: warning: {recording.source}: {w}")
+            say(f"imucal convert: wrote {out} ({len(recording.sensors)} sensors, "
                  f"{recording.n_samples} samples at {recording.rate:g} Hz)")
 
 
@@ -759,13 +759,13 @@ def _estimate(job, recs, *, out, plot, jobs, scheduler, quiet) -> int:
     _check_outputs(out, plot, rec, job.sensor_map)
     outcome = run(job, rec)
     for w in outcome.warnings:  # as they were found, -q or not
-        _err(f"imucal: warning: {w}")
+        say(f"imucal: warning: {w}")
     if outcome.headline is not None and not quiet:
-        _err(outcome.headline)
+        say(outcome.headline)
     if outcome.exception is not None:
         if not quiet:
             for w in outcome.notes:
-                _err(f"imucal: warning: {w}")
+                say(f"imucal: warning: {w}")
         raise outcome.exception
     doc = outcome.document
     if plot is not None:
@@ -852,13 +852,13 @@ class _errors:
         if interruption is not None:  # one that the code it hit turned into another error
             raise typer.Exit(report_interruption(interruption))
         if isinstance(err, ImucalError):
-            _err(f"imucal: error: {one_line(err)}")
+            say(f"imucal: error: {one_line(err)}")
             raise typer.Exit(err.exit_code)
         if isinstance(err, OSError):
             where = f"{err.filename}: " if err.filename else ""
-            _err(one_line(f"imucal: error: {where}{err.strerror or err}"))
+            say(one_line(f"imucal: error: {where}{err.strerror or err}"))
             raise typer.Exit(2)
-        _err(f"imucal: internal error: {type(err).__name__}: {err} (rerun with --debug and "
+        say(f"imucal: internal error: {type(err).__name__}: {err} (rerun with --debug and "
              "report it)")
         raise typer.Exit(3)
 
@@ -907,8 +907,8 @@ def _summary(doc: dict, names) -> None:
     sigma = "/".join(f"{q[f'{v}_uncertainty_{u}']:.2f}" if q[f"{v}_uncertainty_{u}"] is not None
                      else "-" for v in (v1, v2))
     reached = sum(r["reached_estimate"] for r in doc["restarts"])
-    _err(f"  {v1} ({names[0]}) = {_vec(doc[v1])}{unit}   {v2} ({names[1]}) = {_vec(doc[v2])}{unit}")
-    _err(f"  1-sigma {sigma} {u}; {reached}/{len(doc['restarts'])} restarts reached the estimate "
+    say(f"  {v1} ({names[0]}) = {_vec(doc[v1])}{unit}   {v2} ({names[1]}) = {_vec(doc[v2])}{unit}")
+    say(f"  1-sigma {sigma} {u}; {reached}/{len(doc['restarts'])} restarts reached the estimate "
          f"(median {conv['iterations_median']:g}, max {conv['iterations_max']} iterations); "
          f"residual {q['rms_residual']:.4f} {units['rms_residual']} "
          # no signal at all (every sample 0): the ratio is undefined, null in the JSON
@@ -923,10 +923,10 @@ def _summary(doc: dict, names) -> None:
         else:
             value = (f"{ms:+.1f} ms (1-sigma {'-' if sigma is None else f'{1000 * sigma:.1f}'}"
                      f" ms, {applied})")
-        _err(f"  clock offset of {names[1]}: {value}")
-    _err(f"  verdict: {q['verdict']}")
+        say(f"  clock offset of {names[1]}: {value}")
+    say(f"  verdict: {q['verdict']}")
     for w in q["warnings"]:
-        _err(f"  warning: {w}")
+        say(f"  warning: {w}")
 
 
 def _calibration_summary(doc: dict) -> None:
@@ -935,20 +935,20 @@ def _calibration_summary(doc: dict) -> None:
         pair = f"{j['sensors'][0]} -> {j['sensors'][1]}"
         head = f"  {name} ({j['joint']}, {pair}): {j['verdict']}"
         if j["o1"] is None:
-            _err(head)
+            say(head)
         elif j["joint"] == "hinge":
             q, a = j["axis"]["quality"], j["angle"] or {}
             u = j["axis"]["units"]["uncertainty"]
             sigma = "/".join("-" if q[f"{v}_uncertainty_{u}"] is None
                              else f"{q[f'{v}_uncertainty_{u}']:.2f}" for v in ("j1", "j2"))
-            _err(f"{head}; j1 = {_vec(j['j1'])}, j2 = {_vec(j['j2'])} (1-sigma {sigma} {u}); "
+            say(f"{head}; j1 = {_vec(j['j1'])}, j2 = {_vec(j['j2'])} (1-sigma {sigma} {u}); "
                  f"centre o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m")
             if a:
                 from .angles import SIGN_EVIDENCE_MIN
 
                 weak = ("; weak: each recording decides" if abs(a["sign_evidence"])
                         < SIGN_EVIDENCE_MIN else "")
-                _err(f"    flexion sign {a['flexion_sign']:+d} (evidence "
+                say(f"    flexion sign {a['flexion_sign']:+d} (evidence "
                      f"{a['sign_evidence']:+.2f}{weak}), zero: {a['zero_method']}; hinge "
                      f"residual {_num(a['hinge_residual'], '.3f')}, acc-gyro angle "
                      f"disagreement {_num(a['acc_gyro_disagreement_deg'], '.2f')} deg")
@@ -957,11 +957,11 @@ def _calibration_summary(doc: dict) -> None:
             u = j["position"]["units"]["uncertainty"]
             sigma = "/".join("-" if q[f"{v}_uncertainty_{u}"] is None
                              else f"{q[f'{v}_uncertainty_{u}']:.1f}" for v in ("o1", "o2"))
-            _err(f"{head}; o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m (1-sigma {sigma} "
+            say(f"{head}; o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m (1-sigma {sigma} "
                  f"{u})")
         for w in j["warnings"]:
             if not w.startswith("position: axis: "):  # the hinge's axis, said above
-                _err(f"    warning: {w}")
+                say(f"    warning: {w}")
 
 
 def _num(x, spec: str) -> str:
@@ -972,9 +972,6 @@ def _num(x, spec: str) -> str:
 def _vec(v) -> str:
     return "[" + ", ".join(f"{x:+.4f}" for x in v) + "]"
 
-
-def _err(text: str) -> None:
-    print(text, file=sys.stderr, flush=True)
 
 
 class _ClosedStdout:
@@ -1041,7 +1038,7 @@ def main() -> None:
     try:
         os.getcwd()
     except OSError:  # every relative path, and a study's worker processes, need it
-        _err("imucal: error: the current folder no longer exists (it was deleted or moved); "
+        say("imucal: error: the current folder no longer exists (it was deleted or moved); "
              "change to another folder")
         sys.exit(2)
     raise_on_signals()
@@ -1055,7 +1052,7 @@ def main() -> None:
         # Usage errors (unknown option, unparsable value, missing argument) come from the
         # click layer typer builds on; they carry exit_code 2 and format_message().
         if isinstance(err, OSError):  # e.g. --help with standard output closed
-            _err(one_line(f"imucal: error: {err.strerror or err}"))
+            say(one_line(f"imucal: error: {err.strerror or err}"))
             sys.exit(2)
         if getattr(err, "exit_code", None) != 2 or not hasattr(err, "format_message"):
             raise
@@ -1064,7 +1061,7 @@ def main() -> None:
         else:
             ctx = getattr(err, "ctx", None)
             command = ctx.command_path if ctx is not None else "imucal"
-            _err(f"imucal: error: {one_line(err.format_message())} (see '{command} --help')")
+            say(f"imucal: error: {one_line(err.format_message())} (see '{command} --help')")
         code = 2
     interruption = unreported_interruption()  # one that came while typer parsed
     if interruption is not None:

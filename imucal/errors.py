@@ -1,4 +1,7 @@
-"""The project's exception types and the exit codes the command line maps them to."""
+"""The project's exception types, the exit codes the command line maps them to, and how
+a message becomes one stderr line."""
+
+import sys
 
 
 class ImucalError(Exception):
@@ -27,3 +30,15 @@ def one_line(text: str) -> str:
     """``text`` with every run of whitespace, newlines included, as one space: an error
     is one stderr line even where it quotes a name or a library's text with newlines."""
     return " ".join(str(text).split())
+
+
+def as_line(text) -> str:
+    """``text`` with its line breaks shown as ``\\n`` (``\\r``): a file named with a newline,
+    quoted in a headline or a warning, leaves the message one line for whoever reads
+    stderr line by line, and still readable (``one_line`` above turns them into spaces)."""
+    return str(text).replace("\r", "\\r").replace("\n", "\\n")
+
+
+def say(text) -> None:
+    """Print one message line on stderr (:func:`as_line`)."""
+    print(as_line(text), file=sys.stderr, flush=True)

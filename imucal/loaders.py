@@ -102,7 +102,9 @@ def load_recording(
     InputError
         One line naming the file and the problem, for every unusable input.
     """
-    if not isinstance(path, str):  # (a str keeps its trailing '/', which Path drops)
+    if isinstance(path, bytes):  # as a str: it keeps its trailing '/', which Path drops
+        path = os.fsdecode(path)
+    if not isinstance(path, str):
         from .atomic import as_path
 
         path = as_path(path, "a recording's file name")

@@ -13,6 +13,7 @@ Example::
 
 from __future__ import annotations
 
+import decimal
 import math
 import numbers
 from dataclasses import asdict, dataclass, fields
@@ -248,15 +249,16 @@ def is_bool(value) -> bool:
 
 def as_real(value) -> float | None:
     """``value`` as a finite float when it is a real number (Python's or numpy's scalar,
-    ``np.int64(10)`` from a notebook's arrays, or a 0-d array such as ``np.load`` gives),
-    never a bool; else None."""
+    ``np.int64(10)`` from a notebook's arrays, a 0-d array such as ``np.load`` gives, or a
+    ``decimal.Decimal``, which Python does not count as ``numbers.Real``), never a bool;
+    else None."""
     if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
         value = value.item()
-    if not isinstance(value, numbers.Real) or is_bool(value):
+    if not isinstance(value, numbers.Real | decimal.Decimal) or is_bool(value):
         return None
     try:
         number = float(value)
-    except (OverflowError, ValueError):  # (10**400)
+    except (OverflowError, ValueError):  # (10**400; Decimal('sNaN'))
         return None
     return number if math.isfinite(number) else None
 

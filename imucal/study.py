@@ -34,7 +34,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .atomic import check_not_inputs, check_writable, write_atomic
-from .errors import InputError
+from .errors import InputError, as_line, say
 from .runner import INTERNAL_ERROR, Job, run
 from .signals import held, restore_defaults
 
@@ -183,7 +183,7 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
             # (a worker process has no such descriptor: it read "no such file")
             jobs = 1
             if not quiet:
-                _err(f"imucal {command}: {piped[0]} is a pipe of this "
+                say(f"imucal {command}: {piped[0]} is a pipe of this "
                      "command (<(...), /dev/fd/N): the recordings run in this process")
         where = f"with {jobs} process{'es' if jobs > 1 else ''}"
     progress = _Progress(len(files), f"imucal {command}",
@@ -229,7 +229,7 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
         target = "" if out is None else f" -> {out}"
         status = "all succeeded" if not failed else (
             f"{len(failed)} failed ({_short(failed)}), exit status {worst}")
-        _err(f"imucal {command}: {len(files)} recordings in {elapsed:.1f} s {where}{target}: "
+        say(f"imucal {command}: {len(files)} recordings in {elapsed:.1f} s {where}{target}: "
              f"{status}")
     return worst
 
@@ -518,7 +518,7 @@ class _Progress:
     def message(self, text: str) -> None:
         """Print a line above the bar (the bar is redrawn below it)."""
         self._clear()
-        print(text, file=self.stream, flush=True)
+        print(as_line(text), file=self.stream, flush=True)
         self._draw()
 
     def close(self) -> None:
@@ -572,6 +572,3 @@ def _descriptor_paths(files) -> list[str]:
 
     return [str(f) for f in files if str(f) != "-" and descriptor_of(f) is not None]
 
-
-def _err(text: str) -> None:
-    print(text, file=sys.stderr, flush=True)

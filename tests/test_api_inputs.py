@@ -6,6 +6,7 @@ another)."""
 
 from __future__ import annotations
 
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,10 @@ def test_numpy_scalars_are_numbers(pair):
     np.testing.assert_array_equal(numpy.j1, plain.j1)
     assert numpy.verdict == plain.verdict
     assert type(numpy.settings["restarts"]) is int and type(numpy.settings["seed"]) is int
+    # Decimal is not a numbers.Real: "rate must be a positive number, got Decimal('100')"
+    exact = imucal.estimate_axis(g1, g2, rate=Decimal("100"), restarts=Decimal(5),
+                                 seed=Decimal(3), subset=Decimal("0.5"), time_offset=Decimal(0))
+    np.testing.assert_array_equal(exact.j1, plain.j1)
 
 
 @pytest.mark.parametrize("kwargs, message", [
@@ -53,6 +58,7 @@ def test_numpy_scalars_are_numbers(pair):
     ({"rate": None}, "sample rate must be a positive number"),
     ({"rate": "abc"}, "sample rate must be a positive number"),
     ({"rate": np.array([100.0])}, "sample rate must be a positive number"),
+    ({"rate": Decimal("NaN")}, "sample rate must be a positive number"),
     ({"sign": np.array("+x")}, "sign must be one of"),
 ])
 def test_settings_of_the_wrong_type(pair, kwargs, message):
@@ -180,6 +186,10 @@ def test_select_and_paths_of_the_wrong_kind(rec, cal, tmp_path):
     with pytest.raises(InputError, match="expected a recording's file name"):
         imucal.load_recording(None)
     assert imucal.load_recording(bytes(SAMPLE)).n_samples == rec.n_samples
+    # a str with a trailing '/' was refused, its bytes loaded the file (Path drops the '/')
+    for name in (f"{SAMPLE}/", f"{SAMPLE}/".encode()):
+        with pytest.raises(InputError, match="is a file, not a folder"):
+            imucal.load_recording(name)
     with pytest.raises(InputError, match="expected a calibration file name"):
         imucal.load_calibration(None)
     with pytest.raises(InputError, match="expected an output file name"):

@@ -297,3 +297,21 @@ def test_a_calibration_through_a_pipe(tmp_path):
         assert set(load_calibration(path).joints) == set(load_calibration(cal).joints)
     with _feed(b"") as path, pytest.raises(InputError, match="it is empty"):
         load_calibration(path)
+
+
+def test_a_file_named_with_a_newline_keeps_every_message_one_line(tmp_path):
+    # the headline and the summary quoted the name as it is: its second half began a
+    # line of its own, which a script reading stderr line by line took for a message
+    odd = tmp_path / "left\nknee.h5"
+    odd.write_bytes(SAMPLE.read_bytes())
+    single = run_imucal("axis", odd, "--sensors", "thigh,shank", "--seed", 1,
+                        "--restarts", 5, "--out", tmp_path / "out\nput.json")
+    assert single.returncode == 0, single.stderr
+    lines = single.stderr.splitlines()
+    assert lines[0].startswith("imucal axis: ") and "left\\nknee.h5: thigh -> shank" in lines[0]
+    assert not any(line.startswith("knee.h5") for line in lines)
+    study = run_imucal("axis", odd, tmp_path / "missing\nfile.h5", "--sensors", "thigh,shank",
+                       "--seed", 1, "--restarts", 5)
+    assert study.returncode == 2
+    assert [json.loads(line)["exit_code"] for line in study.stdout.splitlines()] == [0, 2]
+    assert not any(line.startswith(("knee.h5", "file.h5")) for line in study.stderr.splitlines())
