@@ -205,7 +205,8 @@ class Recording:
 
     def window_slice(self, start: float | None = None, end: float | None = None) -> slice:
         """The samples of the window ``[start, end)``, s on the recording's time axis
-        (None: its start / end); InputError naming the file for a window outside it."""
+        (None: its start / end); InputError naming the file for a window outside it or
+        holding fewer than 2 samples."""
         from .preprocess import window_slice
 
         if start is None and end is None:
@@ -220,10 +221,14 @@ class Recording:
         start, end = seconds
         t0 = float(self.time[0])
         try:
-            return window_slice(self.n_samples, self.rate, None if start is None else start - t0,
-                                None if end is None else end - t0, origin=t0)
+            win = window_slice(self.n_samples, self.rate, None if start is None else start - t0,
+                               None if end is None else end - t0, origin=t0)
         except InputError as err:
             raise InputError(f"{self.source}: {err}") from None
+        if win.stop - win.start < 2:  # the window itself, whatever its samples hold
+            raise InputError(f"{self.source}: {self._span(win.start, win.stop)} holds "
+                             f"{win.stop - win.start} sample(s); at least 2 are needed")
+        return win
 
     def select(
         self,
@@ -295,9 +300,6 @@ class Recording:
         trail = max((g.length for r in gaps.values() for g in r if g.start + g.length == n),
                     default=0)
         a0, a1 = max(w0, lead), min(w1, n - trail)
-        if w1 - w0 < 2:  # the window itself, whatever its samples hold
-            raise InputError(f"{source}: {span} holds {w1 - w0} sample(s); "
-                             "at least 2 are needed")
         if a1 - a0 < 2:
             raise InputError(
                 f"{source}: fewer than 2 samples are finite (not NaN or Inf) in every sensor "
@@ -376,7 +378,11 @@ class Recording:
     def _span(self, i0: int, i1: int) -> str:
         if i0 == 0 and i1 == self.n_samples:
             return "the recording"
-        return f"the window t={self.time[i0]:g} to {self.time[i1 - 1] + 1 / self.rate:g} s"
+        # a start within the last sample period rounds to the end: an empty window there
+        # (its first sample's index is then n)
+        first = self.time[i0] if i0 < self.n_samples else self.time[-1] + 1 / self.rate
+        last = self.time[i1 - 1] + 1 / self.rate if i1 > i0 else first
+        return f"the window t={first:g} to {last:g} s"
 
     def _refuse_first_offence(self, inner, a0: int, a1: int, span: str) -> None:
         """Raise for the earliest gap that cannot be repaired, if any (see :meth:`select`)."""

@@ -4,6 +4,7 @@ window, can stop it; gap messages name the first gap and its time."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -14,6 +15,8 @@ import imucal
 from imucal.errors import InputError
 from imucal.simulate import simulate
 from imucal.writers import save_recording
+
+SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5"
 
 RESTARTS = "5"
 
@@ -238,6 +241,22 @@ def test_a_window_of_one_sample_says_so():
     with pytest.raises(InputError, match=r"r.h5: the window t=9.99 to 10 s holds 1 "
                                          r"sample\(s\); at least 2 are needed"):
         rec.select(["a", "b"], 9.99, None)
+    # a start within the last sample period rounds to the end: an empty window, whose
+    # description read the sample after the last (IndexError, exit 3; a docs review)
+    for start, end in ((9.996, None), (9.997, 10.0), (5.0, 5.004)):
+        with pytest.raises(InputError, match=r"holds 0 sample\(s\); at least 2 are needed"):
+            rec.select(["a", "b"], start, end)
+        with pytest.raises(InputError, match=r"holds 0 sample\(s\)"):
+            rec.window_slice(start, end)
+
+
+@pytest.mark.parametrize("command", ["axis", "position", "calibrate"])
+def test_a_window_in_the_last_sample_period_is_refused_by_every_command(command):
+    # calibrate failed each joint with it (exit 1) and named the whole recording's window
+    run = run_imucal(command, SAMPLE, "--start", "19.995", "--restarts", 5)
+    assert run.returncode == 2
+    assert run.stderr.decode().strip() == (f"imucal: error: {SAMPLE}: the window t=20 to 20 s "
+                                           "holds 0 sample(s); at least 2 are needed")
 
 
 def test_a_cut_off_too_low_to_design_a_filter_is_named():
