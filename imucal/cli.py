@@ -125,10 +125,12 @@ Trace = Annotated[bool, typer.Option(
 Rate = Annotated[float | None, typer.Option(
     help="Sample rate, Hz (CSV without a time column). With time stamps in the file it must "
          "agree with theirs within 10 %, and then wins.", show_default=False)]
-GyrUnits = Annotated[str | None, typer.Option(help="Gyroscope units of a CSV: rad/s or deg/s.",
-                                              show_default=False)]
-AccUnits = Annotated[str | None, typer.Option(help="Accelerometer units of a CSV: m/s^2 or g.",
-                                              show_default=False)]
+GyrUnits = Annotated[str | None, typer.Option(
+    help="Gyroscope units, rad/s or deg/s, of every sensor: for a CSV, and in place of what "
+         "an HDF5 file or vendor export declares.", show_default=False)]
+AccUnits = Annotated[str | None, typer.Option(
+    help="Accelerometer units, m/s^2 or g, of every sensor: for a CSV, and in place of what "
+         "an HDF5 file or vendor export declares.", show_default=False)]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")]
 SensorMap = Annotated[Path | None, typer.Option(
     "--map", metavar="FILE", show_default=False,
@@ -791,6 +793,7 @@ def _describe(recording) -> dict:
     import numpy as np
 
     from .preprocess import STILL_RATE_DEG_S, rms_rate_deg_s
+    from .recording import ACC_UNITS
 
     sensors = {}
     for name, s in recording.sensors.items():
@@ -803,7 +806,7 @@ def _describe(recording) -> dict:
             continue
         gyr, acc = s.gyr[fine], s.acc[fine]
         rate_norm = np.degrees(np.linalg.norm(gyr, axis=1))
-        acc_dyn = np.linalg.norm(acc, axis=1) - 9.81
+        acc_dyn = np.linalg.norm(acc, axis=1) - ACC_UNITS["g"]  # 1 g, as everywhere
         rms = rms_rate_deg_s(gyr)
         sensors[name] = {
             "units": recording.units.get(name, {}),
