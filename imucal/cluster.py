@@ -15,9 +15,12 @@ when a study asks for a cluster.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
+import queue
 import re
 import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 
 from .errors import InputError
@@ -31,13 +34,20 @@ INSTALL_HINT = "pip install 'imucal-joints[dask]'"
 CONNECT_TIMEOUT_S = 10.0
 #: Extra time for the handshake after Dask's own connect timeout, s.
 HANDSHAKE_GRACE_S = 5.0
+#: A study stops when its cluster has had no worker for this long, s: every worker died
+#: or was stopped, and none came back (a nanny restarts a crashed one within seconds).
+NO_WORKER_TIMEOUT_S = 60.0
+#: How often a study looks at its cluster while it waits for results, s.
+POLL_S = 1.0
 
 
 class Cluster:
     """A connected Dask client that runs study entries (see :func:`connect`)."""
 
-    def __init__(self, client):
+    def __init__(self, client, address: str = "", log_levels: dict | None = None):
         self.client = client
+        self.address = address
+        self._log_levels = log_levels or {}
 
     @property
     def workers(self) -> int:
@@ -54,14 +64,20 @@ class Cluster:
         ``files``; a recording whose task failed on the cluster (a worker that died
         repeatedly, a worker without imucal) gets an entry with exit code 3.
 
+        Raises
+        ------
+        InputError
+            The connection to the scheduler was lost, or the cluster has had no worker
+            for :data:`NO_WORKER_TIMEOUT_S`: the study stops (the entries yielded so far
+            stand). Before, each unfinished recording got an exit-3 entry ("a bug in
+            imucal"), or the study waited for ever.
+
         Examples
         --------
         >>> cluster = connect("tcp://127.0.0.1:8786")                 # doctest: +SKIP
         >>> [e.exit_code for e in cluster.process(job, ["a.h5"])]     # doctest: +SKIP
         [0]
         """
-        from distributed import as_completed
-
         from .study import InOrder, entry
 
         # Relative paths mean the same as here: the workers resolve them against this
@@ -71,26 +87,81 @@ class Cluster:
                                   cwd=cwd, pure=False)
         index = {future.key: i for i, future in enumerate(futures)}
         order = InOrder(on_done)
+        # Done (finished, failed or cancelled) futures arrive here from Dask's thread;
+        # waiting on them with a timeout lets the study look at its cluster meanwhile.
+        arrived: queue.SimpleQueue = queue.SimpleQueue()
+        for future in futures:
+            future.add_done_callback(arrived.put)
+        left = len(futures)
+        watch = _Watch(self, len(files))
         try:
-            for future in as_completed(futures, loop=self.client.loop):
-                i = index[future.key]
-                try:
-                    result = future.result()
-                except Exception as err:  # fails one recording, not the study
-                    # One line, as every error: Dask's messages run over several.
-                    first = (str(err).strip().splitlines() or [""])[0]
-                    result = entry(i, files[i], INTERNAL_ERROR,
-                                   f"{files[i]}: the Dask task failed: {type(err).__name__}: "
-                                   f"{first}", None, [])
-                order.add(result)
+            while left:
+                finished = []
+                with contextlib.suppress(queue.Empty):
+                    finished.append(arrived.get(timeout=POLL_S))
+                    while True:
+                        finished.append(arrived.get_nowait())
+                watch.check(order.done)
+                for future in finished:
+                    i = index[future.key]
+                    try:
+                        result = future.result()
+                    except Exception as err:  # fails one recording, not the study
+                        watch.check(order.done, err)
+                        # One line, as every error: Dask's messages run over several.
+                        first = (str(err).strip().splitlines() or [""])[0]
+                        result = entry(i, files[i], INTERNAL_ERROR,
+                                       f"{files[i]}: the Dask task failed: "
+                                       f"{type(err).__name__}: {first}", None, [])
+                    order.add(result)
+                left -= len(finished)
                 order.report()
                 yield from order.release()
         finally:
-            self.client.cancel(futures)
+            with contextlib.suppress(Exception):  # (a lost scheduler cannot cancel)
+                self.client.cancel(futures)
 
     def close(self) -> None:
-        """Disconnect (the cluster itself keeps running)."""
-        self.client.close()
+        """Disconnect (the cluster itself keeps running), and give Dask's loggers back
+        their levels."""
+        try:
+            with contextlib.suppress(Exception):
+                self.client.close(timeout=CONNECT_TIMEOUT_S)
+        finally:
+            for name, level in self._log_levels.items():
+                logging.getLogger(name).setLevel(level)
+
+
+class _Watch:
+    """Whether a study's cluster can still finish it (see :meth:`Cluster.process`)."""
+
+    def __init__(self, cluster: Cluster, total: int):
+        self.cluster, self.total = cluster, total
+        self.alone_since: float | None = None
+
+    def check(self, done: int, err: BaseException | None = None) -> None:
+        """InputError if the scheduler is lost (its status, or a task cancelled for that
+        reason) or no worker has been there for :data:`NO_WORKER_TIMEOUT_S`."""
+        client, where = self.cluster.client, f"--scheduler {self.cluster.address}"
+        if client.status != "running" or "scheduler-connection-lost" in str(err or ""):
+            raise InputError(f"{where}: lost the connection to the Dask scheduler after "
+                             f"{done} of {self.total} recordings; the study stopped")
+        try:
+            workers = self.cluster.workers
+        except Exception:  # (the scheduler went away between the two looks)
+            raise InputError(f"{where}: lost the connection to the Dask scheduler after "
+                             f"{done} of {self.total} recordings; the study stopped") from None
+        if workers:
+            self.alone_since = None
+            return
+        now = time.monotonic()
+        if self.alone_since is None:
+            self.alone_since = now
+        elif now - self.alone_since >= NO_WORKER_TIMEOUT_S:
+            raise InputError(f"{where}: the cluster has had no worker for "
+                             f"{NO_WORKER_TIMEOUT_S:g} s (they stopped or died) after {done} "
+                             f"of {self.total} recordings; the study stopped (start workers "
+                             f"with 'dask worker {self.cluster.address}')")
 
 
 def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
@@ -133,7 +204,23 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
         client.close()
         raise InputError(f"--scheduler {address}: the scheduler has no workers (start "
                          f"some with 'dask worker {address}')") from None
-    return Cluster(client)
+    return Cluster(client, address, _quiet_dask())
+
+
+def _quiet_dask() -> dict:
+    """Silence Dask's own log lines (a traceback when the scheduler goes away, "Couldn't
+    gather 1 keys, rescheduling" when a worker dies) for the study: imucal says what
+    matters in its own one-line messages. Returns the levels to restore."""
+    # each of Dask's loggers has its own level and handler (not only the parents')
+    names = {"distributed", "tornado"} | {
+        name for name in logging.root.manager.loggerDict
+        if name.startswith(("distributed.", "tornado."))}
+    levels = {}
+    for name in names:
+        logger = logging.getLogger(name)
+        levels[name] = logger.level
+        logger.setLevel(logging.CRITICAL + 1)
+    return levels
 
 
 def _client(distributed, address: str, timeout: float):

@@ -27,9 +27,10 @@ import os
 import shutil
 import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import closing, contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -56,6 +57,8 @@ WORKER_MODULES = ("imucal.runner", "imucal.axis", "imucal.position", "imucal.rep
                   "imucal.loaders", "imucal.calibration")
 #: The progress bar redraws at least this often, s (its clock and estimate keep moving).
 PROGRESS_REFRESH_S = 0.5
+#: How often a worker process checks that its study's command still runs, s.
+PARENT_CHECK_S = 1.0
 WARNING_PREFIX = "imucal: warning: "
 
 
@@ -198,14 +201,18 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
             entries = client.process(job, files, on_done=progress.done)
         else:
             entries = process_recordings(job, files, jobs=jobs, on_done=progress.done)
-        for result in entries:
-            for message in result.messages:  # -q or not, as the single-file command
-                progress.message(message)
-            if result.error is not None:
-                progress.message(f"imucal: error: {result.error}")
-                failed.append(result.file)
-            worst = max(worst, result.exit_code)
-            write_line(result.line + "\n")
+        # closed here when writing fails or a signal comes while it blocks: its workers
+        # stop now (later, the study waited for their recordings) and a cluster's tasks
+        # are cancelled while the client is still open
+        with closing(entries):
+            for result in entries:
+                for message in result.messages:  # -q or not, as the single-file command
+                    progress.message(message)
+                if result.error is not None:
+                    progress.message(f"imucal: error: {result.error}")
+                    failed.append(result.file)
+                worst = max(worst, result.exit_code)
+                write_line(result.line + "\n")
 
     try:
         if out is None:
@@ -287,7 +294,8 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
         before = {p.pid for p in multiprocessing.active_children()}
         _start_resource_tracker(context)
         executor = ProcessPoolExecutor(max_workers=min(workers, len(pending)),
-                                       mp_context=context, initializer=restore_defaults)
+                                       mp_context=context, initializer=_worker_start,
+                                       initargs=(os.getpid(),))
         broken = False
         futures = []
         try:
@@ -317,7 +325,9 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
                         broken = True
                 order.report()
                 yield from order.release()
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, GeneratorExit):
+            # GeneratorExit: the reader stopped (its output failed, or a signal came
+            # while it wrote); nobody wants the rest.
             # Ctrl-C, or SIGTERM / SIGHUP turned into one (imucal.signals): a worker that
             # started after a Ctrl-C (held above) has not seen it, nor
             # has any worker a signal sent to this process alone, and the shutdown below
@@ -349,6 +359,44 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
         yield from order.release()
         workers = jobs
     yield from order.release()
+
+
+def _worker_start(command_pid: int) -> None:
+    """A study's worker process: signals as :func:`imucal.signals.restore_defaults` says,
+    and a watch on the command, which it outlives if that is killed outright (SIGKILL:
+    the out-of-memory killer, a batch system's hard limit): its pool's pipes stay open
+    in the workers themselves, and the fork server and resource tracker live as long as
+    they do, all idle for good."""
+    restore_defaults()
+    threading.Thread(target=_exit_without, args=(command_pid,), daemon=True).start()
+
+
+def _exit_without(command_pid: int) -> None:
+    while True:
+        time.sleep(PARENT_CHECK_S)
+        if not _running(command_pid):
+            os._exit(1)
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (killed, but not yet collected
+    by its parent: a script that started the command may wait for its output first,
+    which the workers hold open)."""
+    if os.path.isdir("/proc/self"):
+        try:
+            with open(f"/proc/{pid}/stat", "rb") as fh:
+                return fh.read().rsplit(b")", 1)[1].split()[0] != b"Z"
+        except FileNotFoundError:
+            return False
+        except (OSError, IndexError):
+            pass
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # there, owned by someone else
+        pass
+    return True
 
 
 class InOrder:
@@ -561,6 +609,7 @@ def _is_terminal(stream) -> bool:
 
 
 def _short(names: list[str], limit: int = 3) -> str:
+    names = list(dict.fromkeys(names))  # a file given many times is named once
     more = f" and {len(names) - limit} more" if len(names) > limit else ""
     return ", ".join(names[:limit]) + more
 

@@ -146,3 +146,46 @@ def test_a_port_speaking_another_protocol_fails_fast_and_quietly(files):
     assert proc.returncode == 2, proc.stderr.decode()
     assert b"not as a Dask scheduler" in proc.stderr
     assert b"Exception ignored" not in proc.stderr and elapsed < 15, (elapsed, proc.stderr)
+
+
+def _slow_study(folder, count: int = 30):
+    """A study of ``count`` copies of a.h5 that takes seconds (300 restarts each)."""
+    from imucal.runner import Job
+    from imucal.settings import AxisSettings
+
+    job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=300, seed=1))
+    return job, [str(folder / "a.h5")] * count
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # fork in a threaded pytest
+@pytest.mark.parametrize("loss", ["scheduler", "workers"])
+def test_a_cluster_lost_mid_study_stops_it_with_one_message(files, monkeypatch, loss):
+    # the scheduler killed: a Dask traceback on stderr and an exit-3 line ("a bug in
+    # imucal") for every unfinished recording; every worker gone: a wait for ever. (The
+    # workers here share this process's stderr, so their own log lines land there too.)
+    from distributed import LocalCluster
+
+    from imucal import cluster
+    from imucal.errors import InputError
+
+    monkeypatch.setattr(cluster, "NO_WORKER_TIMEOUT_S", 2.0)
+    monkeypatch.setattr(cluster, "POLL_S", 0.2)
+    folder, _ = files
+    job, names = _slow_study(folder)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as local:
+        client = cluster.connect(local.scheduler_address)
+        try:
+            entries = client.process(job, names)
+            assert next(entries).exit_code == 0
+            if loss == "scheduler":
+                local.close()
+                message = r"lost the connection to the Dask scheduler after \d+ of 30"
+            else:
+                local.scale(0)
+                message = r"the cluster has had no worker for 2 s .* after \d+ of 30"
+            with pytest.raises(InputError, match=message):
+                for done in entries:
+                    assert done.exit_code == 0
+        finally:
+            client.close()

@@ -342,3 +342,74 @@ def test_a_study_ended_by_a_signal_stops_its_workers_and_leaves_no_file(tmp_path
     assert (proc.returncode, err) == expected, err.decode()
     assert left == [], "worker processes outlived the command"
     assert list(tmp_path.iterdir()) == []  # --out: complete or not at all
+
+
+def test_a_study_killed_outright_leaves_no_process_behind(tmp_path):
+    # SIGKILL (the out-of-memory killer, a batch system's hard limit) of the command:
+    # its workers, the fork server and the resource tracker stayed for good, idle, about
+    # 375 MB (a study fuzz); the workers now watch the command and end without it
+    import signal
+    import time
+
+    sample = str(Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "imucal", "axis", *[sample] * 64, "--jobs", "2", "-q",
+         "--out", str(tmp_path / "knees.jsonl")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not (_children(proc.pid) >= 1 and len(_in_session(proc.pid)) >= 3):
+            assert proc.poll() is None and time.monotonic() < deadline, "no workers seen"
+            time.sleep(0.01)
+        time.sleep(0.3)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.communicate(timeout=60)
+        deadline = time.monotonic() + 15
+        while _in_session(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        left = _in_session(proc.pid)
+    finally:
+        for pid in _in_session(proc.pid):
+            os.kill(pid, signal.SIGKILL)
+    assert left == [], "processes of the study outlived its command"
+
+
+def test_a_signal_while_the_output_blocks_stops_the_workers_at_once():
+    # Ctrl-C while the study waited for a reader (a pager, a stalled pipe) printed
+    # "imucal: interrupted" at once but ended 7-13 s later: the workers went on with
+    # their recordings, as the interruption came outside the loop that stops them
+    import signal
+    import time
+
+    sample = str(Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5")
+    # slow recordings (about a second each) and a reader that never reads: after a
+    # pipe's buffer of lines the command blocks in its write
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "imucal", "axis", *[sample] * 16, "--jobs", "2",
+         "--restarts", "1500", "--seed", "1", "-q"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        wchan = Path("/proc") / str(proc.pid) / "wchan"
+        while wchan.read_text() != "anon_pipe_write":
+            assert proc.poll() is None and time.monotonic() < deadline, "never blocked"
+            time.sleep(0.02)
+        started = time.monotonic()
+        os.kill(proc.pid, signal.SIGINT)  # the command alone
+        while proc.poll() is None and time.monotonic() < started + 60:
+            time.sleep(0.02)
+        took = time.monotonic() - started
+        err = proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        for pid in _in_session(proc.pid):
+            os.kill(pid, signal.SIGKILL)
+    assert proc.returncode == 130 and err == b"imucal: interrupted\n", err.decode()
+    assert took < 2.0, f"ended {took:.1f} s after the signal"
+
+
+def test_the_summary_names_a_file_given_many_times_once():
+    # "55 failed (x.h5, x.h5, x.h5 and 52 more)"
+    assert study_module._short(["x.h5"] * 55) == "x.h5"
+    assert study_module._short(["a", "b", "a", "c", "d"]) == "a, b, c and 1 more"
