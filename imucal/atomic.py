@@ -247,6 +247,22 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
+def write_stdout(text: str) -> None:
+    """``text`` to standard output, flushed (a reader, jq or ``tail -f``, sees it at
+    once). A failed write names standard output (it said only "No space left on device"
+    for ``> /dev/full``); a reader that is gone stays a BrokenPipeError, which the command
+    line ends quietly as a shell does."""
+    try:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as err:
+        if err.filename is not None:
+            raise
+        raise InputError(f"standard output: cannot write ({err.strerror or err})") from None
+
+
 def check_not_inputs(outputs, inputs) -> None:
     """InputError when an output path names one of the input files or another output.
 

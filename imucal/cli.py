@@ -26,6 +26,7 @@ from .atomic import (
     check_not_inputs,
     check_writable,
     write_atomic,
+    write_stdout,
     write_text_atomic,
 )
 from .errors import ImucalError, InputError, NotIdentifiableError, one_line, say
@@ -457,9 +458,8 @@ def angles(
             raise NotIdentifiableError(
                 f"{recording.source} with {calibration}: {'; '.join(problems)}; nothing "
                 "written (--force writes the angles with these warnings)")
-        if out is None:
-            result.to_frame().to_csv(sys.stdout, index=False, float_format="%.6g")
-            sys.stdout.flush()  # a reader gone shows here, inside the error handler
+        if out is None:  # (a reader gone shows inside the error handler)
+            write_stdout(result.to_frame().to_csv(index=False, float_format="%.6g"))
         else:
             result.write(out)
         if plot is not None:
@@ -644,7 +644,7 @@ def info(
         if recording.provenance:  # and where it came from (and the --map used)
             doc["provenance"] = clean(recording.provenance)
         if as_json:
-            sys.stdout.write(json.dumps(doc, indent=2) + "\n")
+            write_stdout(json.dumps(doc, indent=2) + "\n")
             return
         # "rate" alone would read as the sample rate: the gyro columns say what they are
         w = max([16] + [len(n) + 2 for n in doc["sensors"]])  # long names keep the columns
@@ -671,7 +671,7 @@ def info(
         lines += [f"note: {n}" for n in recording.provenance.get("notes", [])]
         for w in recording.warnings:
             lines.append(f"warning: {w}")
-        sys.stdout.write("\n".join(lines) + "\n")
+        write_stdout("\n".join(lines) + "\n")
 
 
 @app.command(epilog=_examples("imucal convert opal.h5 walk.h5",
@@ -889,8 +889,7 @@ def _emit(doc: dict, out: Path | None) -> None:
 
     text = dumps(doc)
     if out is None:
-        sys.stdout.write(text)
-        sys.stdout.flush()
+        write_stdout(text)
     else:
         write_text_atomic(out, text)
 

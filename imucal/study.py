@@ -34,7 +34,7 @@ from contextlib import closing, contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from .atomic import check_not_inputs, check_writable, write_atomic
+from .atomic import check_not_inputs, check_writable, write_atomic, write_stdout
 from .errors import InputError, as_line, say
 from .runner import INTERNAL_ERROR, Job, run
 from .signals import held, restore_defaults
@@ -216,11 +216,7 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
 
     try:
         if out is None:
-            def to_stdout(text: str) -> None:
-                sys.stdout.write(text)
-                sys.stdout.flush()  # a reader (jq, tail -f) sees each recording at once
-
-            consume(to_stdout)
+            consume(write_stdout)
         else:
             def to_file(tmp: Path) -> None:
                 with open(tmp, "w", encoding="utf-8") as fh:

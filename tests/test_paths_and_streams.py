@@ -315,3 +315,16 @@ def test_a_file_named_with_a_newline_keeps_every_message_one_line(tmp_path):
     assert study.returncode == 2
     assert [json.loads(line)["exit_code"] for line in study.stdout.splitlines()] == [0, 2]
     assert not any(line.startswith(("knee.h5", "file.h5")) for line in study.stderr.splitlines())
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
+@pytest.mark.parametrize("args", [AXIS, ("axis", SAMPLE, SAMPLE, *AXIS[2:]),
+                                  ("info", SAMPLE, "--json")])
+def test_a_full_standard_output_is_named(args):
+    # "imucal: error: No space left on device": the one line named no file
+    with open("/dev/full", "w") as full:
+        run = subprocess.run([sys.executable, "-m", "imucal", *map(str, args)], stdout=full,
+                             stderr=subprocess.PIPE, timeout=120)
+    assert run.returncode == 2
+    assert run.stderr.decode() == ("imucal: error: standard output: cannot write (No space "
+                                   "left on device)\n")
