@@ -492,23 +492,23 @@ def _angles_summary(result, out) -> None:
     doc = result.to_document()
     where = "stdout" if out is None else str(out)
     say(f"imucal angles: {doc['input']['path']}: {doc['input']['samples']} samples at "
-         f"{doc['input']['sample_rate_hz']:g} Hz, calibration {doc['calibration']} -> {where}")
+        f"{doc['input']['sample_rate_hz']:g} Hz, calibration {doc['calibration']} -> {where}")
     for j in doc["joints"].values():
         lo, hi = j["range_deg"]
         c = j["check"]
         gait = "" if j["gait"] is None else (f"; walking: {j['gait']['strides']} strides of "
                                              f"{j['gait']['stride_s']:.2f} s")
         say(f"  {j['column']}: {lo:.1f} to {hi:.1f} deg (median 1-sigma "
-             f"{j['sigma_deg']['median']:.2f} deg), sign {j['flexion_sign']:+d} from "
-             f"{j['sign_source']}, 0 = {j['zero']['method']}{gait}")
+            f"{j['sigma_deg']['median']:.2f} deg), sign {j['flexion_sign']:+d} from "
+            f"{j['sign_source']}, 0 = {j['zero']['method']}{gait}")
         say(f"    fit check: {'fits' if j['fits'] else 'DOES NOT FIT'} (hinge residual "
-             f"{_num(c['hinge_residual'], '.3f')}, limit "
-             f"{_num(c['hinge_residual_limit'], '.3f')}; acc-gyro disagreement "
-             f"{_num(c['acc_gyro_disagreement_deg'], '.2f')} deg, limit "
-             f"{_num(c['acc_gyro_disagreement_limit_deg'], '.2f')} deg"
-             + (f"; gravity mismatch {c['gravity_mismatch_deg']:.0f} deg"
+            f"{_num(c['hinge_residual'], '.3f')}, limit "
+            f"{_num(c['hinge_residual_limit'], '.3f')}; acc-gyro disagreement "
+            f"{_num(c['acc_gyro_disagreement_deg'], '.2f')} deg, limit "
+            f"{_num(c['acc_gyro_disagreement_limit_deg'], '.2f')} deg"
+            + (f"; gravity mismatch {c['gravity_mismatch_deg']:.0f} deg"
                 if c.get("gravity_mismatch_deg") is not None else "")
-             + (f"; {c['implausible_flexion_share']:.0%} of the flexion outside {low:g} to "
+            + (f"; {c['implausible_flexion_share']:.0%} of the flexion outside {low:g} to "
                 f"{high:g} deg" if c.get("implausible_flexion_share") else "") + ")")
 
 
@@ -614,8 +614,8 @@ def simulate(
         write_text_atomic(truth_path, json.dumps(clean(truth), indent=2) + "\n")
         if not quiet:
             say(f"imucal simulate: wrote {out} ({recording.n_samples} samples at "
-                 f"{recording.rate:g} Hz, motion {motion}, seed {truth['settings']['seed']}) "
-                 f"and {truth_path}")
+                f"{recording.rate:g} Hz, motion {motion}, seed {truth['settings']['seed']}) "
+                f"and {truth_path}")
 
 
 @app.command(epilog=_examples("imucal info walk.h5", "imucal info rec.csv --rate 100 --json"))
@@ -705,7 +705,7 @@ def convert(
             for w in recording.warnings:
                 say(f"imucal: warning: {recording.source}: {w}")
             say(f"imucal convert: wrote {out} ({len(recording.sensors)} sensors, "
-                 f"{recording.n_samples} samples at {recording.rate:g} Hz)")
+                f"{recording.n_samples} samples at {recording.rate:g} Hz)")
 
 
 def _settings(ctx: typer.Context, cls, **values):
@@ -862,7 +862,7 @@ class _errors:
             say(one_line(f"imucal: error: {where}{err.strerror or err}"))
             raise typer.Exit(2)
         say(f"imucal: internal error: {type(err).__name__}: {err} (rerun with --debug and "
-             "report it)")
+            "report it)")
         raise typer.Exit(3)
 
 
@@ -911,11 +911,11 @@ def _summary(doc: dict, names) -> None:
     reached = sum(r["reached_estimate"] for r in doc["restarts"])
     say(f"  {v1} ({names[0]}) = {_vec(doc[v1])}{unit}   {v2} ({names[1]}) = {_vec(doc[v2])}{unit}")
     say(f"  1-sigma {sigma} {u}; {reached}/{len(doc['restarts'])} restarts reached the estimate "
-         f"(median {conv['iterations_median']:g}, max {conv['iterations_max']} iterations); "
-         f"residual {q['rms_residual']:.4f} {units['rms_residual']} "
-         # no signal at all (every sample 0): the ratio is undefined, null in the JSON
-         f"({'-' if q['relative_residual'] is None else format(q['relative_residual'], '.1%')}"
-         " of signal)")
+        f"(median {conv['iterations_median']:g}, max {conv['iterations_max']} iterations); "
+        f"residual {q['rms_residual']:.4f} {units['rms_residual']} "
+        # no signal at all (every sample 0): the ratio is undefined, null in the JSON
+        f"({'-' if q['relative_residual'] is None else format(q['relative_residual'], '.1%')}"
+        " of signal)")
     offset = doc.get("time_offset") or {}
     if offset.get("mode") == "auto":
         applied = "applied" if offset["applied"] else "not applied"
@@ -944,23 +944,23 @@ def _calibration_summary(doc: dict) -> None:
             sigma = "/".join("-" if q[f"{v}_uncertainty_{u}"] is None
                              else f"{q[f'{v}_uncertainty_{u}']:.2f}" for v in ("j1", "j2"))
             say(f"{head}; j1 = {_vec(j['j1'])}, j2 = {_vec(j['j2'])} (1-sigma {sigma} {u}); "
-                 f"centre o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m")
+                f"centre o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m")
             if a:
                 from .angles import SIGN_EVIDENCE_MIN
 
                 weak = ("; weak: each recording decides" if abs(a["sign_evidence"])
                         < SIGN_EVIDENCE_MIN else "")
                 say(f"    flexion sign {a['flexion_sign']:+d} (evidence "
-                     f"{a['sign_evidence']:+.2f}{weak}), zero: {a['zero_method']}; hinge "
-                     f"residual {_num(a['hinge_residual'], '.3f')}, acc-gyro angle "
-                     f"disagreement {_num(a['acc_gyro_disagreement_deg'], '.2f')} deg")
+                    f"{a['sign_evidence']:+.2f}{weak}), zero: {a['zero_method']}; hinge "
+                    f"residual {_num(a['hinge_residual'], '.3f')}, acc-gyro angle "
+                    f"disagreement {_num(a['acc_gyro_disagreement_deg'], '.2f')} deg")
         else:
             q = j["position"]["quality"]
             u = j["position"]["units"]["uncertainty"]
             sigma = "/".join("-" if q[f"{v}_uncertainty_{u}"] is None
                              else f"{q[f'{v}_uncertainty_{u}']:.1f}" for v in ("o1", "o2"))
             say(f"{head}; o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m (1-sigma {sigma} "
-                 f"{u})")
+                f"{u})")
         for w in j["warnings"]:
             if not w.startswith("position: axis: "):  # the hinge's axis, said above
                 say(f"    warning: {w}")
@@ -1041,7 +1041,7 @@ def main() -> None:
         os.getcwd()
     except OSError:  # every relative path, and a study's worker processes, need it
         say("imucal: error: the current folder no longer exists (it was deleted or moved); "
-             "change to another folder")
+            "change to another folder")
         sys.exit(2)
     raise_on_signals()
     try:

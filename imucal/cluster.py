@@ -138,6 +138,7 @@ class _Watch:
     def __init__(self, cluster: Cluster, total: int):
         self.cluster, self.total = cluster, total
         self.alone_since: float | None = None
+        self.counted = -float("inf")
 
     def check(self, done: int, err: BaseException | None = None) -> None:
         """InputError if the scheduler is lost (its status, or a task cancelled for that
@@ -146,6 +147,10 @@ class _Watch:
         if client.status != "running" or "scheduler-connection-lost" in str(err or ""):
             raise InputError(f"{where}: lost the connection to the Dask scheduler after "
                              f"{done} of {self.total} recordings; the study stopped")
+        now = time.monotonic()
+        if now - self.counted < POLL_S:  # (counting asks the scheduler about every worker)
+            return
+        self.counted = now
         try:
             workers = self.cluster.workers
         except Exception:  # (the scheduler went away between the two looks)
@@ -154,7 +159,6 @@ class _Watch:
         if workers:
             self.alone_since = None
             return
-        now = time.monotonic()
         if self.alone_since is None:
             self.alone_since = now
         elif now - self.alone_since >= NO_WORKER_TIMEOUT_S:

@@ -187,7 +187,7 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
             jobs = 1
             if not quiet:
                 say(f"imucal {command}: {piped[0]} is a pipe of this "
-                     "command (<(...), /dev/fd/N): the recordings run in this process")
+                    "command (<(...), /dev/fd/N): the recordings run in this process")
         where = f"with {jobs} process{'es' if jobs > 1 else ''}"
     progress = _Progress(len(files), f"imucal {command}",
                          enabled=not quiet and _is_terminal(sys.stderr))
@@ -233,7 +233,7 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
         status = "all succeeded" if not failed else (
             f"{len(failed)} failed ({_short(failed)}), exit status {worst}")
         say(f"imucal {command}: {len(files)} recordings in {elapsed:.1f} s {where}{target}: "
-             f"{status}")
+            f"{status}")
     return worst
 
 
