@@ -293,9 +293,10 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     ------
     InputError
         A joint spec that cannot be parsed or names a missing sensor, no joint the
-        sensors allow, invalid settings. A joint whose estimate stops (not identifiable,
-        a sensor gap in the window) is kept with verdict ``failed`` and the reason in its
-        warnings; the others are unaffected.
+        sensors allow, invalid settings, or bad input that stops every joint's estimate
+        (a window too short for any: the first joint's error). A joint whose estimate
+        stops (not identifiable, a sensor gap in the window) is kept with verdict
+        ``failed`` and the reason in its warnings; the others are unaffected.
 
     References
     ----------
@@ -319,22 +320,29 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     CalibrateSettings(restarts=restarts, seed=seed, time_offset=time_offset,
                       acc_error=acc_error)
     AxisSettings(start=start, end=end)
-    recording.window_slice(start, end)
+    asked = recording.window_slice(start, end)
     smoothing_s = check_smoothing(SMOOTHING_S if smoothing_s is None else smoothing_s)
     specs, notes = _joint_specs(recording, joints)
     out: dict[str, JointCalibration] = {}
-    windows = []
+    windows, stopped = [], []
     for spec in specs:
-        jc, window = _calibrate_joint(recording, spec, restarts=restarts, seed=seed,
-                                      start=start, end=end, time_offset=time_offset,
-                                      smoothing_s=smoothing_s, acc_error=acc_error)
+        jc, window, err = _calibrate_joint(recording, spec, restarts=restarts, seed=seed,
+                                           start=start, end=end, time_offset=time_offset,
+                                           smoothing_s=smoothing_s, acc_error=acc_error)
         jc.warnings = notes + jc.warnings
         out[spec.name] = jc
         if window is not None:
             windows.append(window)
+        stopped.append(err)
+    if all(isinstance(err, InputError) for err in stopped):
+        # bad input for every joint (a window too short for any estimate) is the
+        # calibration's, as for `imucal axis`: not a file of joints marked `failed`
+        message = str(stopped[0])  # the estimators' messages name no file
+        raise InputError(message if message.startswith(recording.source)
+                         else f"{recording.source}: {message}")
     t0 = float(recording.time[0])
-    window_s = (min((w[0] for w in windows), default=t0),
-                max((w[1] for w in windows), default=t0 + recording.duration))
+    window_s = (min((w[0] for w in windows), default=t0 + asked.start / recording.rate),
+                max((w[1] for w in windows), default=t0 + asked.stop / recording.rate))
     used = sorted({s for spec in specs for s in (spec.first, spec.second)})
     return Calibration(
         joints=out, source=recording.source, window_s=window_s,
@@ -390,7 +398,7 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
         jc.o1, jc.o2 = np.asarray(pos.o1, float), np.asarray(pos.o2, float)
     except ImucalError as err:
         jc.warnings.append(f"{spec.name}: estimate stopped: {err}")
-        return jc, None
+        return jc, None, err
     docs = [d for d in (jc.axis, jc.position) if d is not None]
     jc.verdict = _worst([d["quality"]["verdict"] for d in docs])
     for d, what in zip(docs, ("axis", "position") if spec.kind == "hinge" else ("position",),
@@ -414,7 +422,7 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
                     spec.name, a["acc_gyro_disagreement_deg"], a["gravity_consistent"]):
                 jc.verdict = _worst([jc.verdict, "not identifiable"])
     window = (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate)
-    return jc, window
+    return jc, window, None
 
 
 _ORDER = ("good", "use with care", "not identifiable", "failed")

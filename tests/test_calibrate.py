@@ -209,6 +209,15 @@ def test_a_joint_that_cannot_be_identified_does_not_lose_the_others():
     assert doc["joints"]["ankle"]["verdict"] == ankle.verdict
 
 
+def test_a_window_too_short_for_every_joint_is_bad_input():
+    # every joint came back `failed` (exit 1, a file of empty joints) where `imucal axis`
+    # says the window is too short (exit 2)
+    rec, _ = simulate(seed=3, motion="circling", duration=10.0)
+    with pytest.raises(InputError, match=r"^<simulated>: only 17 samples left after window "
+                                         r"and subsampling .* needs at least 30"):
+        calibrate(rec, restarts=5, seed=1, start=5.0, end=5.5)
+
+
 def test_results_and_parameters_are_documented():
     import dataclasses
     import inspect
