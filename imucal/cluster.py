@@ -92,20 +92,29 @@ class Cluster:
         arrived: queue.SimpleQueue = queue.SimpleQueue()
         for future in futures:
             future.add_done_callback(arrived.put)
-        left = len(futures)
+        unfetched: dict = {}  # key -> future: done, its result not yet here
+        fetched: set = set()
         watch = _Watch(self, len(files))
         try:
-            while left:
-                finished = []
+            while len(fetched) < len(futures):
                 with contextlib.suppress(queue.Empty):
-                    finished.append(arrived.get(timeout=POLL_S))
+                    future = arrived.get(timeout=POLL_S)
                     while True:
-                        finished.append(arrived.get_nowait())
+                        unfetched.setdefault(future.key, future)
+                        future = arrived.get_nowait()
                 watch.check(order.done)
-                for future in finished:
-                    i = index[future.key]
+                for key, future in list(unfetched.items()):
+                    del unfetched[key]
+                    if key in fetched:  # (done again after its result was lost)
+                        continue
+                    i = index[key]
                     try:
-                        result = future.result()
+                        # bounded: a result lost with its worker is computed again, and
+                        # an unbounded wait would never get back to the watch above
+                        result = future.result(timeout=POLL_S)
+                    except TimeoutError:
+                        unfetched[key] = future
+                        break
                     except Exception as err:  # fails one recording, not the study
                         watch.check(order.done, err)
                         # One line, as every error: Dask's messages run over several.
@@ -113,8 +122,8 @@ class Cluster:
                         result = entry(i, files[i], INTERNAL_ERROR,
                                        f"{files[i]}: the Dask task failed: "
                                        f"{type(err).__name__}: {first}", None, [])
+                    fetched.add(key)
                     order.add(result)
-                left -= len(finished)
                 order.report()
                 yield from order.release()
         finally:
@@ -141,31 +150,46 @@ class _Watch:
         self.counted = -float("inf")
 
     def check(self, done: int, err: BaseException | None = None) -> None:
-        """InputError if the scheduler is lost (its status, or a task cancelled for that
-        reason) or no worker has been there for :data:`NO_WORKER_TIMEOUT_S`."""
-        client, where = self.cluster.client, f"--scheduler {self.cluster.address}"
-        if client.status != "running" or "scheduler-connection-lost" in str(err or ""):
-            raise InputError(f"{where}: lost the connection to the Dask scheduler after "
-                             f"{done} of {self.total} recordings; the study stopped")
+        """InputError if the scheduler is lost (its status, a task cancelled for that
+        reason, or no answer within :data:`CONNECT_TIMEOUT_S`) or no worker has been
+        there for :data:`NO_WORKER_TIMEOUT_S`."""
+        lost = (f"--scheduler {self.cluster.address}: lost the connection to the Dask "
+                f"scheduler after {done} of {self.total} recordings; the study stopped")
+        if (self.cluster.client.status != "running"
+                or "scheduler-connection-lost" in str(err or "")):
+            raise InputError(lost)
         now = time.monotonic()
         if now - self.counted < POLL_S:  # (counting asks the scheduler about every worker)
             return
         self.counted = now
-        try:
-            workers = self.cluster.workers
-        except Exception:  # (the scheduler went away between the two looks)
-            raise InputError(f"{where}: lost the connection to the Dask scheduler after "
-                             f"{done} of {self.total} recordings; the study stopped") from None
+        workers = _within(lambda: self.cluster.workers, CONNECT_TIMEOUT_S)
+        if workers is None:  # it went away between the two looks, or froze
+            raise InputError(lost)
         if workers:
             self.alone_since = None
             return
         if self.alone_since is None:
             self.alone_since = now
         elif now - self.alone_since >= NO_WORKER_TIMEOUT_S:
-            raise InputError(f"{where}: the cluster has had no worker for "
-                             f"{NO_WORKER_TIMEOUT_S:g} s (they stopped or died) after {done} "
-                             f"of {self.total} recordings; the study stopped (start workers "
-                             f"with 'dask worker {self.cluster.address}')")
+            raise InputError(f"--scheduler {self.cluster.address}: the cluster has had no "
+                             f"worker for {NO_WORKER_TIMEOUT_S:g} s (they stopped or died) "
+                             f"after {done} of {self.total} recordings; the study stopped "
+                             f"(start workers with 'dask worker {self.cluster.address}')")
+
+
+def _within(ask: Callable[[], int], timeout: float) -> int | None:
+    """``ask()`` on a helper thread; None if it failed or took longer than ``timeout`` s
+    (a call to a scheduler that froze, SIGSTOP or a machine that hangs, never returns)."""
+    box: dict = {}
+
+    def run():
+        with contextlib.suppress(Exception):
+            box["value"] = ask()
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(timeout)
+    return box.get("value")
 
 
 def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:

@@ -32,11 +32,17 @@ def one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
+#: Every character ``str.splitlines`` breaks a line at, shown as its escape.
+_LINE_BREAKS = {ord(c): c.encode("unicode_escape").decode("ascii")
+                for c in "\n\r\v\f\x1c\x1d\x1e\x85\u2028\u2029"}
+
+
 def as_line(text) -> str:
-    """``text`` with its line breaks shown as ``\\n`` (``\\r``): a file named with a newline,
-    quoted in a headline or a warning, leaves the message one line for whoever reads
-    stderr line by line, and still readable (``one_line`` above turns them into spaces)."""
-    return str(text).replace("\r", "\\r").replace("\n", "\\n")
+    """``text`` with its line breaks shown as escapes (``\\n``, ``\\r``, ``\\x0b``, ...): a
+    file named with a newline, quoted in a headline or a warning, leaves the message one
+    line for whoever reads stderr line by line, and still readable (``one_line`` above
+    turns them into spaces)."""
+    return str(text).translate(_LINE_BREAKS)
 
 
 def say(text) -> None:

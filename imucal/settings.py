@@ -269,6 +269,10 @@ def _check_int(settings, name: str, low: int, high: int | None = None) -> None:
         value = value.item()
     if isinstance(value, numbers.Integral) and not is_bool(value):
         whole = int(value)  # (exact for any size: 10**400 restarts is too many, not a crash)
+    elif isinstance(value, decimal.Decimal):  # exactly, not through a float: Decimal("1e30")
+        if not (value.is_finite() and value == value.to_integral_value()):  # is 10**30
+            raise InputError(f"{name} must be a whole number, got {value!r}")
+        whole = int(value)
     else:
         number = as_real(value)
         if number is None or number != int(number):

@@ -24,13 +24,14 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import shutil
 import signal
 import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import closing, contextmanager
+from contextlib import closing, contextmanager, suppress
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -177,8 +178,12 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
         from .cluster import connect
 
         client = connect(scheduler)
-        where = f"on {client.workers} Dask worker{'s' if client.workers != 1 else ''} at " \
-                f"{scheduler}"
+        try:
+            workers = client.workers
+        except BaseException:  # (the scheduler gone already: the client still closes)
+            client.close()
+            raise
+        where = f"on {workers} Dask worker{'s' if workers != 1 else ''} at {scheduler}"
     else:
         client = None
         jobs = resolve_jobs(jobs, len(files))
@@ -330,9 +335,9 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
             # would wait for their recordings; SIGINT
             # ends a worker only inside a recording (_pool_work), where that is safe.
             # SIGTERM could cut a result off mid-write and hang the pool.
-            for process in multiprocessing.active_children():
-                if process.pid not in before:
-                    os.kill(process.pid, signal.SIGINT)
+            for pid in _pool_pids(executor, before):
+                with suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGINT)
             raise
         finally:
             executor.shutdown(wait=True, cancel_futures=True)
@@ -357,42 +362,62 @@ def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
     yield from order.release()
 
 
+def _pool_pids(executor, before: set[int]) -> list[int]:
+    """The pool's worker processes: its own record of them (CPython's
+    ``ProcessPoolExecutor._processes``), else the children started since ``before``
+    (which, from a notebook, may include processes of the caller's own)."""
+    import multiprocessing
+
+    own = getattr(executor, "_processes", None)
+    if isinstance(own, dict):
+        return list(own)
+    return [p.pid for p in multiprocessing.active_children() if p.pid not in before]
+
+
 def _worker_start(command_pid: int) -> None:
     """A study's worker process: signals as :func:`imucal.signals.restore_defaults` says,
-    and a watch on the command, which it outlives if that is killed outright (SIGKILL:
-    the out-of-memory killer, a batch system's hard limit): its pool's pipes stay open
-    in the workers themselves, and the fork server and resource tracker live as long as
-    they do, all idle for good."""
+    and a watch on the command, which it outlived when that was killed outright
+    (SIGKILL: the out-of-memory killer, a batch system's hard limit): its pool's pipes
+    stay open in the workers themselves, and the fork server and resource tracker live
+    as long as they do, all idle for good."""
     restore_defaults()
-    threading.Thread(target=_exit_without, args=(command_pid,), daemon=True).start()
+    watch = _command_watch(command_pid)
+    if watch is not None:
+        threading.Thread(target=watch, daemon=True).start()
 
 
-def _exit_without(command_pid: int) -> None:
+def _command_watch(pid: int) -> Callable[[], None] | None:
+    """A function that returns only to end this process when process ``pid`` has ended.
+
+    Linux: a pidfd, readable once the process has ended (a zombie too, which a script
+    that started the command leaves while it waits for the output the workers hold
+    open), and bound to that process, not to its number (reused, or in another PID
+    namespace's /proc). Elsewhere: its number checked every second. None on Windows,
+    where signal 0 is Ctrl-C."""
+    if os.name == "nt":
+        return None
+    try:
+        fd = os.pidfd_open(pid)
+    except ProcessLookupError:  # gone before this worker started
+        os._exit(1)
+    except (AttributeError, OSError):  # not Linux 5.3+, or a sandbox refusing it
+        return lambda: _poll_command(pid)
+
+    def wait_for_end():
+        select.select([fd], [], [])
+        os._exit(1)
+    return wait_for_end
+
+
+def _poll_command(pid: int) -> None:
     while True:
         time.sleep(PARENT_CHECK_S)
-        if not _running(command_pid):
-            os._exit(1)
-
-
-def _running(pid: int) -> bool:
-    """Whether process ``pid`` exists and is not a zombie (killed, but not yet collected
-    by its parent: a script that started the command may wait for its output first,
-    which the workers hold open)."""
-    if os.path.isdir("/proc/self"):
         try:
-            with open(f"/proc/{pid}/stat", "rb") as fh:
-                return fh.read().rsplit(b")", 1)[1].split()[0] != b"Z"
-        except FileNotFoundError:
-            return False
-        except (OSError, IndexError):
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            os._exit(1)
+        except OSError:  # there, owned by someone else
             pass
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # there, owned by someone else
-        pass
-    return True
 
 
 class InOrder:

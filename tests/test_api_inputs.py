@@ -14,6 +14,7 @@ import pytest
 
 import imucal
 from imucal import InputError
+from imucal.settings import AxisSettings
 
 SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5"
 
@@ -48,6 +49,10 @@ def test_numpy_scalars_are_numbers(pair):
     exact = imucal.estimate_axis(g1, g2, rate=Decimal("100"), restarts=Decimal(5),
                                  seed=Decimal(3), subset=Decimal("0.5"), time_offset=Decimal(0))
     np.testing.assert_array_equal(exact.j1, plain.j1)
+    # exactly, not through a float (10**30 became 1000000000000000019884624838656)
+    assert AxisSettings(seed=Decimal("1e30")).seed == 10**30
+    with pytest.raises(InputError, match="seed must be a whole number"):
+        AxisSettings(seed=Decimal("3.0000000000000000001"))
 
 
 @pytest.mark.parametrize("kwargs, message", [

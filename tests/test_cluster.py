@@ -148,21 +148,23 @@ def test_a_port_speaking_another_protocol_fails_fast_and_quietly(files):
     assert b"Exception ignored" not in proc.stderr and elapsed < 15, (elapsed, proc.stderr)
 
 
-def _slow_study(folder, count: int = 30):
+def _slow_study(folder, count: int = 30, restarts: int = 300):
     """A study of ``count`` copies of a.h5 that takes seconds (300 restarts each)."""
     from imucal.runner import Job
     from imucal.settings import AxisSettings
 
-    job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=300, seed=1))
+    job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=restarts, seed=1))
     return job, [str(folder / "a.h5")] * count
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")  # fork in a threaded pytest
-@pytest.mark.parametrize("loss", ["scheduler", "workers"])
+@pytest.mark.parametrize("loss", ["scheduler", "workers", "results"])
 def test_a_cluster_lost_mid_study_stops_it_with_one_message(files, monkeypatch, loss):
     # the scheduler killed: a Dask traceback on stderr and an exit-3 line ("a bug in
     # imucal") for every unfinished recording; every worker gone: a wait for ever. (The
     # workers here share this process's stderr, so their own log lines land there too.)
+    import time
+
     from distributed import LocalCluster
 
     from imucal import cluster
@@ -171,7 +173,7 @@ def test_a_cluster_lost_mid_study_stops_it_with_one_message(files, monkeypatch, 
     monkeypatch.setattr(cluster, "NO_WORKER_TIMEOUT_S", 2.0)
     monkeypatch.setattr(cluster, "POLL_S", 0.2)
     folder, _ = files
-    job, names = _slow_study(folder)
+    job, names = _slow_study(folder, restarts=30 if loss == "results" else 300)
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=None) as local:
         client = cluster.connect(local.scheduler_address)
@@ -182,6 +184,12 @@ def test_a_cluster_lost_mid_study_stops_it_with_one_message(files, monkeypatch, 
                 local.close()
                 message = r"lost the connection to the Dask scheduler after \d+ of 30"
             else:
+                if loss == "results":  # every task done, its result still on its worker
+                    # (fetching it then waited for ever for the task to run again)
+                    deadline = time.monotonic() + 120
+                    while any(t.state != "memory" for t in local.scheduler.tasks.values()):
+                        assert time.monotonic() < deadline
+                        time.sleep(0.1)
                 local.scale(0)
                 message = r"the cluster has had no worker for 2 s .* after \d+ of 30"
             with pytest.raises(InputError, match=message):

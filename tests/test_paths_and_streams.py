@@ -328,3 +328,12 @@ def test_a_full_standard_output_is_named(args):
     assert run.returncode == 2
     assert run.stderr.decode() == ("imucal: error: standard output: cannot write (No space "
                                    "left on device)\n")
+
+
+def test_every_line_break_python_knows_is_escaped_in_a_message():
+    # only \n and \r were: a name with \v, \x1c or \u2028 still split str.splitlines()
+    from imucal.errors import as_line
+
+    name = "a\nb\rc\vd\x0ce\x1cf\x1dg\x1eh\x85i\u2028j\u2029k.h5"
+    assert len(as_line(f"imucal axis: {name}: thigh -> shank").splitlines()) == 1
+    assert as_line("a\nb\u2028c") == "a\\nb\\u2028c"

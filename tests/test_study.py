@@ -378,7 +378,10 @@ def test_a_signal_while_the_output_blocks_stops_the_workers_at_once():
     # Ctrl-C while the study waited for a reader (a pager, a stalled pipe) printed
     # "imucal: interrupted" at once but ended 7-13 s later: the workers went on with
     # their recordings, as the interruption came outside the loop that stops them
+    import array
+    import fcntl
     import signal
+    import termios
     import time
 
     sample = str(Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5")
@@ -390,10 +393,14 @@ def test_a_signal_while_the_output_blocks_stops_the_workers_at_once():
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     try:
         deadline = time.monotonic() + 120
-        wchan = Path("/proc") / str(proc.pid) / "wchan"
-        while wchan.read_text() != "anon_pipe_write":
+        # blocked once the pipe is full (Linux: F_GETPIPE_SZ gives its size)
+        fd = proc.stdout.fileno()
+        capacity = fcntl.fcntl(fd, 1032)
+        waiting = array.array("i", [0])
+        while fcntl.ioctl(fd, termios.FIONREAD, waiting) or waiting[0] < capacity:
             assert proc.poll() is None and time.monotonic() < deadline, "never blocked"
             time.sleep(0.02)
+        time.sleep(0.2)  # (in its write)
         started = time.monotonic()
         os.kill(proc.pid, signal.SIGINT)  # the command alone
         while proc.poll() is None and time.monotonic() < started + 60:
@@ -413,3 +420,32 @@ def test_the_summary_names_a_file_given_many_times_once():
     # "55 failed (x.h5, x.h5, x.h5 and 52 more)"
     assert study_module._short(["x.h5"] * 55) == "x.h5"
     assert study_module._short(["a", "b", "a", "c", "d"]) == "a, b, c and 1 more"
+
+
+def _sleep_a_while():
+    import time
+
+    time.sleep(60)
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # fork in a threaded pytest
+def test_a_study_left_early_from_python_stops_only_its_own_workers(study):
+    # leaving a process_recordings loop early (break, or the generator collected) sent
+    # Ctrl-C to every process started since the pool, the caller's own too
+    import multiprocessing
+    import time
+
+    job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=300, seed=1))
+    entries = study_module.process_recordings(job, [str(study["a"])] * 8, jobs=2)
+    assert next(entries).exit_code == 0
+    own = multiprocessing.get_context("spawn").Process(target=_sleep_a_while)
+    own.start()
+    try:
+        started = time.monotonic()
+        entries.close()
+        assert time.monotonic() - started < 10
+        time.sleep(0.5)
+        assert own.is_alive() and own.exitcode is None
+    finally:
+        own.kill()
+        own.join()
