@@ -376,10 +376,10 @@ def _pool_pids(executor, before: set[int]) -> list[int]:
 
 def _worker_start(command_pid: int) -> None:
     """A study's worker process: signals as :func:`imucal.signals.restore_defaults` says,
-    and a watch on the command, which it outlived when that was killed outright
-    (SIGKILL: the out-of-memory killer, a batch system's hard limit): its pool's pipes
-    stay open in the workers themselves, and the fork server and resource tracker live
-    as long as they do, all idle for good."""
+    and a watch that ends it with its command. Without one, workers outlived a command
+    killed outright (SIGKILL: the out-of-memory killer, a batch system's hard limit):
+    their pool's pipes stay open in the workers themselves, and the fork server and
+    resource tracker live as long as they do, all idle for good."""
     restore_defaults()
     watch = _command_watch(command_pid)
     if watch is not None:
@@ -387,7 +387,7 @@ def _worker_start(command_pid: int) -> None:
 
 
 def _command_watch(pid: int) -> Callable[[], None] | None:
-    """A function that returns only to end this process when process ``pid`` has ended.
+    """A function that waits for process ``pid`` to end, then ends this process.
 
     Linux: a pidfd, readable once the process has ended (a zombie too, which a script
     that started the command leaves while it waits for the output the workers hold
