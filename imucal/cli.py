@@ -793,7 +793,7 @@ def _describe(recording) -> dict:
     import numpy as np
 
     from .preprocess import STILL_RATE_DEG_S, rms_rate_deg_s
-    from .recording import ACC_UNITS
+    from .rest import GRAVITY_M_S2
 
     sensors = {}
     for name, s in recording.sensors.items():
@@ -806,7 +806,7 @@ def _describe(recording) -> dict:
             continue
         gyr, acc = s.gyr[fine], s.acc[fine]
         rate_norm = np.degrees(np.linalg.norm(gyr, axis=1))
-        acc_dyn = np.linalg.norm(acc, axis=1) - ACC_UNITS["g"]  # 1 g, as everywhere
+        acc_dyn = np.linalg.norm(acc, axis=1) - GRAVITY_M_S2
         rms = rms_rate_deg_s(gyr)
         sensors[name] = {
             "units": recording.units.get(name, {}),
