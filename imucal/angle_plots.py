@@ -3,6 +3,7 @@ view when the recording is walking (docs/angles.md)."""
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -35,30 +36,27 @@ def zero_label(zero: dict) -> str:
     return label
 
 
-def plot_angles(result, path: str | Path, *, truth: dict | None = None,
-                gyro_only: bool = True) -> None:
-    """Write the figure of a :class:`imucal.angles.JointAngles` to ``path`` (PNG, PDF or SVG
-    by extension): per joint, flexion over time with the 2-sigma band (and pure gyro
-    integration for comparison, ``gyro_only``); beside it the mean +- SD over gait cycles
-    when walking was found. ``truth``: joint -> (N,) true flexion (simulations)."""
-    import matplotlib
+def angles_figure(result, *, truth: dict | None = None, gyro_only: bool = True):
+    """The figure of a :class:`imucal.angles.JointAngles` (a matplotlib ``Figure``, no
+    pyplot): per joint, flexion over time with the 2-sigma band (deg; and pure gyro
+    integration for comparison, ``gyro_only``); beside it the mean +- SD over gait
+    cycles when walking was found. Above each joint: what + and 0 mean, whether the
+    joint still fits its calibration (red when not, and then no cycle average), the
+    calibration's verdict when it is not identifiable, and the joint's warnings.
+    ``truth``: joint -> (N,) true flexion (simulations)."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .atomic import write_atomic
-
-    path = Path(path)
-    if path.suffix.lower() not in FORMATS:
-        raise InputError(f"{path}: unknown figure format '{path.suffix or path.name}'; "
-                         f"use {', '.join(FORMATS)}")
     joints = list(result.joints.values())
     walking = any(j.gait is not None for j in joints)
-    fig, axes = plt.subplots(len(joints), 2 if walking else 1, squeeze=False,
-                             figsize=(12 if walking else 9, 3.2 * len(joints)),
-                             gridspec_kw={"width_ratios": [3, 1]} if walking else None)
+    heads = [_joint_header(j) for j in joints]
+    heights = [2.6 + _LINE_IN * len(lines) for lines, _ in heads]
+    fig = Figure(figsize=(12 if walking else 9, sum(heights)), layout="constrained")
+    subs = np.atleast_1d(fig.subfigures(len(joints), 1, height_ratios=heights))
     t = result.time
-    for row, j in zip(axes, joints, strict=True):
+    for sub, j, (lines, colour) in zip(subs, joints, heads, strict=True):
+        row = np.atleast_1d(sub.subplots(
+            1, 2 if walking else 1, gridspec_kw={"width_ratios": [3, 1]} if walking else None))
+        sub.suptitle("\n".join(lines), x=0.01, ha="left", fontsize=9, color=colour)
         ax = row[0]
         if gyro_only:
             ax.plot(t, j.gyro_only_deg, color="0.6", lw=0.8, label="gyro integration only")
@@ -67,27 +65,86 @@ def plot_angles(result, path: str | Path, *, truth: dict | None = None,
         ax.plot(t, j.flexion_deg, color="C0", lw=0.9, label="fused (imucal)")
         if truth and j.name in truth:
             ax.plot(t, truth[j.name], color="k", lw=0.7, ls="--", label="truth")
-        status = "fits" if j.fits else "DOES NOT FIT the calibration"
-        ax.set_title(f"{j.name}: flexion (+ = flexion, 0 = {zero_label(j.zero)}); {status}",
-                     fontsize=9)
         ax.set_xlabel("time (s)")
         ax.set_ylabel("flexion (deg)")
-        ax.legend(fontsize=7, loc="upper right")
+        ax.legend(fontsize=7, loc="best")
         ax.grid(alpha=0.3)
         if walking:
-            cyc = row[1]
-            if j.gait is None:
-                cyc.set_axis_off()
-                continue
-            cycles = gait_cycles(j.flexion_deg, j.gait["peaks"])
-            x = np.linspace(0, 100, CYCLE_POINTS)
-            mean, sd = cycles.mean(axis=0), cycles.std(axis=0)
-            cyc.fill_between(x, mean - sd, mean + sd, color="C1", alpha=0.3, lw=0)
-            cyc.plot(x, mean, color="C1")
-            cyc.set_title(f"{len(cycles)} gait cycles, stride {j.gait['stride_s']:.2f} s "
-                          "(mean +- SD)", fontsize=9)
-            cyc.set_xlabel("% of cycle (from peak swing flexion)")
-            cyc.grid(alpha=0.3)
-    fig.tight_layout()
-    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
-    plt.close(fig)
+            _cycle_panel(row[1], j)
+    return fig
+
+
+def plot_angles(result, path: str | Path, *, truth: dict | None = None,
+                gyro_only: bool = True) -> None:
+    """Write :func:`angles_figure` to ``path`` (PNG, PDF or SVG by extension; the same
+    figure gives the same bytes, :func:`imucal.plots.save_figure`), atomically."""
+    with staged_angles_figure(result, path, truth=truth, gyro_only=gyro_only):
+        pass
+
+
+def staged_angles_figure(result, path: str | Path, *, truth: dict | None = None,
+                         gyro_only: bool = True):
+    """:func:`plot_angles` as a block (:func:`imucal.atomic.staged`): the figure is in place
+    only when the block ends without an exception, so that a run whose table then fails
+    to be written leaves no figure of it."""
+    from .atomic import staged
+    from .plots import save_figure
+
+    path = Path(path)
+    if path.suffix.lower() not in FORMATS:
+        raise InputError(f"{path}: unknown figure format '{path.suffix or path.name}'; "
+                         f"use {', '.join(FORMATS)}")
+    fig = angles_figure(result, truth=truth, gyro_only=gyro_only)
+    return staged(path, lambda tmp: save_figure(fig, tmp, path.suffix))
+
+
+#: Height of one title line above a joint's panels, inches; characters per line.
+_LINE_IN = 0.2
+_WRAP = 120
+#: Warning lines shown above a joint at most (all of them are on stderr and in the JSON).
+_MAX_WARNING_LINES = 6
+
+
+def _joint_header(j) -> tuple[list[str], str]:
+    """Title lines above one joint and their colour: red when the joint does not fit
+    its calibration, orange with warnings, black otherwise."""
+    lines = [f"{j.name}: flexion in deg; + = flexion; 0 = {zero_label(j.zero)}"]
+    verdict = j.check.get("calibration_verdict")
+    if not j.fits:
+        status = "DOES NOT FIT the calibration"
+        if verdict == "not identifiable":
+            status += " (the calibration itself is not identifiable for this joint)"
+        lines.append(status + ": do not read these angles as the knee's")
+    elif verdict not in (None, "good"):
+        lines.append(f"fits its calibration (calibration verdict: {verdict})")
+    else:
+        lines.append("fits its calibration")
+    warned = [text for w in j.warnings
+              for text in textwrap.wrap(f"warning: {w}", _WRAP, subsequent_indent="    ")]
+    if len(warned) > _MAX_WARNING_LINES:
+        warned = warned[:_MAX_WARNING_LINES - 1] + ["... (every warning is on stderr)"]
+    wrapped = [text for line in lines for text in textwrap.wrap(line, _WRAP)]
+    colour = "tab:red" if not j.fits else ("darkorange" if j.warnings else "k")
+    return wrapped + warned, colour
+
+
+def _cycle_panel(cyc, j) -> None:
+    if j.gait is None:
+        cyc.set_axis_off()
+        return
+    cyc.set_xlabel("% of cycle (from peak swing flexion)")
+    cyc.set_ylabel("flexion (deg)")
+    cyc.grid(alpha=0.3)
+    if not j.fits:  # an average would make angles that are not the knee's look regular
+        cyc.set_title("gait cycles: not averaged\n(the joint does not fit)", fontsize=9,
+                      color="tab:red")
+        cyc.set_xticks([])
+        cyc.set_yticks([])
+        return
+    cycles = gait_cycles(j.flexion_deg, j.gait["peaks"])
+    x = np.linspace(0, 100, CYCLE_POINTS)
+    mean, sd = cycles.mean(axis=0), cycles.std(axis=0)
+    cyc.fill_between(x, mean - sd, mean + sd, color="C1", alpha=0.3, lw=0)
+    cyc.plot(x, mean, color="C1")
+    cyc.set_title(f"{len(cycles)} gait cycles, stride {j.gait['stride_s']:.2f} s\n"
+                  "(mean +- SD)", fontsize=9)

@@ -8,6 +8,7 @@ A symbolic link to a file has the file it names replaced, the link kept.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import io
 import os
@@ -149,11 +150,24 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
 
     The temporary file keeps the target's suffix (libraries pick formats by it) and gets
     the usual umask-based permissions rather than tempfile's 0600. A target that is not a
-    regular file is written through (:func:`_write_through`).
+    regular file is written through (:func:`_written_through`).
+    """
+    with staged(path, write):
+        pass
+
+
+@contextlib.contextmanager
+def staged(path: str | Path, write: Callable[[Path], None]):
+    """:func:`write_atomic` in two steps: ``write(tmp)`` on entering the block, the file
+    put in place when the block ends, and nothing written when it raises.
+
+    For an output that must not appear unless another one is written too: a figure
+    whose run then failed to write its JSON (``--out /dev/full``) was left behind.
     """
     path = as_path(path, "an output file name")
     if _through(path):
-        _write_through(path, write)
+        with _written_through(path, write):
+            yield
         return
     target = _target(path)
     folder = target.parent if str(target.parent) else Path(".")
@@ -170,28 +184,33 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
                                  f"({err.strerror or err})") from None
             tmp = Path(name)
             os.close(fd)
-        write(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, target)
-    except BaseException as err:
+        try:
+            write(tmp)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)
+        except OSError as err:
+            raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
+        yield
+        try:
+            os.replace(tmp, target)
+        except OSError as err:
+            raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
+    finally:
         if tmp is not None:
             tmp.unlink(missing_ok=True)
-        if isinstance(err, OSError):
-            raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
-        raise
 
 
 def _suffix(path: Path) -> str:
     return path.suffix if len(path.suffix) <= 16 else ""
 
 
-def _write_through(path: Path, write: Callable[[Path], None]) -> None:
+@contextlib.contextmanager
+def _written_through(path: Path, write: Callable[[Path], None]):
     """Write a descriptor, device or FIFO: the whole output is made in a temporary file
-    first (writers need a file name, and a failure then writes nothing), then copied in:
-    through the descriptor itself where ``path`` names one (:func:`descriptor_of`), else
-    through ``path`` opened for writing."""
+    first (writers need a file name, and a failure then writes nothing), then, when the
+    block ends, copied in: through the descriptor itself where ``path`` names one
+    (:func:`descriptor_of`), else through ``path`` opened for writing."""
     tmp = None
     try:
         try:
@@ -204,19 +223,21 @@ def _write_through(path: Path, write: Callable[[Path], None]) -> None:
             raise InputError(f"{path}: cannot make the output in the temporary folder "
                              f"'{tempfile.gettempdir()}' first ({err.strerror or err})"
                              ) from None
-        descriptor = descriptor_of(path)
-        if descriptor is not None:
-            if descriptor == 1:
-                sys.stdout.flush()  # what the command printed there comes first
-            target = os.fdopen(os.dup(descriptor), "wb")  # the same file position
-        else:
-            target = open(path, "wb")  # closed by the with block below
-        with open(tmp, "rb") as src, target:
-            shutil.copyfileobj(src, target)
-    except BrokenPipeError:
-        raise  # the reader stopped: the command line's SIGPIPE exit, as for stdout
-    except OSError as err:
-        raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
+        yield
+        try:
+            descriptor = descriptor_of(path)
+            if descriptor is not None:
+                if descriptor == 1:
+                    sys.stdout.flush()  # what the command printed there comes first
+                target = os.fdopen(os.dup(descriptor), "wb")  # the same file position
+            else:
+                target = open(path, "wb")  # closed by the with block below
+            with open(tmp, "rb") as src, target:
+                shutil.copyfileobj(src, target)
+        except BrokenPipeError:
+            raise  # the reader stopped: the command line's SIGPIPE exit, as for stdout
+        except OSError as err:
+            raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
     finally:
         if tmp is not None:
             tmp.unlink(missing_ok=True)

@@ -10,6 +10,7 @@ summaries and errors go to stderr. Exit status: 0 success, 1 the data cannot ans
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import math
@@ -25,7 +26,7 @@ from .atomic import (
     CLOSED_AT_START,
     check_not_inputs,
     check_writable,
-    write_atomic,
+    staged,
     write_stdout,
     write_text_atomic,
 )
@@ -458,14 +459,16 @@ def angles(
             raise NotIdentifiableError(
                 f"{recording.source} with {calibration}: {'; '.join(problems)}; nothing "
                 "written (--force writes the angles with these warnings)")
-        if out is None:  # (a reader gone shows inside the error handler)
-            write_stdout(result.to_frame().to_csv(index=False, float_format="%.6g"))
-        else:
-            result.write(out)
+        figure = contextlib.nullcontext()
         if plot is not None:
-            from .angle_plots import plot_angles
+            from .angle_plots import staged_angles_figure
 
-            plot_angles(result, plot)
+            figure = staged_angles_figure(result, plot)
+        with figure:  # the figure in place only once the table is
+            if out is None:  # (a reader gone shows inside the error handler)
+                write_stdout(result.to_frame().to_csv(index=False, float_format="%.6g"))
+            else:
+                result.write(out)
         if not quiet:
             _angles_summary(result, out)
 
@@ -770,12 +773,8 @@ def _estimate(job, recs, *, out, plot, jobs, scheduler, quiet) -> int:
                 say(f"imucal: warning: {w}")
         raise outcome.exception
     doc = outcome.document
-    if plot is not None:
-        from .runner import COMMANDS
-
-        pair = f"{job.sensors[0]} - {job.sensors[1]}"
-        _save_figure(COMMANDS[job.command].figure(outcome.result, pair), plot)
-    _emit(doc, out)
+    with _staged_figure(plot, job, outcome, doc):  # in place only once the JSON is
+        _emit(doc, out)
     if not quiet:
         _summary(doc, job.sensors)
     return 0
@@ -894,10 +893,17 @@ def _emit(doc: dict, out: Path | None) -> None:
         write_text_atomic(out, text)
 
 
-def _save_figure(fig, path: Path) -> None:
+def _staged_figure(plot: Path | None, job, outcome, doc: dict):
+    """The figure drawn and written to a temporary file; in place when the block ends."""
+    if plot is None:
+        return contextlib.nullcontext()
     from .plots import save_figure
+    from .runner import COMMANDS
 
-    write_atomic(path, lambda tmp: save_figure(fig, tmp, path.suffix))
+    pair = f"{job.sensors[0]} - {job.sensors[1]}"
+    source = Path(str(doc["input"].get("path") or "")).name
+    fig = COMMANDS[job.command].figure(outcome.result, pair, source)
+    return staged(plot, lambda tmp: save_figure(fig, tmp, plot.suffix))
 
 
 def _summary(doc: dict, names) -> None:

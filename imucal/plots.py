@@ -18,10 +18,16 @@ restart, the estimate.
 The restart-spread panel shows where the reported spread (``quality.*_spread_*``) comes
 from: each restart's result on its data subset, relative to the estimate, in deg (axis)
 or mm (position). Its Axes carries the gid :data:`SPREAD_GID`.
+
+A header above the panels states what a reader must know before trusting any of them:
+the verdict (in its colour; a result that is not identifiable in red), the reported
+1-sigma, which the spread is not, the residual and how much the sensors moved, and the
+warnings. Its Axes carries the gid :data:`HEADER_GID`.
 """
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,6 +56,20 @@ SPREAD_GID = "restart-spread"
 _CLIP_FACTOR = 3.0
 _REACHED, _OTHER, _BEST = "tab:blue", "0.6", "k"
 _STUCK = "tab:orange"
+#: gid of the header's Axes (verdict, 1-sigma, residual, warnings).
+HEADER_GID = "header"
+#: Colour of each verdict in the header.
+VERDICT_COLOURS = {"good": "tab:green", "use with care": "darkorange",
+                   "not identifiable": "tab:red"}
+#: Header text: characters per line, and lines of reasons and warnings at most (all of
+#: them are in the JSON).
+_WRAP = 150
+_MAX_REASON_LINES = 8
+#: Height of one header line, inches.
+_LINE_IN = 0.24
+#: Sample-wise panels span at least this many rad/s: the rates of a still sensor, a few
+#: hundredths of a rad/s of noise, would otherwise fill them like motion does.
+_MIN_RATE_SPAN = 0.5
 
 
 @dataclass(frozen=True)
@@ -62,18 +82,24 @@ class _Stage:
     colour: str
 
 
-def axis_figure(result: AxisResult, sensors: str = "") -> Figure:
+def axis_figure(result: AxisResult, sensors: str = "", source: str = "") -> Figure:
     """The axis estimate's convergence (Fig. 4 of the paper) and its data dependence.
 
-    Panels: cost per iteration by stage (rad/s); j1, j2 components per iteration; each
-    restart's subset fit as an angle from the estimate (deg); eq. (1) at the estimate;
-    both sensors' rates in their joint planes (rad/s, drawn as points).
+    Header: the verdict, the reported 1-sigma (deg), the residual, the sensors' motion
+    and the warnings. Panels: cost per iteration by stage (rad/s); j1, j2 components per
+    iteration; each restart's subset fit as an angle from the estimate (deg); eq. (1) at
+    the estimate; both sensors' rates in their joint planes (rad/s, drawn as points).
+    ``sensors``: "first - second" for the title; ``source``: the recording's name.
     """
-    fig = Figure(figsize=(12, 19), layout="constrained")
-    ax = _rows(fig, [["cost"], ["j1", "j2"], ["spread", "fit"], ["plane1", "plane2"]],
-               [0.8, 1.0, 1.0, 1.0])
+    lines = _header_lines(result, "j", result.uncertainty_deg, result.spread_deg, "deg",
+                          _axis_motion(result))
+    header = _LINE_IN * (len(lines) + 0.6)
+    fig = Figure(figsize=(12, 19 + header), layout="constrained")
+    ax = _rows(fig, [["header"], ["cost"], ["j1", "j2"], ["spread", "fit"],
+                     ["plane1", "plane2"]], [header, 4.0, 5.0, 5.0, 5.0])
+    _header_panel(ax["header"], lines)
     best = _best_axis_restart(result)
-    stages = _axis_stages(result)
+    stages = _stages(result)
     path = _aligned_axis_path(result)
     _cost_panel(ax["cost"], result, "rad/s", stages, best, polished=True)
     _component_panel(ax["j1"], path[:, :, :3], result, result.j1, stages, best,
@@ -85,27 +111,35 @@ def axis_figure(result: AxisResult, sensors: str = "") -> Figure:
     for key, g, j, name in (("plane1", result.gyr1, result.j1, "First"),
                             ("plane2", result.gyr2, result.j2, "Second")):
         _plane_panel(ax[key], g, j, name, result)
-    fig.suptitle(_title("Hinge axis estimation", sensors))
+    fig.suptitle(_title("Hinge axis estimation", sensors, source, result))
     return fig
 
 
-def position_figure(result: PositionResult, sensors: str = "") -> Figure:
+def position_figure(result: PositionResult, sensors: str = "", source: str = "") -> Figure:
     """The joint-position estimate's convergence (Fig. 5 of the paper), in mm.
 
-    Panels: cost per iteration by stage (m/s^2); o1, o2 components per iteration (mm);
-    each restart's subset fit relative to the estimate, per component (mm). For a hinge
-    every point is first moved along the axis to the point closest to both sensors, as
-    the estimate is.
+    Header: the verdict, the reported 1-sigma (mm), the residual, the sensors' motion and
+    the warnings. Panels: cost per iteration by stage (m/s^2); o1, o2 components per
+    iteration (mm); each restart's subset fit relative to the estimate, per component
+    (mm). For a hinge every point is first moved along the axis to the point closest to
+    both sensors, as the estimate is, and the cost panel marks the estimate's residual
+    there. ``sensors``: "first - second" for the title; ``source``: the recording's name.
     """
-    fig = Figure(figsize=(12, 14), layout="constrained")
-    ax = _rows(fig, [["cost"], ["o1", "o2"], ["spread"]], [0.85, 1.0, 0.9])
+    lines = _header_lines(result, "o", result.uncertainty_mm, result.spread_mm, "mm",
+                          _position_motion(result))
+    header = _LINE_IN * (len(lines) + 0.6)
+    fig = Figure(figsize=(12, 14 + header), layout="constrained")
+    ax = _rows(fig, [["header"], ["cost"], ["o1", "o2"], ["spread"]],
+               [header, 4.3, 5.1, 4.6])
+    _header_panel(ax["header"], lines)
     path = _joined(result.batch.path, result.refined.path)
     line = _line(result)
     if line is not None:
         path = closest_point_on_axis(path, line)
     best = _best_position_restart(result, line)
-    stages = _subset_and_refined(result)
-    _cost_panel(ax["cost"], result, "m/s^2", stages, best)
+    stages = _stages(result)
+    _cost_panel(ax["cost"], result, "m/s^2", stages, best,
+                moved=result.rms_residual if line is not None else None)
     for key, sl in (("o1", slice(0, 3)), ("o2", slice(3, 6))):
         which = "first" if key == "o1" else "second"
         _component_panel(ax[key], 1000 * path[:, :, sl], result,
@@ -113,7 +147,8 @@ def position_figure(result: PositionResult, sensors: str = "") -> Figure:
                          f"{key} ({which} sensor's frame) per iteration", "component (mm)",
                          unit=" mm")
     _position_spread_panel(ax["spread"], result, line)
-    fig.suptitle(_title(f"Joint position estimation ({result.joint})", sensors))
+    fig.suptitle(_title(f"Joint position estimation ({result.joint})", sensors, source,
+                        result))
     return fig
 
 
@@ -147,8 +182,71 @@ def _rows(fig: Figure, rows: list[list[str]], heights: list[float]) -> dict:
     return axes
 
 
-def _title(what: str, sensors: str) -> str:
-    return f"{what}: {sensors}" if sensors else what
+def _title(what: str, sensors: str, source: str, result) -> str:
+    """The estimate, then which recording, window, samples and seed it comes from."""
+    first = f"{what}: {sensors}" if sensors else what
+    start, end = result.window
+    where = [f"{source}," if source else "", f"window {start:g}-{end:g} s,",
+             f"{result.samples_used} samples used"]
+    seed = result.settings.get("seed")
+    if seed is not None:
+        where[-1] += ","
+        where.append(f"seed {seed}")
+    return first + "\n" + " ".join(w for w in where if w)
+
+
+def _header_lines(result, v: str, sigma: dict, spread: dict, unit: str,
+                  motion: str) -> list[tuple[str, str, str]]:
+    """(text, colour, weight) per header line: verdict, 1-sigma against the spread,
+    residual and motion, then the blocking reasons and warnings (wrapped, at most
+    ``_MAX_REASON_LINES``)."""
+    verdict = result.verdict
+    colour = VERDICT_COLOURS.get(verdict, "k")
+    head = {"good": "Verdict: good",
+            "use with care": "Verdict: use with care (see the warnings below)",
+            "not identifiable": "Verdict: NOT IDENTIFIABLE - the data cannot determine "
+                                "this estimate; do not use these values"}.get(
+        verdict, f"Verdict: {verdict}")
+    v1, v2 = f"{v}1", f"{v}2"
+
+    def pair(d):
+        return f"{v1} {d[v1]:.3g} {unit}, {v2} {d[v2]:.3g} {unit}"
+
+    lines = [(head, colour, "bold"),
+             (f"Reported 1-sigma: {pair(sigma)}. The restarts' spread drawn below ("
+              f"{pair(spread)}) is not the uncertainty: random halves of the samples share "
+              "every stretch of the recording.", "k", "normal"),
+             (f"Relative residual {result.relative_residual:.1%}; {motion}", "k", "normal")]
+    reasons = [(f"not identifiable: {b}", "tab:red") for b in result.blocking] + \
+              [(f"warning: {w}", "darkorange") for w in result.warnings]
+    wrapped = [(text, c) for reason, c in reasons
+               for text in textwrap.wrap(reason, _WRAP, subsequent_indent="    ")]
+    if len(wrapped) > _MAX_REASON_LINES:
+        wrapped = wrapped[:_MAX_REASON_LINES - 1] + [
+            ("... (every reason and warning is in the JSON: quality.warnings)", "0.3")]
+    return lines + [(text, c, "normal") for text, c in wrapped]
+
+
+def _header_panel(ax, lines: list[tuple[str, str, str]]) -> None:
+    ax.set_axis_off()
+    ax.set_gid(HEADER_GID)
+    step = 1.0 / max(len(lines), 1)
+    for k, (text, colour, weight) in enumerate(lines):
+        ax.text(0.0, 1.0 - k * step, text, transform=ax.transAxes, va="top", ha="left",
+                color=colour, fontweight=weight, fontsize=10 if k == 0 else 8.5)
+
+
+def _axis_motion(result: AxisResult) -> str:
+    e = result.excitation
+    plane = e.get("joint_plane_rate_rms_deg_s", [float("nan")] * 2)
+    return (f"RMS flexion rate {e.get('flexion_rate_rms_deg_s', float('nan')):.3g} deg/s; "
+            f"RMS joint-plane rates {plane[0]:.3g} and {plane[1]:.3g} deg/s (first, second "
+            "sensor)")
+
+
+def _position_motion(result: PositionResult) -> str:
+    rates = result.excitation.get("rate_rms_deg_s", [float("nan")] * 2)
+    return f"RMS angular rates {rates[0]:.3g} and {rates[1]:.3g} deg/s (first, second sensor)"
 
 
 def _line(result: PositionResult) -> np.ndarray | None:
@@ -207,8 +305,9 @@ def _subset_and_refined(result) -> list[_Stage]:
             _Stage("refined on all samples", k1, end, "#dbe9f6")]
 
 
-def _axis_stages(result: AxisResult) -> list[_Stage]:
-    """The axis solver's stages on the joined iteration axis (see axis._multistart)."""
+def _stages(result) -> list[_Stage]:
+    """The solver's stages on the joined iteration axis (:mod:`imucal.multistart`, the
+    same for both estimators)."""
     stages = _subset_and_refined(result)
     k1 = stages[0].end
     coarse = getattr(result, "coarse_iterations", None)
@@ -249,7 +348,10 @@ def _filled(cost: np.ndarray) -> np.ndarray:
 
 
 def _cost_panel(ax, result, unit: str, stages: list[_Stage], best: int,
-                polished: bool = False) -> None:
+                polished: bool = False, moved: float | None = None) -> None:
+    """``moved``: the estimate's RMS residual after the best restart's point was moved
+    along the hinge axis (joint centres of hinges), marked at the last iteration: on a
+    joint that is not an exact hinge that move raises the cost."""
     subset = _filled(result.batch.cost)
     refined = _filled(result.refined.cost)
     with np.errstate(invalid="ignore"):
@@ -263,7 +365,11 @@ def _cost_panel(ax, result, unit: str, stages: list[_Stage], best: int,
         if mask.any():
             ax.plot(its, cost[mask].T, color=colour, lw=0.7, alpha=0.5, rasterized=True)
     ax.plot(its, cost[best], color=_BEST, lw=1.5)
+    if moved is not None:
+        ax.plot([its[-1]], [moved], marker="D", ms=7, color="tab:red", ls="none", zorder=6)
     finite = cost[np.isfinite(cost) & (cost > 0)]
+    if moved is not None and np.isfinite(moved) and moved > 0:
+        finite = np.append(finite, moved)
     if finite.size and finite.max() > 10 * finite.min():
         ax.set_yscale("log")
         _plain_log_ticks(ax.yaxis)
@@ -272,16 +378,22 @@ def _cost_panel(ax, result, unit: str, stages: list[_Stage], best: int,
     _iteration_axis(ax)
     n = len(reached)
     ax.set(ylabel=f"RMS residual ({unit})",
-           title=f"Cost of {n} restarts per iteration ({int(reached.sum())} reached the "
-                 "estimate)")
+           title=f"Cost of {n} restart{'s' if n != 1 else ''} per iteration "
+                 f"({int(reached.sum())} reached the estimate)")
     n_reached = int(reached.sum())
     handles = [
         Line2D([], [], color=_REACHED, lw=1.2, label=f"reached the estimate ({n_reached})"),
         Line2D([], [], color=_OTHER, lw=1.2, label=f"did not reach it ({n - n_reached})"),
         Line2D([], [], color=_BEST, lw=1.5,
-               label="best restart = the estimate"
+               label=("best restart" if moved is not None else "best restart = the estimate")
                      + ("\n(polished further on all samples)" if polished else "")),
-    ] + [Patch(facecolor=st.colour, edgecolor="0.5", lw=0.5, label=st.name) for st in stages]
+    ]
+    if moved is not None:
+        handles.append(Line2D([], [], marker="D", ms=6, color="tab:red", ls="none",
+                              label="the estimate, moved along the axis\n"
+                                    f"(RMS residual {moved:.3g} {unit})"))
+    handles += [Patch(facecolor=st.colour, edgecolor="0.5", lw=0.5, label=st.name)
+                for st in stages]
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
               title_fontsize=8, alignment="left",
               title="Each stage fits other samples, so\na curve steps where its restart\n"
@@ -393,10 +505,14 @@ def _strip(ax, names, values, result, ylabel, unit, *, signed, rms, rms_groups) 
     for centre, value in rms.items():
         if value is None or not np.isfinite(value):
             continue
-        cols = rms_groups[centre]
-        lo, hi = min(cols) - 0.4, max(cols) + 0.4
-        ax.hlines([value] + ([-value] if signed else []), lo, hi, colors=_REACHED, lw=1,
-                  linestyles="--", zorder=1)
+        for k in rms_groups[centre]:
+            # a signed column is one component of a 3-D distance: its dashes are that
+            # component's RMS (the 3-D RMS drawn on each column looked like a band about
+            # sqrt(3) too wide)
+            level = value if not signed else float(np.sqrt(np.mean(values[keep, k] ** 2)))
+            if np.isfinite(level):
+                ax.hlines([level] + ([-level] if signed else []), k - 0.4, k + 0.4,
+                          colors=_REACHED, lw=1, linestyles="--", zorder=1)
     ax.set_xticks(range(len(names)), names)
     ax.set_xlim(-0.6, len(names) - 0.4)
     ax.set_ylim(-lim if signed else 0.0, lim * 1.12)
@@ -405,8 +521,9 @@ def _strip(ax, names, values, result, ylabel, unit, *, signed, rms, rms_groups) 
     values_text = ", ".join(f"{names[c].split()[0]} {v:.3g}{unit}" for c, v in rms.items()
                             if v is not None and np.isfinite(v))
     ax.plot([], [], color=_REACHED, ls="--", lw=1,
-            label=f"spread = RMS {'distance' if signed else 'angle'} of the blue points: "
-                  f"{values_text}")
+            label=(f"spread = RMS distance of the blue points (3-D): {values_text};\n"
+                   "dashes: each component's RMS" if signed else
+                   f"spread = RMS angle of the blue points: {values_text}"))
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2 if signed else 1,
               fontsize=8)
 
@@ -416,14 +533,22 @@ def _fit_panel(ax, result: AxisResult) -> None:
     n1 = np.linalg.norm(np.cross(result.gyr1, result.j1), axis=1)
     n2 = np.linalg.norm(np.cross(result.gyr2, result.j2), axis=1)
     step = max(1, -(-n1.size // _MAX_POINTS))
-    ax.scatter(n1[::step], n2[::step], s=4, alpha=0.4, lw=0, rasterized=True,
-               label="samples used")
-    top = float(max(n1.max(), n2.max(), 1e-9))
+    ax.scatter(n1[::step], n2[::step], s=_marker_size(n1[::step].size), alpha=0.4, lw=0,
+               rasterized=True, label="samples used")
+    top = max(float(max(n1.max(), n2.max())), _MIN_RATE_SPAN)
     ax.plot([0, top], [0, top], "k--", lw=1, label="perfect hinge")
-    ax.set(xlabel="|g1 x j1| (rad/s)", ylabel="|g2 x j2| (rad/s)",
+    ax.set(xlabel="|g1 x j1|, first sensor's joint-plane rate (rad/s)",
+           ylabel="|g2 x j2|, second sensor's (rad/s)",
            title=f"Eq. (1) at the estimate (relative residual {result.relative_residual:.1%})")
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlim(0, 1.05 * top)
+    ax.set_ylim(0, 1.05 * top)
+    ax.set_aspect("equal", adjustable="box")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=8)
+
+
+def _marker_size(n: int) -> float:
+    """Marker area, points^2: small for thousands of samples, visible for tens."""
+    return float(np.clip(3000.0 / max(n, 1), 3.0, 20.0))
 
 
 def _plane_panel(ax, g: np.ndarray, j: np.ndarray, name: str, result) -> None:
@@ -431,10 +556,15 @@ def _plane_panel(ax, g: np.ndarray, j: np.ndarray, name: str, result) -> None:
     ranges (and thinned within them), so a line would join samples far apart in time."""
     step = max(1, -(-g.shape[0] // _MAX_POINTS))
     p = joint_plane_projection(g[::step], j)
-    ax.scatter(p[:, 0], p[:, 1], s=3, alpha=0.35, lw=0, rasterized=True)
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.scatter(p[:, 0], p[:, 1], s=_marker_size(p.shape[0]), alpha=0.35, lw=0,
+               rasterized=True)
+    half = max(float(np.abs(p).max()) if p.size else 0.0, _MIN_RATE_SPAN / 2)
+    ax.set_xlim(-1.05 * half, 1.05 * half)
+    ax.set_ylim(-1.05 * half, 1.05 * half)
+    ax.set_aspect("equal", adjustable="box")
     ranges = np.asarray(getattr(result, "time_ranges", np.empty((0, 2)))).reshape(-1, 2)
-    ax.set(xlabel="rad/s", ylabel="rad/s",
+    ax.set(xlabel="rate along the first in-plane direction (rad/s)",
+           ylabel="along the second (rad/s)",
            title=f"{name} sensor's rate in its joint plane (eq. 6, Fig. 4)\n"
                  f"{p.shape[0]} samples from {len(ranges)} time range"
                  f"{'s' if len(ranges) != 1 else ''}, drawn as points")

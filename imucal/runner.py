@@ -48,7 +48,8 @@ class Command:
         first sample given) filled in.
     report : ``(result, input_info=..., trace=...) -> dict``: the JSON document
         (docs/json.md).
-    figure : ``(result, pair) -> matplotlib Figure``; ``pair`` reads "first - second".
+    figure : ``(result, pair, source="") -> matplotlib Figure``; ``pair`` reads "first -
+        second", ``source`` names the recording.
     process : for a command that works on the whole recording rather than on two sensors
         (``calibrate``): ``(job, recording, outcome) -> None`` fills the outcome (document,
         result, headline, warnings, and exit code and error for a result that is not
@@ -86,11 +87,11 @@ def _report(name: str) -> Callable[..., dict]:
 
 
 def _figure(name: str) -> Callable[..., Any]:
-    def draw(result, pair):
+    def draw(result, pair, source=""):
         from . import plots
 
         return {"axis": plots.axis_figure, "position": plots.position_figure}[name](
-            result, pair)
+            result, pair, source)
 
     return draw
 

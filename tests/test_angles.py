@@ -510,3 +510,48 @@ def test_figure_title_names_the_zero_without_cutting_it():
     user = {"method": "user time (mean over +-0.1 s)", "time_s": 12.0,
             "time_in": "this recording"}
     assert zero_label(user) == "user time at 12.0 s (this recording)"
+
+
+def test_real_knees_figure_says_they_do_not_fit_and_averages_no_cycles(real_knees,
+                                                                      real_recording):
+    # The figure said only "DOES NOT FIT" (clipped with long names), never that the
+    # calibration itself was refused, and averaged 240-290 deg of "flexion" into a neat
+    # gait cycle (figure review).
+    from imucal.angle_plots import angles_figure
+    from imucal.angles import joint_angles
+
+    cal, _ = real_knees
+    result = joint_angles(real_recording, cal)  # 55-100 s is gait-like: cycles are found
+    assert any(j.gait is not None for j in result.joints.values())
+    fig = angles_figure(result)
+    for sub, j in zip(fig.subfigs, result.joints.values(), strict=True):
+        title = sub.get_suptitle()
+        assert "DOES NOT FIT the calibration" in title
+        assert "the calibration itself is not identifiable" in title
+        assert sub._suptitle.get_color() == "tab:red"
+        main, cycles = sub.axes
+        assert main.get_ylabel() == "flexion (deg)"
+        if j.gait is not None:
+            assert "not averaged" in cycles.get_title() and not cycles.get_lines()
+
+
+def test_angles_figure_labels_and_reproducible_bytes(session, tmp_path):
+    from imucal.angle_plots import angles_figure, plot_angles
+    from imucal.angles import joint_angles
+
+    calibration, walk, _ = session
+    result = joint_angles(walk, calibration, end=20.0)
+    knee = result.joints["knee"]
+    fig = angles_figure(result)
+    sub, = fig.subfigs
+    title = sub.get_suptitle()
+    assert title.startswith("knee: flexion in deg; + = flexion; 0 = ")
+    assert ("fits its calibration" in title) == knee.fits
+    for w in knee.warnings:
+        assert w[:50] in title.replace("\n", " ").replace("    ", "")
+    main, cycles = sub.axes
+    assert cycles.get_ylabel() == "flexion (deg)" and cycles.get_lines()
+    # the same figure gives the same bytes (no creation date), as the other figures do
+    for name in ("a.pdf", "b.pdf"):
+        plot_angles(result, tmp_path / name)
+    assert (tmp_path / "a.pdf").read_bytes() == (tmp_path / "b.pdf").read_bytes()

@@ -118,6 +118,23 @@ def test_angles_to_h5_with_a_figure(cal_file, tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+
+def test_no_angles_figure_is_left_when_the_table_cannot_be_written(cal_file, tmp_path):
+    if not Path("/dev/full").exists():
+        pytest.skip("needs /dev/full (Linux)")
+    import subprocess
+    import sys
+
+    path, _ = cal_file
+    png = tmp_path / "knee.png"
+    with open("/dev/full", "w") as full:  # the CSV goes to stdout, which cannot take it
+        run = subprocess.run([sys.executable, "-m", "imucal", "angles", SAMPLE / "walking.h5",
+                              "-c", path, "--plot", png, "--end", "10", "-q"],
+                             stdout=full, stderr=subprocess.PIPE, text=True, timeout=300)
+    assert run.returncode == 2, run.stderr
+    assert "standard output: cannot write (No space left on device)" in run.stderr
+    assert list(tmp_path.iterdir()) == []
+
 def test_another_mounting_exits_1_with_the_evidence_unless_force(cal_file, tmp_path):
     path, _ = cal_file
     rec = tmp_path / "restrapped.h5"

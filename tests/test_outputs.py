@@ -4,6 +4,7 @@ panels show) and the size and contents of the JSON (compact by default, --trace)
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -200,3 +201,100 @@ def test_save_figure_refuses_unknown_formats(tmp_path):
     with pytest.raises(ValueError, match="unknown figure format"):
         plots.save_figure(Figure(), tmp_path / "x.gif")
     assert list(tmp_path.iterdir()) == []
+
+
+# --- the figures say how far to trust what they draw (figure review) ---
+
+def _header_texts(fig):
+    ax = _panel(fig, plots.HEADER_GID)
+    return [(t.get_text(), t.get_color()) for t in ax.texts]
+
+
+def test_axis_header_states_verdict_sigma_and_warnings(short_walk):
+    thigh, shank = short_walk.sensor("thigh"), short_walk.sensor("shank")
+    result = estimate_axis(thigh.gyr, shank.gyr, rate=short_walk.rate, restarts=12, seed=3)
+    fig = plots.axis_figure(result, "thigh - shank", "walk.h5")
+    texts = _header_texts(fig)
+    first, colour = texts[0]
+    assert first.startswith(f"Verdict: {result.verdict}")
+    assert colour == plots.VERDICT_COLOURS[result.verdict]
+    joined = " ".join(t for t, _ in texts)
+    # the reported 1-sigma, not only the (smaller) restart spread the panels draw
+    for v in ("j1", "j2"):
+        assert f"{v} {result.uncertainty_deg[v]:.3g} deg" in joined
+        assert f"{v} {result.spread_deg[v]:.3g} deg" in joined
+    assert f"{result.relative_residual:.1%}" in joined
+    flex = result.excitation["flexion_rate_rms_deg_s"]
+    assert f"RMS flexion rate {flex:.3g} deg/s" in joined
+    for w in result.warnings:
+        assert w[:60] in joined.replace("\n", " ")
+    title = fig.get_suptitle()
+    start, end = result.window
+    assert "walk.h5" in title and f"window {start:g}-{end:g} s" in title
+    assert f"{result.samples_used} samples used" in title and "seed 3" in title
+
+
+def test_a_still_window_is_red_and_drawn_to_scale():
+    # a forced result of sensors that barely rotate looked like a clean fit: its panels
+    # auto-scaled to a few hundredths of a rad/s of noise, and nothing said "refused"
+    rng = np.random.default_rng(0)
+    g1, g2 = (0.01 * rng.standard_normal((1500, 3)) for _ in range(2))
+    result = estimate_axis(g1, g2, rate=100.0, restarts=8, seed=1, time_offset=0)
+    assert result.verdict == "not identifiable"
+    fig = plots.axis_figure(result, "a - b")
+    texts = _header_texts(fig)
+    assert texts[0][0].startswith("Verdict: NOT IDENTIFIABLE")
+    assert texts[0][1] == "tab:red"
+    assert any(t.startswith("not identifiable: ") and c == "tab:red" for t, c in texts)
+    panels = [a for a in fig.axes if "joint plane" in a.get_title() or "Eq. (1)" in
+              a.get_title()]
+    assert len(panels) == 3
+    for a in panels:
+        lo, hi = a.get_xlim()
+        assert hi - lo >= plots._MIN_RATE_SPAN / 2  # noise stays a dot in the middle
+
+
+def test_hinge_centre_figure_marks_the_moved_estimate_and_names_the_coarse_stage(
+        short_walk):
+    thigh, shank = short_walk.sensor("thigh"), short_walk.sensor("shank")
+    result = estimate_position(thigh.gyr, thigh.acc, shank.gyr, shank.acc,
+                               rate=short_walk.rate, restarts=12, seed=3, joint="hinge")
+    fig = plots.position_figure(result, "thigh - shank")
+    _draw(fig)
+    cost = next(a for a in fig.axes if a.get_title().startswith("Cost of"))
+    marks = [line for line in cost.get_lines() if line.get_marker() == "D"]
+    assert len(marks) == 1
+    # the cost the JSON reports, at the moved point, not the best restart's own
+    assert marks[0].get_ydata()[0] == pytest.approx(result.rms_residual, rel=1e-12)
+    texts = {t.get_text() for a in fig.axes if a.get_legend()
+             for t in a.get_legend().get_texts()}
+    assert result.samples_used >= 2 * result.settings["coarse_samples"]
+    assert any(t.startswith("coarse") for t in texts)
+    joined = " ".join(t for t, _ in _header_texts(fig))
+    assert f"o1 {result.uncertainty_mm['o1']:.3g} mm" in joined
+
+
+def test_position_spread_dashes_are_each_components_rms(short_walk):
+    shank, foot = short_walk.sensor("shank"), short_walk.sensor("foot")
+    result = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc,
+                               rate=short_walk.rate, restarts=12, seed=3)
+    fig = plots.position_figure(result, "shank - foot")
+    ax = _panel(fig, plots.SPREAD_GID)
+    d = 1000 * (result.batch.x - np.concatenate([result.o1, result.o2]))
+    keep = settled(result.batch.final_cost, result.reached)
+    levels = sorted({round(float(y), 9) for c in ax.collections if hasattr(c, "get_segments")
+                     for seg in c.get_segments() for y in seg[:, 1] if y > 0})
+    expected = sorted(round(float(np.sqrt(np.mean(d[keep, k] ** 2))), 9) for k in range(6))
+    np.testing.assert_allclose(levels, expected, rtol=1e-6)
+
+
+def test_no_figure_is_left_by_a_run_whose_json_cannot_be_written(rec, tmp_path):
+    if not Path("/dev/full").exists():
+        pytest.skip("needs /dev/full (Linux)")
+    fig = tmp_path / "knee.png"
+    run = imucal("axis", rec, "--seed", 1, "--restarts", 5, "--plot", fig, "--out",
+                 "/dev/full", "--quiet")
+    assert run.returncode == 2 and b"No space left" in run.stderr
+    assert list(tmp_path.iterdir()) == []  # neither the figure nor its temporary file
+    ok = imucal("axis", rec, "--seed", 1, "--restarts", 5, "--plot", fig, "--quiet")
+    assert ok.returncode == 0 and fig.read_bytes().startswith(MAGIC[".png"])
