@@ -35,6 +35,7 @@ from scipy.integrate import cumulative_trapezoid
 from scipy.ndimage import gaussian_filter1d
 
 from .errors import InputError, NotIdentifiableError
+from .formats import HDF5_SUFFIXES
 from .preprocess import derivative, lowpass
 from .rest import STILL_MIN_S, STILL_RATE, gravity_check, gravity_warning, still_periods
 from .settings import as_real, is_bool
@@ -721,7 +722,7 @@ class JointAngles:
         frame = self.to_frame()
         if suffix == ".csv":
             write_atomic(path, lambda tmp: frame.to_csv(tmp, index=False, float_format="%.6g"))
-        elif suffix in (".h5", ".hdf5"):
+        elif suffix in HDF5_SUFFIXES:
             attrs = self._column_attrs()
 
             def fill(f):
@@ -805,7 +806,8 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
     >>> walk.fits, list(walk.to_frame().columns)
     (True, ['time', 'knee_flexion_deg', 'knee_flexion_sigma_deg'])
     """
-    from .calibration import Calibration, check_recording
+    from .calibration import Calibration
+    from .recording import check_recording
 
     check_recording(recording)
     if not isinstance(calibration, Calibration):

@@ -42,7 +42,6 @@ from .preprocess import (
     MAX_CUTOFF_FRACTION,
     Prepared,
     check_pair,
-    check_rate,
     default_cutoff,
     lowpass,
     prepare,
@@ -61,6 +60,7 @@ from .quality import (
     uncertainty_totals,
     uncertainty_warning,
 )
+from .recording import check_rate
 from .rest import MAX_MISMATCH_DEG, gravity_check, gravity_warning
 from .restarts import (
     MIN_AGREEING_FRACTION,
@@ -74,18 +74,16 @@ from .restarts import (
 )
 from .result import EstimateResult, shared_fields
 from .selection import MAX_SAMPLES
-from .settings import MAX_ITERATIONS, SUBSET_FRACTION, AxisSettings
+from .settings import MAX_ITERATIONS, OFFSET_SEARCH_S, SUBSET_FRACTION, AxisSettings
 from .settings import resolve as resolve_settings
 from .sign import (
     MAX_KNEE_SPAN_DEG,
     RANGE_BLOCK_S,
     decide_relative_sign,
     perpendicular,
-    plane_test,
 )
 from .time_offset import (
     OFFSET_STEPS,
-    SEARCH_S,
     delayed,
     fit_with_offset,
     profile_samples,
@@ -226,7 +224,7 @@ def estimate_axis(
     select: bool = True,
     max_samples: int | None = MAX_SAMPLES,
     time_offset: float | str = "auto",
-    offset_search: float = SEARCH_S,
+    offset_search: float = OFFSET_SEARCH_S,
     time_origin: float = 0.0,
     settings: AxisSettings | None = None,
 ) -> AxisResult:
@@ -249,7 +247,7 @@ def estimate_axis(
         Eq. (1) holds sample by sample for raw rates, while a linear filter does not
         commute with the norms in it: on real recordings with impacts a low-pass moves
         the estimate by many degrees, so the default fits the raw rates. (The sign test
-        always uses a low-passed copy, see :func:`align_signs`.)
+        always uses a low-passed copy, see :func:`imucal.sign.plane_test`.)
     subsample
         Use every k-th sample after filtering; None: all samples without a filter, else
         about 2.5 samples per cut-off period.
@@ -762,15 +760,6 @@ def _sign_warnings(decision, applied: float, pinned: bool) -> list[str]:
         return [f"the sign tests disagree ({', '.join(decision.contradicting)} favours the "
                 f"other relative sign); the combined evidence is {evidence:.2f}"]
     return []
-
-
-def align_signs(
-    gyr1: np.ndarray, gyr2: np.ndarray, j1: np.ndarray, j2: np.ndarray, rate: float
-) -> tuple[float, float]:
-    """The integration-free sign test alone (:func:`imucal.sign.plane_test`): the sign to
-    apply to ``j2`` and the evidence ratio."""
-    test = plane_test(gyr1, gyr2, j1, j2, rate)
-    return test.sign, test.evidence
 
 
 def joint_plane_projection(g: np.ndarray, j: np.ndarray) -> np.ndarray:

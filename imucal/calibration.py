@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,7 +22,7 @@ import numpy as np
 from . import __version__
 from .errors import ImucalError, InputError
 from .quality import NOT_IDENTIFIABLE
-from .recording import Recording, _norm, _segment, estimator_window
+from .recording import Recording, check_recording, estimator_window, normalised_name, segment_of
 from .settings import ACC_ERROR_M_S2
 
 FORMAT = "imucal-calibration"
@@ -172,7 +171,7 @@ def _vec(v):
 def sensor_segment(name: str) -> tuple[str | None, str | None]:
     """(side, segment) of a sensor name: segments thigh, shank, foot (with their synonyms,
     :data:`imucal.recording.SEGMENT_SYNONYMS`) and pelvis; side left, right or None."""
-    side, segment = _segment(name)
+    side, segment = segment_of(name)
     if segment is None:
         words = [w for w in re.split(r"[\s_\-.]+", str(name).lower()) if w]
         rest = "".join(w for w in words if w not in ("left", "right", "l", "r"))
@@ -223,7 +222,7 @@ def parse_joint_spec(text: str) -> JointSpec:
     if kind not in KINDS:
         raise InputError(f"joint '{text}': unknown joint type '{kind}'; use hinge or "
                          "spheroidal")
-    if not first or not second or _norm(first) == _norm(second):
+    if not first or not second or normalised_name(first) == normalised_name(second):
         raise InputError(f"joint '{text}': needs two different sensors; {SPEC_USAGE}")
     return JointSpec(name, kind, first, second)
 
@@ -354,15 +353,6 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
         sensors={n: dict(recording.sensor_info.get(n, {}), units_in_file=dict(
             recording.units.get(n, {}))) for n in used},
     )
-
-
-def check_recording(recording) -> None:
-    """InputError unless ``recording`` is a :class:`Recording` (a file name, say, failed
-    with an AttributeError deep inside)."""
-    if not isinstance(recording, Recording):
-        hint = (" (load it first: imucal.load_recording(path))"
-                if isinstance(recording, str | os.PathLike) else "")
-        raise InputError(f"expected a Recording, got {type(recording).__name__}{hint}")
 
 
 def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, time_offset,

@@ -429,7 +429,9 @@ def angles(
         if start is not None and end is not None and end <= start:
             raise typer.BadParameter(f"must be after --start ({start:g} s), got {end:g} s",
                                      ctx=ctx, param_hint="'--end'")
-        if out is not None and out.suffix.lower() not in (".csv", ".h5", ".hdf5"):
+        from .formats import HDF5_SUFFIXES
+
+        if out is not None and out.suffix.lower() not in {".csv", *HDF5_SUFFIXES}:
             raise typer.BadParameter(f"{out}: unknown table format "
                                      f"'{out.suffix or out.name}'; use .csv, .h5 or .hdf5",
                                      ctx=ctx, param_hint="'--out'")
@@ -598,7 +600,9 @@ def simulate(
             raise InputError("give --snr or --gyr-noise/--acc-noise (physical units), not both")
         offsets, bias = parse_clock_offsets(clock_offset), parse_sensor_bias(gyr_bias)
         acc_offsets = parse_sensor_bias(acc_bias, "--acc-bias", "m/s^2")
-        if out.suffix.lower() not in {".h5", ".hdf5", ".csv"}:
+        from .formats import HDF5_SUFFIXES
+
+        if out.suffix.lower() not in {*HDF5_SUFFIXES, ".csv"}:
             raise InputError(f"{out}: unknown output format '{out.suffix or out.name}'; use "
                              ".h5, .hdf5 or .csv")
         truth_path = out.with_name(out.stem + ".truth.json")
@@ -637,15 +641,11 @@ def info(
     export also every device's own rate, serial, start and dropped samples."""
     with _errors(debug):
         from .loaders import load_recording
-        from .report import clean
+        from .provenance import describe
 
         recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
                                    names=sensor_map)
-        doc = clean(_describe(recording))
-        if recording.sensor_info:  # a vendor export: what each device's file said
-            doc["sensor_info"] = clean(recording.sensor_info)
-        if recording.provenance:  # and where it came from (and the --map used)
-            doc["provenance"] = clean(recording.provenance)
+        doc = describe(recording)
         if as_json:
             write_stdout(json.dumps(doc, indent=2) + "\n")
             return
@@ -786,46 +786,6 @@ def _max_samples(value: int | None) -> int:
     from .selection import MAX_SAMPLES
 
     return MAX_SAMPLES if value is None else value
-
-
-def _describe(recording) -> dict:
-    import numpy as np
-
-    from .preprocess import STILL_RATE_DEG_S, rms_rate_deg_s
-    from .rest import GRAVITY_M_S2
-
-    sensors = {}
-    for name, s in recording.sensors.items():
-        # Gaps are reported as warnings; the figures describe the samples there are.
-        fine = np.isfinite(s.gyr).all(axis=1) & np.isfinite(s.acc).all(axis=1)
-        if not fine.any():
-            sensors[name] = {"units": recording.units.get(name, {}), "gyr_rms_deg_s": None,
-                             "gyr_peak_deg_s": None, "acc_dynamic_rms_m_s2": None,
-                             "motion": "no data"}
-            continue
-        gyr, acc = s.gyr[fine], s.acc[fine]
-        rate_norm = np.degrees(np.linalg.norm(gyr, axis=1))
-        acc_dyn = np.linalg.norm(acc, axis=1) - GRAVITY_M_S2
-        rms = rms_rate_deg_s(gyr)
-        sensors[name] = {
-            "units": recording.units.get(name, {}),
-            "gyr_rms_deg_s": rms,
-            "gyr_peak_deg_s": float(rate_norm.max()),
-            "acc_dynamic_rms_m_s2": float(np.sqrt(np.mean(acc_dyn**2))),
-            "motion": "still" if rms < STILL_RATE_DEG_S else "moves",
-        }
-    from .provenance import rate_origin
-
-    return {
-        "path": recording.source,
-        "sample_rate_hz": recording.rate,
-        "sample_rate_from": rate_origin(recording),
-        "samples": recording.n_samples,
-        "duration_s": recording.duration,
-        "time_s": [recording.time[0], recording.time[-1]],
-        "sensors": sensors,
-        "warnings": recording.warnings,
-    }
 
 
 class _errors:

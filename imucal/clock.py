@@ -40,7 +40,7 @@ import numpy as np
 
 from .errors import InputError
 from .formats import RawSensor
-from .recording import MAX_RATE_HZ, MIN_RATE_HZ, RATE_WARN
+from .recording import RATE_WARN, check_plausible_rate
 
 #: A header's claimed rate that differs from the time stamps' by more than this share
 #: is refused (one of them is wrong); more than :data:`imucal.recording.RATE_WARN` gives
@@ -235,15 +235,8 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
                              "least 3")
         clk = _clock(s, what, rate)
         dev_rate = 1.0 / clk.period
-        if not MIN_RATE_HZ <= dev_rate <= MAX_RATE_HZ:
-            # "below"/"above" and enough digits: 0.99999 Hz printed as 1 Hz would seem to
-            # lie inside the range
-            side = f"below {MIN_RATE_HZ:g}" if dev_rate < MIN_RATE_HZ else f"above {MAX_RATE_HZ:g}"
-            raise InputError(
-                f"{what}: sample rate {dev_rate:.6g} Hz from its {clk.source_of_time} is "
-                f"{side} Hz (imucal reads {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz); check the "
-                "time stamps' units"
-            )
+        check_plausible_rate(dev_rate, what, f" from its {clk.source_of_time}",
+                             "check the time stamps' units")
         if s.claimed_rate and clk.source_of_time == "time stamps" and rate is None:
             off = abs(dev_rate - s.claimed_rate) / s.claimed_rate
             if off > RATE_REFUSE:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .vectors import cross_rows, joint_plane_rate, tangent_basis, unit
+from .vectors import cross_rows, gamma_rows, joint_plane_rate, tangent_basis, unit
 
 #: Prior standard deviation of each bias component, rad/s (MEMS gyroscopes after warm-up:
 #: 0.005-0.05 rad/s).
@@ -274,7 +274,6 @@ def joint_centre_with_bias(data: tuple, x: np.ndarray) -> CentreBias | None:
     from corrected rates; otherwise how far the centre moves when biases the data cannot
     rule out are allowed (3-10 mm there, against 0.2-3 mm without bias) is a 1-sigma part
     of its own. Fitted on every k-th sample (at most ``SCREEN_SAMPLES``)."""
-    from .position import _gamma_rows  # eq. (3)'s matrices: one implementation
 
     step = max(1, int(np.ceil(np.shape(data[0])[0] / SCREEN_SAMPLES)))
     g1, gd1, a1, g2, gd2, a2 = (np.asarray(d, dtype=float)[::step] for d in data)
@@ -285,7 +284,7 @@ def joint_centre_with_bias(data: tuple, x: np.ndarray) -> CentreBias | None:
         out = []
         for k, (g, gd, a) in enumerate(sensors):
             o, h = p[3 * k:3 * k + 3], g - p[6 + 3 * k:9 + 3 * k]
-            gam = _gamma_rows(h, gd)
+            gam = gamma_rows(h, gd)
             r = a - gam @ o
             out.append((o, h, gam, r, np.linalg.norm(r, axis=1)))
         return out

@@ -45,12 +45,11 @@ if TYPE_CHECKING:  # pandas is imported where CSV is parsed: it costs ~0.2 s of 
 
 from .errors import InputError
 from .errors import one_line as _one_line
-from .recording import Recording, check_units, make_recording
+from .formats import HDF5_SIGNATURE, HDF5_SUFFIXES
+from .recording import Recording, check_rate, check_units, make_recording
 
-__all__ = ["load_recording", "HDF5_SIGNATURE"]
+__all__ = ["load_recording"]
 
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
-HDF5_SUFFIXES = {".h5", ".hdf5"}
 CSV_SUFFIXES = {".csv", ".txt"}
 #: Most bytes read from standard input or another stream (a pipe, a device): a file
 #: there has no size to check first, and /dev/zero never ends. 4 GiB is a day of seven
@@ -129,8 +128,6 @@ def _check_given_rate(path, rate) -> None:
     vendor export divided by it: exit 3)."""
     if rate is None:
         return
-    from .preprocess import check_rate
-
     try:
         check_rate(rate)
     except InputError as err:

@@ -43,7 +43,6 @@ from .preprocess import (
     MAX_CUTOFF_FRACTION,
     Prepared,
     check_pair,
-    check_rate,
     default_joint_cutoff,
     derivative,
     lowpass,
@@ -64,7 +63,7 @@ from .quality import (
     uncertainty_totals,
     uncertainty_warning,
 )
-from .recording import ACC_UNITS
+from .recording import ACC_UNITS, check_rate
 from .rest import GRAVITY_M_S2, LOCAL_GRAVITY_SPREAD_M_S2, norm_at_rest
 from .restarts import (
     competing_agreement,
@@ -77,22 +76,21 @@ from .restarts import (
 )
 from .result import EstimateResult, shared_fields
 from .selection import MAX_SAMPLES
-from .settings import (  # noqa: F401 (JOINTS: imported from here)
+from .settings import (
     ACC_ERROR_M_S2,
-    JOINTS,
     MAX_ITERATIONS,
+    OFFSET_SEARCH_S,
     SUBSET_FRACTION,
     PositionSettings,
 )
 from .settings import resolve as resolve_settings
 from .time_offset import (
     OFFSET_STEPS,
-    SEARCH_S,
     delayed,
     fit_with_offset,
     profile_samples,
 )
-from .vectors import unit
+from .vectors import gamma_rows, unit
 
 #: Two estimates agree when both o1 and o2 are within this distance, m.
 AGREEMENT_M = 0.01
@@ -222,7 +220,7 @@ def estimate_position(
     sign: str = "auto",
     j2_sign: str = "auto",
     time_offset: float | str = "auto",
-    offset_search: float = SEARCH_S,
+    offset_search: float = OFFSET_SEARCH_S,
     time_origin: float = 0.0,
     acc_error: float = ACC_ERROR_M_S2,
     settings: PositionSettings | None = None,
@@ -726,8 +724,9 @@ class _SpheroidalProblem:
 
     @staticmethod
     def _gamma(g, gdot):
-        """(3, 3, N) array G with (Gamma_n o)_k = sum_i G[k, i, n] o_i (:func:`_gamma_rows`)."""
-        return _gamma_rows(g, gdot).transpose(1, 2, 0)
+        """(3, 3, N) array G with (Gamma_n o)_k = sum_i G[k, i, n] o_i
+        (:func:`imucal.vectors.gamma_rows`)."""
+        return gamma_rows(g, gdot).transpose(1, 2, 0)
 
     def _r(self, k, o, out=None):
         """a - Gamma(o) for sensor k and offsets o (r, 3): (r, 3, N)."""
@@ -872,8 +871,8 @@ def _refit_offsets(own, other, x) -> tuple[np.ndarray, np.ndarray]:
     ``eps max(M, 6)`` times the largest counts as zero).
     """
     # component-major (k, i, M) layouts: every operation below runs over samples
-    gam1 = np.ascontiguousarray(np.moveaxis(_gamma_rows(*own[:2]), -3, -1))  # (3, 3, M)
-    gam2 = np.ascontiguousarray(np.moveaxis(_gamma_rows(*other[:2]), -3, -1))  # (D, 3, 3, M)
+    gam1 = np.ascontiguousarray(np.moveaxis(gamma_rows(*own[:2]), -3, -1))  # (3, 3, M)
+    gam2 = np.ascontiguousarray(np.moveaxis(gamma_rows(*other[:2]), -3, -1))  # (D, 3, 3, M)
     a1, a2 = own[2].T, np.swapaxes(other[2], 1, 2)  # (3, M), (D, 3, M)
     y = np.repeat(x[None, :], a2.shape[0], axis=0)
 
@@ -897,20 +896,6 @@ def _refit_offsets(own, other, x) -> tuple[np.ndarray, np.ndarray]:
         coeff = inverse * np.einsum("dnk,dn->dk", u, -e)
         y = y + np.einsum("dkj,dk->dj", vt, coeff)
     return linearise(y)[0], y
-
-
-def _gamma_rows(g, gdot) -> np.ndarray:
-    """(..., M, 3, 3) matrices Gamma = g g^T - |g|^2 I + [gdot]x of eq. (3) for rates
-    ``g`` and their derivatives ``gdot`` (..., M, 3), rad/s and rad/s^2."""
-    gam = g[..., :, None] * g[..., None, :]
-    gam -= np.sum(g * g, axis=-1)[..., None, None] * np.eye(3)
-    gam[..., 0, 1] -= gdot[..., 2]
-    gam[..., 0, 2] += gdot[..., 1]
-    gam[..., 1, 0] += gdot[..., 2]
-    gam[..., 1, 2] -= gdot[..., 0]
-    gam[..., 2, 0] -= gdot[..., 1]
-    gam[..., 2, 1] += gdot[..., 0]
-    return gam
 
 
 def _offset_moved(result, a, b) -> dict:

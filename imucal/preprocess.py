@@ -21,15 +21,13 @@ from .recording import (
     ACC_LOOKS_LIKE_G,
     ACC_PLAUSIBLE,
     MAX_LIMB_RATE,
-    MAX_RATE_HZ,
-    MIN_RATE_HZ,
     SENSOR_RANGE,
     acc_scale_doubt,
     corrupt_readings,
+    window_slice,
 )
 from .selection import Selection
 from .selection import select as select_samples
-from .settings import as_real
 from .time_offset import shifted
 
 #: Default low-pass cut-off in Hz. Voluntary leg motion (circling, gait) has almost all
@@ -176,19 +174,6 @@ def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
     return a, b
 
 
-def check_rate(rate) -> float:
-    """A sample rate in Hz within the plausible range of body-worn IMUs, else InputError."""
-    number = as_real(rate)
-    if number is None or number <= 0:
-        shown = number if number is not None else repr(rate)
-        raise InputError(f"sample rate must be a positive number of Hz, got {shown}")
-    rate = number
-    if not MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
-        raise InputError(f"sample rate {rate:g} Hz is outside the {MIN_RATE_HZ:g} to "
-                         f"{MAX_RATE_HZ:g} Hz of body-worn IMUs; check its units")
-    return rate
-
-
 #: Lowest cut-off as a fraction of the rate: far below it the filter's poles sit on 1 to
 #: machine precision and its initial state cannot be solved for (1e-9 Hz at 100 Hz raised
 #: numpy's LinAlgError); 1e-8 still worked.
@@ -247,29 +232,6 @@ def derivative(x: np.ndarray, rate: float) -> np.ndarray:
                 inner += c * x[k:n - 8 + k]
         out[4:n - 4] = inner * rate
     return out
-
-
-def window_slice(
-    n: int, rate: float, start: float | None, end: float | None, *, origin: float = 0.0
-) -> slice:
-    """Sample slice for the window [start, end) in seconds from the first sample.
-
-    ``origin`` is the first sample's time on the recording's own time axis; messages
-    give times on that axis, as the user typed them.
-    """
-    duration = n / rate
-    s = 0.0 if start is None else float(start)
-    e = duration if end is None else float(end)
-    span = f"the recording runs from {origin:g} to {origin + duration:g} s"
-    if not (np.isfinite(s) and np.isfinite(e)):
-        raise InputError(f"window start/end must be finite numbers of seconds, got {s}, {e}")
-    if not 0 <= s < duration:
-        raise InputError(f"window start {origin + s:g} s lies outside the recording ({span})")
-    if e <= s:
-        raise InputError(f"window end {origin + e:g} s must be after its start {origin + s:g} s")
-    if e > duration + 0.5 / rate:
-        raise InputError(f"window end {origin + e:g} s lies beyond the recording ({span})")
-    return slice(int(round(s * rate)), min(n, int(round(e * rate))))
 
 
 def unit_doubts(gyr: tuple, acc: tuple = ()) -> list[str]:

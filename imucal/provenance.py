@@ -1,4 +1,5 @@
-"""What ``imucal info`` and ``imucal convert`` say about where a recording came from.
+"""What ``imucal info`` and ``imucal convert`` say about a recording and where it came
+from (:func:`describe`: the document ``imucal info --json`` prints).
 
 For vendor exports (``imucal.formats``) every sensor has its label, serial, own rate (Hz,
 from its time stamps, before it was put on the common grid), start (s on the recording's
@@ -16,6 +17,64 @@ from .recording import Recording
 #: How a device's clock gave its period (``sensor_info[...]["time_from"]``).
 _CLOCKS = {"time stamps": "its time stamps", "packet counter": "its packet counter at the "
            "header's rate", "sample rate": "the header's rate"}
+
+
+def describe(recording: Recording) -> dict:
+    """The JSON-ready summary ``imucal info`` prints (docs/json.md, "imucal info --json").
+
+    Returns
+    -------
+    dict
+        "path", "sample_rate_hz", "sample_rate_from" (:func:`rate_origin`), "samples",
+        "duration_s", "time_s" (first and last sample, s), "warnings" (the recording's
+        notes) and per sensor under "sensors": "units" (as read), "gyr_rms_deg_s" and
+        "gyr_peak_deg_s" (the rate's norm, deg/s), "acc_dynamic_rms_m_s2" (RMS of
+        |acc| - 1 g, m/s^2), "motion" ("still" below
+        :data:`imucal.preprocess.STILL_RATE_DEG_S`, "moves", or "no data" when no
+        sample is finite; the statistics are then None); for a vendor export also
+        "sensor_info" (each device's own rate, serial, start, dropped samples) and
+        "provenance" (where it came from, the sensor map used).
+    """
+    import numpy as np
+
+    from .preprocess import STILL_RATE_DEG_S, rms_rate_deg_s
+    from .report import clean
+    from .rest import GRAVITY_M_S2
+
+    sensors = {}
+    for name, s in recording.sensors.items():
+        # gaps are reported as warnings; the statistics describe the samples there are
+        fine = np.isfinite(s.gyr).all(axis=1) & np.isfinite(s.acc).all(axis=1)
+        units = recording.units.get(name, {})
+        if not fine.any():
+            sensors[name] = {"units": units, "gyr_rms_deg_s": None, "gyr_peak_deg_s": None,
+                             "acc_dynamic_rms_m_s2": None, "motion": "no data"}
+            continue
+        gyr, acc = s.gyr[fine], s.acc[fine]
+        acc_dyn = np.linalg.norm(acc, axis=1) - GRAVITY_M_S2
+        rms = rms_rate_deg_s(gyr)
+        sensors[name] = {
+            "units": units,
+            "gyr_rms_deg_s": rms,
+            "gyr_peak_deg_s": float(np.degrees(np.linalg.norm(gyr, axis=1)).max()),
+            "acc_dynamic_rms_m_s2": float(np.sqrt(np.mean(acc_dyn**2))),
+            "motion": "still" if rms < STILL_RATE_DEG_S else "moves",
+        }
+    doc = clean({
+        "path": recording.source,
+        "sample_rate_hz": recording.rate,
+        "sample_rate_from": rate_origin(recording),
+        "samples": recording.n_samples,
+        "duration_s": recording.duration,
+        "time_s": [recording.time[0], recording.time[-1]],
+        "sensors": sensors,
+        "warnings": recording.warnings,
+    })
+    if recording.sensor_info:  # a vendor export: what each device's file said
+        doc["sensor_info"] = clean(recording.sensor_info)
+    if recording.provenance:  # and where it came from (and the --map used)
+        doc["provenance"] = clean(recording.provenance)
+    return doc
 
 
 def rate_origin(recording: Recording) -> str:

@@ -14,6 +14,7 @@ which is what every estimator may assume.
 from __future__ import annotations
 
 import difflib
+import os
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -207,8 +208,6 @@ class Recording:
         """The samples of the window ``[start, end)``, s on the recording's time axis
         (None: its start / end); InputError naming the file for a window outside it or
         holding fewer than 2 samples."""
-        from .preprocess import window_slice
-
         if start is None and end is None:
             return slice(0, self.n_samples)
         seconds = []
@@ -413,7 +412,7 @@ class Recording:
 
 
 #: Segment synonyms, so that ``--sensors thigh,shank`` finds sensors labelled "Upper Leg"
-#: or "tibia". Keys and values are normalised (:func:`_norm`).
+#: or "tibia". Keys and values are normalised (:func:`normalised_name`).
 SEGMENT_SYNONYMS = {
     "thigh": "thigh", "upperleg": "thigh", "femur": "thigh",
     "shank": "shank", "lowerleg": "shank", "tibia": "shank", "shin": "shank",
@@ -422,13 +421,13 @@ SEGMENT_SYNONYMS = {
 _SIDES = {"left": "left", "l": "left", "right": "right", "r": "right"}
 
 
-def _norm(text: str) -> str:
+def normalised_name(text: str) -> str:
     """Lower case without spaces, underscores, hyphens or dots: "Left Upper_Leg" ->
     "leftupperleg"."""
     return "".join(ch for ch in str(text).lower() if ch not in " _-.\t")
 
 
-def _segment(text: str) -> tuple[str | None, str | None]:
+def segment_of(text: str) -> tuple[str | None, str | None]:
     """(side, segment) a sensor name denotes, e.g. ("left", "thigh") for "L Upper Leg";
     (None, None) when it names no known segment."""
     words = [w for w in re.split(r"[\s_\-.]+", str(text).lower()) if w]
@@ -453,18 +452,18 @@ def match_sensor(name: str, names: list[str], info: Mapping[str, Mapping] | None
     info = info or {}
     if name in names:
         return name
-    key = _norm(name)
+    key = normalised_name(name)
     for how in ("name", "serial"):
-        hits = [n for n in names if key and _norm(n if how == "name" else
+        hits = [n for n in names if key and normalised_name(n if how == "name" else
                                                 info.get(n, {}).get("serial") or "") == key]
         if len(hits) == 1:
             return hits[0]
-    side, segment = _segment(name)
+    side, segment = segment_of(name)
     if segment is not None:
-        hits = [n for n in names if _segment(n)[1] == segment
-                and (side is None or _segment(n)[0] in (side, None))]
+        hits = [n for n in names if segment_of(n)[1] == segment
+                and (side is None or segment_of(n)[0] in (side, None))]
         if side is not None and len(hits) > 1:
-            hits = [n for n in hits if _segment(n)[0] == side]
+            hits = [n for n in hits if segment_of(n)[0] == side]
         if len(hits) == 1:
             return hits[0]
         if len(hits) > 1:
@@ -472,8 +471,8 @@ def match_sensor(name: str, names: list[str], info: Mapping[str, Mapping] | None
                 f"{source}: sensor '{name}' is ambiguous: {', '.join(map(repr, hits))} are all "
                 f"a {segment}; name one of them (or give the side, e.g. left_{segment})"
             )
-    keys = {_norm(n): n for n in names}
-    keys.update({_norm(v["serial"]): n for n, v in info.items() if v.get("serial")})
+    keys = {normalised_name(n): n for n in names}
+    keys.update({normalised_name(v["serial"]): n for n, v in info.items() if v.get("serial")})
     close = difflib.get_close_matches(key, list(keys), n=1, cutoff=0.6)
     hint = f" (did you mean '{keys[close[0]]}'?)" if close else ""
     serials = [f"{n} ({info[n]['serial']})" if info.get(n, {}).get("serial")
@@ -793,7 +792,7 @@ def acc_scale_doubt(median: float) -> str:
         return (f"has a median norm of {median:.3g} m/s^2, far below 1 g = 9.81 m/s^2: the "
                 "declared units look wrong (m/s^2 or g data declared as mg?), or gravity "
                 "was removed (free acceleration)")
-    return (f"has a median norm of {median:.4g} m/s^2 = {median / 9.80665:.3g} g, far above "
+    return (f"has a median norm of {median:.4g} m/s^2 = {median / ACC_UNITS['g']:.3g} g, far above "
             "1 g: the declared units look wrong (m/s^2 data declared as g, or mg data as g "
             "or m/s^2?)")
 
@@ -834,14 +833,71 @@ def _as_n_by_3(value, what: str) -> np.ndarray:
     )
 
 
-def _check_plausible_rate(rate: float, source: str, origin: str = "") -> None:
-    """Body-worn IMUs sample at a few Hz to a few kHz; outside MIN/MAX_RATE_HZ the number
-    is a unit mistake (ms for s, kHz for Hz), not a sample rate."""
-    if not MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
-        raise InputError(
-            f"{source}: sample rate {rate:g} Hz{origin} is outside the {MIN_RATE_HZ:g} to "
-            f"{MAX_RATE_HZ:g} Hz of body-worn IMUs; check the rate's units"
-        )
+def window_slice(
+    n: int, rate: float, start: float | None, end: float | None, *, origin: float = 0.0
+) -> slice:
+    """Sample slice for the window [start, end) in seconds from the first sample.
+
+    ``origin`` is the first sample's time on the recording's own time axis; messages
+    give times on that axis, as the user typed them.
+    """
+    duration = n / rate
+    s = 0.0 if start is None else float(start)
+    e = duration if end is None else float(end)
+    span = f"the recording runs from {origin:g} to {origin + duration:g} s"
+    if not (np.isfinite(s) and np.isfinite(e)):
+        raise InputError(f"window start/end must be finite numbers of seconds, got {s}, {e}")
+    if not 0 <= s < duration:
+        raise InputError(f"window start {origin + s:g} s lies outside the recording ({span})")
+    if e <= s:
+        raise InputError(f"window end {origin + e:g} s must be after its start {origin + s:g} s")
+    if e > duration + 0.5 / rate:
+        raise InputError(f"window end {origin + e:g} s lies beyond the recording ({span})")
+    return slice(int(round(s * rate)), min(n, int(round(e * rate))))
+
+
+def check_recording(recording) -> None:
+    """InputError unless ``recording`` is a :class:`Recording` (a file name, say, failed
+    with an AttributeError deep inside)."""
+    if not isinstance(recording, Recording):
+        hint = (" (load it first: imucal.load_recording(path))"
+                if isinstance(recording, str | os.PathLike) else "")
+        raise InputError(f"expected a Recording, got {type(recording).__name__}{hint}")
+
+
+def check_plausible_rate(rate: float, source: str = "", origin: str = "",
+                         fix: str = "check the rate's units") -> None:
+    """InputError unless ``rate`` (Hz) lies within MIN/MAX_RATE_HZ: body-worn IMUs sample
+    at a few Hz to a few kHz, and outside that the number is a unit mistake (ms for s,
+    kHz for Hz), not a sample rate. The one check of every rate imucal meets (given,
+    stored, from a file's time steps or a device's stamps); ``source`` and ``origin``
+    say whose and where from, ``fix`` what to check."""
+    if MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
+        return
+    # "below"/"above" and enough digits: 0.99999 Hz printed as 1 Hz would seem to lie
+    # inside the range
+    side = f"below {MIN_RATE_HZ:g}" if rate < MIN_RATE_HZ else f"above {MAX_RATE_HZ:g}"
+    prefix = f"{source}: " if source else ""
+    raise InputError(
+        f"{prefix}sample rate {rate:.6g} Hz{origin} is {side} Hz, outside the "
+        f"{MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz of body-worn IMUs; {fix}"
+    )
+
+
+def check_rate(rate) -> float:
+    """A sample rate in Hz as a float, checked (:func:`check_plausible_rate`).
+
+    Raises
+    ------
+    InputError
+        ``rate`` is not a positive real number, or outside the range of body-worn IMUs.
+    """
+    number = as_real(rate)
+    if number is None or number <= 0:
+        shown = number if number is not None else repr(rate)
+        raise InputError(f"sample rate must be a positive number of Hz, got {shown}")
+    check_plausible_rate(number, fix="check its units")
+    return number
 
 
 def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, list[str]]:
@@ -860,7 +916,7 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
                 f"{source}: sample rate must be a positive number of Hz, got {rate:g}; fix "
                 "the 'sample_rate' attribute or give --rate"
             )
-        _check_plausible_rate(rate, source)
+        check_plausible_rate(rate, source)
     if time is None:
         if rate is None:
             raise InputError(
@@ -909,7 +965,7 @@ def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, l
         )
     if not (np.isfinite(time_rate) and time_rate > 0):
         raise InputError(f"{source}: 'time' steps of {step:g} s give no usable sample rate")
-    _check_plausible_rate(time_rate, source, " from the 'time' steps (are they in seconds?)")
+    check_plausible_rate(time_rate, source, " from the 'time' steps (are they in seconds?)")
     if rate is not None and abs(time_rate - rate) > TIME_JITTER_TOLERANCE * rate:
         raise InputError(
             f"{source}: the rate given ('sample_rate' or --rate) says {rate:g} Hz but 'time' "

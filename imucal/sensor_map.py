@@ -32,7 +32,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from .errors import InputError, one_line
-from .recording import Recording, _norm
+from .recording import Recording, normalised_name
 
 __all__ = ["read_sensor_map", "apply_sensor_map"]
 
@@ -111,18 +111,18 @@ def _check_pairs(pairs, where, source: str) -> dict[str, str]:
     seen: dict[str, tuple[str, str, str]] = {}  # normalised key -> (key, value, where)
     for (key, value), at in zip(pairs, where, strict=True):
         key, value = str(key).strip(), str(value).strip()
-        if not key or not _norm(key):
+        if not key or not normalised_name(key):
             raise InputError(f"{source}: {at}: the device name or serial is empty")
         if not value:
             raise InputError(f"{source}: {at}: no name given for {key!r}")
         if any(ch in value for ch in ",\n\r\t"):
             raise InputError(f"{source}: {at}: the name {value!r} contains a comma or a "
                              "tab; --sensors could not address it")
-        previous = seen.get(_norm(key))
+        previous = seen.get(normalised_name(key))
         if previous is not None and previous[1] != value:
             raise InputError(f"{source}: {at}: {key!r} is mapped twice, to {previous[1]!r} "
                              f"({previous[2]}) and to {value!r}")
-        seen[_norm(key)] = (key, value, at)
+        seen[normalised_name(key)] = (key, value, at)
         mapping[key] = value
     if not mapping:
         raise InputError(f"{source}: the sensor map is empty (expected a JSON object or "
@@ -154,10 +154,10 @@ def apply_sensor_map(recording: Recording, names: Mapping[str, str] | str | Path
     info = recording.sensor_info or {}
 
     def matches(key: str) -> list[str]:
-        k = _norm(key)
+        k = normalised_name(key)
         return [n for n in sensors
-                if k in {_norm(n), _norm(info.get(n, {}).get("serial") or ""),
-                         _norm(info.get(n, {}).get("label") or "")}]
+                if k in {normalised_name(n), normalised_name(info.get(n, {}).get("serial") or ""),
+                         normalised_name(info.get(n, {}).get("label") or "")}]
 
     renamed: dict[str, str] = {}  # sensor in the file -> new name
     claimed_by: dict[str, str] = {}  # sensor in the file -> key that claimed it

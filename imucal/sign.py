@@ -6,7 +6,7 @@ gives the flexion plus twice the first segment's rotation about the axis. Three 
 decide, each from different evidence, because no single one holds on every motion:
 
 ``plane``
-    Integration-free (Sec. III-C; method-notes.md): the angle between the two
+    Integration-free (Sec. III-C; docs/method.md, "Relative sign"): the angle between the two
     joint-plane projections of the rates changes at the flexion rate only with the
     right sign. Decisive on clean simulated motion; on real gait soft tissue and
     non-hinge motion blur it (evidence 1.0-1.2 on the shared recording).

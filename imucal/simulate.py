@@ -37,7 +37,7 @@ from functools import cache
 import numpy as np
 
 from .errors import InputError
-from .recording import Recording, _check_plausible_rate, make_recording
+from .recording import Recording, check_plausible_rate, make_recording
 
 MOTIONS = ("circling", "walking", "rigid-knee", "static", "gait", "protocol")
 SENSORS = ("thigh", "shank", "foot")
@@ -507,7 +507,7 @@ def _check_args(seed, rate, duration, snr, motion, gyr_noise=None, acc_noise=Non
     rate, duration = float(rate), float(duration)
     # the recording's own check, before anything is simulated: 1e9 Hz would fill the
     # memory first
-    _check_plausible_rate(rate, "simulate")
+    check_plausible_rate(rate, "simulate")
     physical = gyr_noise is not None or acc_noise is not None
     if isinstance(snr, str):
         if snr != "auto":

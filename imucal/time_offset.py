@@ -13,7 +13,8 @@ degrees. Both constraints hold only at the right relative shift ``delta``::
 The cost over ``delta`` is smooth near its minimum: a coarse grid over +-``search``, then
 one-sample steps around its lowest point find the basin, and a least-squares parabola
 through candidates 2 ms apart, recentred until they straddle its vertex, gives the
-minimum to a fraction of a sample (:func:`estimate_offset`; realism-and-angles-notes.md).
+minimum to a fraction of a sample (:func:`estimate_offset`; docs/method.md, "Clock
+offsets between the two sensors").
 The profile leaves out samples within the search of the recording's ends
 (:func:`profile_samples`). The uncertainty is twice the delete-one-block jackknife over
 contiguous time blocks, as for the estimates themselves
@@ -39,8 +40,7 @@ from .quality import (
 
 # the search range and the offset check live with the settings; imported here for the
 # callers of their old home
-from .settings import OFFSET_SEARCH_S as SEARCH_S  # noqa: F401
-from .settings import check_time_offset  # noqa: F401
+from .settings import OFFSET_SEARCH_S
 
 #: The profile refits use about this many of the samples and this many plain
 #: Gauss-Newton steps from the first estimate; both estimators. An offset of tens of
@@ -157,7 +157,7 @@ def shifted(x: np.ndarray, rate: float, delta: float) -> np.ndarray:
 
 
 def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-                    rate: float, search: float = SEARCH_S) -> Offset:
+                    rate: float, search: float = OFFSET_SEARCH_S) -> Offset:
     """Minimise the profile cost: for candidate offsets over +-``search`` s,
     ``refit(deltas)`` (D,) refits the estimate with the second sensor read at
     t + delta, for every delta at once, and returns the (D, M) residuals (the same M

@@ -1,5 +1,6 @@
-"""Unit vectors, their tangent planes, row-wise cross products and the joint-plane rate
-of eq. (1): the geometry the hinge estimators (axis, gyroscope bias) share."""
+"""Unit vectors, their tangent planes, row-wise cross products, the joint-plane rate of
+eq. (1) and the Gamma matrices of eq. (3): the geometry the estimators (axis, joint
+position, gyroscope bias) share."""
 
 from __future__ import annotations
 
@@ -49,3 +50,17 @@ def joint_plane_rate(g: np.ndarray, j: np.ndarray) -> np.ndarray:
     """|g x j| per sample: the rate's part in the joint plane of the unit axis ``j``
     (eq. 1), via |g|^2 - (g.j)^2 (no cross product)."""
     return np.sqrt(np.maximum(np.sum(g * g, axis=1) - (g @ j) ** 2, 0.0))
+
+
+def gamma_rows(g, gdot) -> np.ndarray:
+    """(..., M, 3, 3) matrices Gamma = g g^T - |g|^2 I + [gdot]x of eq. (3) for rates
+    ``g`` and their derivatives ``gdot`` (..., M, 3), rad/s and rad/s^2."""
+    gam = g[..., :, None] * g[..., None, :]
+    gam -= np.sum(g * g, axis=-1)[..., None, None] * np.eye(3)
+    gam[..., 0, 1] -= gdot[..., 2]
+    gam[..., 0, 2] += gdot[..., 1]
+    gam[..., 1, 0] += gdot[..., 2]
+    gam[..., 1, 2] -= gdot[..., 0]
+    gam[..., 2, 0] -= gdot[..., 1]
+    gam[..., 2, 1] += gdot[..., 0]
+    return gam

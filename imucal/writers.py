@@ -16,11 +16,11 @@ import pandas as pd
 
 from .atomic import write_atomic, write_hdf5_atomic
 from .errors import InputError
+from .formats import HDF5_SUFFIXES
 from .recording import Recording
 
 __all__ = ["save_recording"]
 
-_HDF5_SUFFIXES = {".h5", ".hdf5"}
 _CSV_SUFFIXES = {".csv"}
 
 
@@ -49,7 +49,7 @@ def save_recording(
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix in _HDF5_SUFFIXES:
+    if suffix in HDF5_SUFFIXES:
         write = _write_hdf5
         for name in recording.sensors:
             if "/" in name or name in {".", "time"}:

@@ -7,7 +7,7 @@ import pytest
 from conftest import axis_error_deg, simulated
 
 from imucal import InputError, estimate_axis
-from imucal.axis import align_signs
+from imucal.sign import plane_test
 
 
 @pytest.mark.parametrize("rate", [100.0, 40.0])
@@ -40,10 +40,10 @@ def test_sign_test_rejects_flipped_axis():
     rec, truth = simulated(4)
     g1, g2 = rec.sensor("thigh").gyr, rec.sensor("shank").gyr
     j1, j2 = np.array(truth["j1"]), np.array(truth["j2"])
-    sign, evidence = align_signs(g1, g2, j1, j2, rec.rate)
-    assert sign == 1.0 and evidence > 5
-    sign, evidence = align_signs(g1, g2, j1, -j2, rec.rate)
-    assert sign == -1.0 and evidence > 5
+    test = plane_test(g1, g2, j1, j2, rec.rate)
+    assert test.sign == 1.0 and test.evidence > 5
+    test = plane_test(g1, g2, j1, -j2, rec.rate)
+    assert test.sign == -1.0 and test.evidence > 5
 
 
 def test_spheroidal_ankle_gives_no_confident_axis():

@@ -625,8 +625,8 @@ def test_rate_below_one_hz_message_does_not_contradict_itself():
     with pytest.raises(InputError) as err:
         align([s], "f.txt")
     assert str(err.value) == (
-        "f.txt: sensor 'a': sample rate 0.999999 Hz from its time stamps is below 1 Hz "
-        "(imucal reads 1 to 10000 Hz); check the time stamps' units")
+        "f.txt: sensor 'a': sample rate 0.999999 Hz from its time stamps is below 1 Hz, "
+        "outside the 1 to 10000 Hz of body-worn IMUs; check the time stamps' units")
 
 
 def test_info_names_the_grid_and_the_devices_interpolated_onto_it(tmp_path):
@@ -724,7 +724,8 @@ def test_a_given_rate_outside_the_range_is_refused_before_reading(fmt, tmp_path,
     path = write(fmt, short(), tmp_path)
     outside = rate > 0 and np.isfinite(rate)
     with pytest.raises(InputError, match=re.escape(f"{path}: --rate: sample rate ") + (
-            r"1e\+308 Hz is outside the 1 to 10000 Hz of body-worn IMUs" if outside else
+            r"1e\+308 Hz is above 10000 Hz, outside the 1 to 10000 Hz of body-worn IMUs; "
+            "check its units" if outside else
             f"must be a positive number of Hz, got {rate}")):
         load_recording(path, rate=rate)
 

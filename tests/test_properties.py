@@ -31,7 +31,8 @@ from hypothesis.extra import numpy as hnp
 from test_loaders import write_h5
 
 from imucal.errors import InputError
-from imucal.loaders import HDF5_SIGNATURE, load_recording
+from imucal.formats import HDF5_SIGNATURE
+from imucal.loaders import load_recording
 from imucal.recording import NONPHYSICAL, Recording, make_recording
 
 # Modest example counts keep the whole file to a few seconds (the same tests ran clean on

@@ -22,7 +22,13 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["RawSensor", "RawRecording", "FORMATS", "detect", "describe_formats"]
+__all__ = ["RawSensor", "RawRecording", "FORMATS", "detect", "describe_formats",
+           "HDF5_SIGNATURE", "HDF5_SUFFIXES"]
+
+#: The first eight bytes of every HDF5 file (its format signature).
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+#: Name endings imucal reads and writes as HDF5 (any case).
+HDF5_SUFFIXES = frozenset({".h5", ".hdf5"})
 
 
 @dataclass

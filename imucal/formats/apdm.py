@@ -25,10 +25,9 @@ import h5py
 import numpy as np
 
 from ..errors import InputError
-from . import RawRecording, RawSensor, normalise_units
+from . import HDF5_SIGNATURE, RawRecording, RawSensor, normalise_units
 
 NAME = "APDM Opal HDF5"
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 US_PER_S = 1e6
 
 
