@@ -431,8 +431,26 @@ MAX_FILE_BYTES = 10_000_000
 
 def load_calibration(path: str | Path) -> Calibration:
     """Read a calibration file written by :meth:`Calibration.write` (or ``imucal
-    calibrate``). InputError naming the file for a missing file, a file that is not JSON
-    or not a calibration, another format version, or a joint without its vectors."""
+    calibrate``).
+
+    Parameters
+    ----------
+    path
+        The calibration's JSON file (docs/json.md, "imucal calibrate"); not ``-``.
+
+    Returns
+    -------
+    Calibration
+        Its joints as written: per joint the verdict, the axes (unit vectors in the
+        sensors' frames) and joint centres (m), the angle reference, the trial it came
+        from and its settings.
+
+    Raises
+    ------
+    InputError
+        Naming the file: a missing file, a file that is not JSON or not a calibration,
+        another format version, or a joint without its vectors.
+    """
     from .atomic import as_path
 
     path = as_path(path, "a calibration file name")

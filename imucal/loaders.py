@@ -96,6 +96,14 @@ def load_recording(
         lines; :mod:`imucal.sensor_map`, ``--map`` on the command line). A name none of
         whose keys is in the recording is an error listing the sensors there are.
 
+    Returns
+    -------
+    Recording
+        Validated and in SI units (:func:`imucal.recording.make_recording`): per sensor
+        ``gyr`` (rad/s) and ``acc`` (m/s^2) in the sensor's frame, the common ``rate``
+        (Hz) and ``time`` (s); for vendor exports also each device's provenance
+        (``sensor_info``, ``provenance``).
+
     Raises
     ------
     InputError

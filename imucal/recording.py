@@ -521,6 +521,13 @@ def make_recording(
     ``Recording.gaps`` and, one line per signal, in ``Recording.warnings``. Only the
     sensors and the window an estimate uses can stop it (:meth:`Recording.select`).
 
+    Returns
+    -------
+    Recording
+        Every sensor's ``gyr`` in rad/s and ``acc`` in m/s^2 (sensor frames, (N, 3)
+        float64), ``rate`` in Hz, ``time`` in s, and what was found on the way
+        (``gaps``, ``warnings``, ``units`` as given, ``rate_from``).
+
     Raises
     ------
     InputError

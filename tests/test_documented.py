@@ -13,7 +13,9 @@ from conftest import simulated
 
 import imucal
 from imucal import report
+from imucal.angles import JointAngle
 from imucal.axis import AxisResult, estimate_axis
+from imucal.calibration import JointCalibration
 from imucal.gauss_newton import BatchResult
 from imucal.position import PositionResult, estimate_position
 from imucal.result import EstimateResult
@@ -37,7 +39,9 @@ def test_every_solver_result_attribute_is_documented():
     assert not missing, f"BatchResult: undocumented {sorted(missing)}"
 
 
-@pytest.mark.parametrize("func", [estimate_axis, estimate_position])
+@pytest.mark.parametrize("func", [estimate_axis, estimate_position, imucal.calibrate,
+                                  imucal.joint_angles, imucal.load_recording,
+                                  imucal.make_recording, imucal.load_calibration])
 def test_every_parameter_is_documented(func):
     params = set(inspect.signature(func).parameters)
     missing = params - _documented_names(func.__doc__)
@@ -49,7 +53,9 @@ def _class_docs(cls) -> set[str]:
     return set().union(*(_documented_names(c.__doc__ or "") for c in cls.__mro__))
 
 
-@pytest.mark.parametrize("cls", [AxisResult, PositionResult, EstimateResult])
+@pytest.mark.parametrize("cls", [AxisResult, PositionResult, EstimateResult,
+                                 imucal.Calibration, imucal.JointAngles, imucal.Recording,
+                                 JointAngle, JointCalibration])
 def test_every_field_is_documented_with_inherited_ones(cls):
     missing = {f.name for f in dataclasses.fields(cls)} - _class_docs(cls)
     assert not missing, f"{cls.__name__}: undocumented {sorted(missing)}"
@@ -105,6 +111,14 @@ def test_every_json_key_is_in_docs_json(reports, block):
                                   imucal.joint_angles])
 def test_public_estimators_have_numpydoc_sections(func):
     for section in ("Parameters", "Returns", "Raises", "References", "Examples"):
+        assert re.search(rf"^\s*{section}\n\s*-+\n", func.__doc__, re.M), \
+            f"{func.__name__}: no {section} section"
+
+
+@pytest.mark.parametrize("func", [imucal.load_recording, imucal.make_recording,
+                                  imucal.load_calibration])
+def test_loaders_have_numpydoc_sections(func):
+    for section in ("Parameters", "Returns", "Raises"):
         assert re.search(rf"^\s*{section}\n\s*-+\n", func.__doc__, re.M), \
             f"{func.__name__}: no {section} section"
 
