@@ -110,31 +110,37 @@ def test_offset_profile_refits_all_candidates_as_lstsq_one_at_a_time():
             assert np.abs(e[k] - problem.residual(x[None, :])[0]).max() < 1e-9
 
 
-def test_spectral_cutoff_sums_each_sensors_whole_spectrum():
-    # one Welch call per length of sensors; sensors of different lengths (Python API)
-    # each contribute their whole recording, as separate calls did
-    from scipy import signal
-
+def test_spectral_cutoff_from_known_motion_frequencies():
+    # Rates that are sinusoids of known frequency: 99 % of the power lies below the
+    # highest one (one Welch bin above it with the Hann window's leakage), and the
+    # cut-off is 3 times that, clipped to [4 Hz, the joint filter's top]. A sensor
+    # shorter than the other (Python API) still counts with its whole spectrum: without
+    # the short sensor's 2.5 Hz the answer would be 3 x 1 Hz, clipped to 4 Hz.
     from imucal.preprocess import (
         CUTOFF_PER_MOTION_FREQUENCY,
         MIN_JOINT_CUTOFF_HZ,
-        MOTION_POWER,
         default_joint_cutoff,
         spectral_cutoff,
     )
 
-    rec, _ = simulated(1, motion="protocol", duration=60.0)
-    a, b = rec.sensor("shank").gyr, rec.sensor("foot").gyr
-    for pair in ((a, b), (a[:500], b)):
-        n = min(len(g) for g in pair)
-        total = sum(signal.welch(g - g.mean(axis=0), fs=rec.rate, nperseg=min(n, 400),
-                                 axis=0)[1].sum(axis=1) for g in pair)
-        freqs = signal.welch(pair[0], fs=rec.rate, nperseg=min(n, 400), axis=0)[0]
-        cumulative = np.cumsum(total)
-        f_motion = freqs[np.searchsorted(cumulative, MOTION_POWER * cumulative[-1])]
-        expected = np.clip(CUTOFF_PER_MOTION_FREQUENCY * f_motion, MIN_JOINT_CUTOFF_HZ,
-                           default_joint_cutoff(rec.rate))
-        assert spectral_cutoff(pair, rec.rate) == pytest.approx(expected)
+    rate, bin_hz = 100.0, 100.0 / 400  # Welch segments of 4 s
+    t = np.arange(6000) / rate
+
+    def rates(f, n=6000):
+        return np.tile(np.sin(2 * np.pi * f * t[:n])[:, None], (1, 3))
+
+    def expected(f):
+        return np.clip(CUTOFF_PER_MOTION_FREQUENCY * np.array([f, f + bin_hz]),
+                       MIN_JOINT_CUTOFF_HZ, default_joint_cutoff(rate))
+
+    for pair, f in (((rates(1.0), rates(2.5)), 2.5),
+                    ((rates(2.5, 500), rates(1.0)), 2.5),
+                    ((rates(0.5), rates(0.5)), 0.5),
+                    ((rates(1.0), rates(6.0)), 6.0)):
+        lo, hi = expected(f)
+        assert lo - 1e-9 <= spectral_cutoff(pair, rate) <= hi + 1e-9, (f, pair[0].shape)
+    assert spectral_cutoff((rates(0.5), rates(0.5)), rate) == MIN_JOINT_CUTOFF_HZ
+    assert spectral_cutoff((rates(1.0), rates(6.0)), rate) == default_joint_cutoff(rate)
 
 
 def test_an_accelerometer_off_at_rest_is_named():
