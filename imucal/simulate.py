@@ -42,7 +42,10 @@ from .recording import Recording, check_plausible_rate, make_recording
 MOTIONS = ("circling", "walking", "rigid-knee", "static", "gait", "protocol")
 SENSORS = ("thigh", "shank", "foot")
 
-#: Gravity in the world frame (z up), m/s^2.
+#: Gravity in the simulated world frame (z up), m/s^2. A local value, on purpose not the
+#: standard 1 g (:data:`imucal.rest.GRAVITY_M_S2`, 9.80665) the estimators' checks use:
+#: gravity differs by place (about 9.78-9.83 m/s^2), and no estimate may depend on the
+#: two being equal (:data:`imucal.rest.LOCAL_GRAVITY_SPREAD_M_S2`).
 GRAVITY = np.array([0.0, 0.0, -9.81])
 #: Step of the 5-point central differences, s.
 FD_STEP = 1e-3
