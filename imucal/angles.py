@@ -630,6 +630,20 @@ class JointAngles:
     def fits(self) -> bool:
         return all(j.fits for j in self.joints.values())
 
+    def problems(self) -> list[str]:
+        """Why these angles are not to be trusted, one phrase per joint that does not fit
+        (``joint 'knee': not identifiable in the calibration`` / ``joint 'knee': the
+        calibration does not fit``); empty when every joint fits. The command line
+        refuses to write the angles when there is one, unless ``--force``."""
+        problems = []
+        for j in self.joints.values():
+            if not j.fits:
+                verdict = j.check["calibration_verdict"]
+                problems.append(f"joint '{j.name}': " + (
+                    f"{verdict} in the calibration" if verdict == "not identifiable"
+                    else "the calibration does not fit"))
+        return problems
+
     def to_frame(self):
         """pandas DataFrame: ``time`` (s), ``<joint>_flexion_deg`` and
         ``<joint>_flexion_sigma_deg`` per joint."""

@@ -448,15 +448,10 @@ def angles(
                               start=start, end=end)
         for w in result.warnings:
             say(f"imucal: warning: {recording.source}: {w}")
-        problems = []
         for j in result.joints.values():
             for w in j.warnings:
                 say(f"imucal: warning: {w}")
-            if not j.fits:
-                verdict = j.check["calibration_verdict"]
-                problems.append(f"joint '{j.name}': " + (
-                    f"{verdict} in the calibration" if verdict == "not identifiable"
-                    else "the calibration does not fit"))
+        problems = result.problems()
         if problems and not force:
             raise NotIdentifiableError(
                 f"{recording.source} with {calibration}: {'; '.join(problems)}; nothing "

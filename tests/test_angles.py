@@ -523,6 +523,8 @@ def test_real_knees_figure_says_they_do_not_fit_and_averages_no_cycles(real_knee
     cal, _ = real_knees
     result = joint_angles(real_recording, cal)  # 55-100 s is gait-like: cycles are found
     assert any(j.gait is not None for j in result.joints.values())
+    assert result.problems() == [f"joint '{n}': not identifiable in the calibration"
+                                 for n in ("left_knee", "right_knee")]
     fig = angles_figure(result)
     for sub, j in zip(fig.subfigs, result.joints.values(), strict=True):
         title = sub.get_suptitle()
@@ -542,6 +544,8 @@ def test_angles_figure_labels_and_reproducible_bytes(session, tmp_path):
     calibration, walk, _ = session
     result = joint_angles(walk, calibration, end=20.0)
     knee = result.joints["knee"]
+    assert result.problems() == ([] if knee.fits else
+                                 ["joint 'knee': the calibration does not fit"])
     fig = angles_figure(result)
     sub, = fig.subfigs
     title = sub.get_suptitle()
