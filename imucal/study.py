@@ -151,24 +151,67 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
     0
     """
     files = [str(f) for f in files]
-    command = job.command
+    job = _checked_study(job, files, out, plot)
+    client, jobs, where = _workers(job, files, scheduler, jobs, quiet)
+    progress = _Progress(len(files), f"imucal {job.command}",
+                         enabled=not quiet and _is_terminal(sys.stderr))
+    tally = _Tally()
+    started = time.perf_counter()
+
+    def consume(write_line: Callable[[str], None]) -> None:
+        if client is not None:
+            entries = client.process(job, files, on_done=progress.done)
+        else:
+            entries = process_recordings(job, files, jobs=jobs, on_done=progress.done)
+        # closed here when writing fails or a signal comes while it blocks: its workers
+        # stop now (later, the study waited for their recordings) and a cluster's tasks
+        # are cancelled while the client is still open
+        with closing(entries):
+            for result in entries:
+                for message in result.messages:  # -q or not, as the single-file command
+                    progress.message(message)
+                if result.error is not None:
+                    progress.message(f"imucal: error: {result.error}")
+                tally.add(result)
+                write_line(result.line + "\n")
+
+    try:
+        _write_lines(consume, out)
+    finally:
+        progress.close()
+        if client is not None:
+            client.close()
+    if not quiet:
+        say(tally.summary(f"imucal {job.command}", len(files),
+                          time.perf_counter() - started, where, out))
+    return tally.worst
+
+
+def _checked_study(job: Job, files: list[str], out: Path | None, plot: Path | None) -> Job:
+    """Refuse what a study cannot do before anything runs; the job with its sensor map
+    read once, here: every recording gets its content (a map given as a pipe,
+    ``--map <(...)``, was empty for all but the first reader, and a cluster's workers
+    need not see the file), and a broken map is one error, not one per recording."""
     if plot is not None:
         raise InputError("--plot draws one recording; with several RECs leave it out and run "
-                         f"'imucal {command} REC --plot FILE.png' for the recordings to draw")
+                         f"'imucal {job.command} REC --plot FILE.png' for the recordings to "
+                         "draw")
     if "-" in files:
         raise InputError("- (standard input) can only be read as the only REC, not in a list "
                          "of recordings")
     sensor_map = job.sensor_map
-    if sensor_map is not None:  # a broken map is one error, not one per recording
+    if sensor_map is not None:
         from .sensor_map import read_sensor_map
 
-        # read once, here: every recording gets its content (a map given as a pipe,
-        # --map <(...), was empty for all but the first reader, and a cluster's workers
-        # need not see the file)
         job = replace(job, sensor_map_pairs=tuple(read_sensor_map(sensor_map).items()))
     if out is not None:
         check_not_inputs([("--out", out)], files + ([sensor_map] if sensor_map else []))
         check_writable(out)
+    return job
+
+
+def _workers(job: Job, files: list[str], scheduler: str | None, jobs: int, quiet: bool):
+    """(Dask client or None, local processes, "on/with ..." for the summary)."""
     piped = _descriptor_paths(files)
     if scheduler is not None:
         if piped:
@@ -183,63 +226,50 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
         except BaseException:  # (the scheduler gone already: the client still closes)
             client.close()
             raise
-        where = f"on {workers} Dask worker{'s' if workers != 1 else ''} at {scheduler}"
-    else:
-        client = None
-        jobs = resolve_jobs(jobs, len(files))
-        if jobs > 1 and piped:
-            # (a worker process has no such descriptor: it read "no such file")
-            jobs = 1
-            if not quiet:
-                say(f"imucal {command}: {piped[0]} is a pipe of this "
-                    "command (<(...), /dev/fd/N): the recordings run in this process")
-        where = f"with {jobs} process{'es' if jobs > 1 else ''}"
-    progress = _Progress(len(files), f"imucal {command}",
-                         enabled=not quiet and _is_terminal(sys.stderr))
-    worst = 0
-    failed: list[str] = []
-    started = time.perf_counter()
+        return client, jobs, (f"on {workers} Dask worker{'s' if workers != 1 else ''} at "
+                              f"{scheduler}")
+    jobs = resolve_jobs(jobs, len(files))
+    if jobs > 1 and piped:
+        # (a worker process has no such descriptor: it read "no such file")
+        jobs = 1
+        if not quiet:
+            say(f"imucal {job.command}: {piped[0]} is a pipe of this "
+                "command (<(...), /dev/fd/N): the recordings run in this process")
+    return None, jobs, f"with {jobs} process{'es' if jobs > 1 else ''}"
 
-    def consume(write_line: Callable[[str], None]) -> None:
-        nonlocal worst
-        if client is not None:
-            entries = client.process(job, files, on_done=progress.done)
-        else:
-            entries = process_recordings(job, files, jobs=jobs, on_done=progress.done)
-        # closed here when writing fails or a signal comes while it blocks: its workers
-        # stop now (later, the study waited for their recordings) and a cluster's tasks
-        # are cancelled while the client is still open
-        with closing(entries):
-            for result in entries:
-                for message in result.messages:  # -q or not, as the single-file command
-                    progress.message(message)
-                if result.error is not None:
-                    progress.message(f"imucal: error: {result.error}")
-                    failed.append(result.file)
-                worst = max(worst, result.exit_code)
-                write_line(result.line + "\n")
 
-    try:
-        if out is None:
-            consume(write_stdout)
-        else:
-            def to_file(tmp: Path) -> None:
-                with open(tmp, "w", encoding="utf-8") as fh:
-                    consume(fh.write)
+def _write_lines(consume: Callable, out: Path | None) -> None:
+    """The lines to stdout as they come, or into ``out``, which appears complete at the
+    end (written to a temporary file beside it and renamed) or not at all."""
+    if out is None:
+        consume(write_stdout)
+        return
 
-            write_atomic(out, to_file)
-    finally:
-        progress.close()
-        if client is not None:
-            client.close()
-    if not quiet:
-        elapsed = time.perf_counter() - started
+    def to_file(tmp: Path) -> None:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            consume(fh.write)
+
+    write_atomic(out, to_file)
+
+
+class _Tally:
+    """The study's exit status (the highest of the recordings') and its failures."""
+
+    def __init__(self):
+        self.worst = 0
+        self.failed: list[str] = []
+
+    def add(self, result) -> None:
+        if result.error is not None:
+            self.failed.append(result.file)
+        self.worst = max(self.worst, result.exit_code)
+
+    def summary(self, who: str, n: int, elapsed: float, where: str,
+                out: Path | None) -> str:
         target = "" if out is None else f" -> {out}"
-        status = "all succeeded" if not failed else (
-            f"{len(failed)} failed ({_short(failed)}), exit status {worst}")
-        say(f"imucal {command}: {len(files)} recordings in {elapsed:.1f} s {where}{target}: "
-            f"{status}")
-    return worst
+        status = "all succeeded" if not self.failed else (
+            f"{len(self.failed)} failed ({_short(self.failed)}), exit status {self.worst}")
+        return f"{who}: {n} recordings in {elapsed:.1f} s {where}{target}: {status}"
 
 
 def process_recordings(
