@@ -268,6 +268,49 @@ class Recording:
             Finite data of the named sensors only, its ``warnings`` those that concern
             them (the file's ``notes``, repairs, units, stuck signals in the window).
         """
+        names = self._named(names)
+        n, source = self.n_samples, self.source
+        data = {name: self._lookup(name) for name in names}
+        win = self.window_slice(start, end)
+        w0, w1 = win.start, win.stop
+        arrays = {(name, kind): getattr(data[name], kind) for name in names
+                  for kind in ("gyr", "acc")}
+        gaps = {key: [g for g in self.gaps if (g.sensor, g.kind) == key] for key in arrays}
+        span = self._span(w0, w1)
+        a0, a1 = self._finite_span(gaps, names, w0, w1, span)
+        inner = {key: [g for g in runs if 0 < g.start and g.start + g.length < n
+                       and g.start < a1 and g.start + g.length > a0]
+                 for key, runs in gaps.items()}
+        self._refuse_first_offence(inner, a0, a1, span)
+
+        # the file's notes about one sensor ("sensor 'Foot': ...") concern only that one
+        others = {f"sensor '{other}'" for other in self.sensors if other not in names}
+        notes = [note for note in self.notes if not note.startswith(tuple(others))]
+        if a0 > w0 or a1 < w1:
+            notes.append(self._dropped_note(gaps, w0, w1, a0, a1, span))
+        repaired, bad, repairs = self._repaired(arrays, gaps, inner, a0, a1)
+        notes += repairs
+        c0, c1 = a0, a1
+        if context:  # as far as every signal used stays finite
+            before, after = np.flatnonzero(bad[:a0]), np.flatnonzero(bad[a1:])
+            c0 = int(before[-1]) + 1 if before.size else 0
+            c1 = a1 + int(after[0]) if after.size else n
+        sensors = {name: SensorData(gyr=repaired[name, "gyr"][c0:c1],
+                                    acc=repaired[name, "acc"][c0:c1]) for name in names}
+        checked = {name: SensorData(gyr=s.gyr[a0 - c0:a1 - c0], acc=s.acc[a0 - c0:a1 - c0])
+                   for name, s in sensors.items()}
+        units = {name: dict(self.units.get(name, {})) for name in names}
+        return Recording(
+            rate=self.rate, sensors=sensors, time=self.time[c0:c1].copy(), source=source,
+            units=units,
+            warnings=notes + _unit_warnings(checked, units) + _stuck_warnings(checked),
+            notes=self.notes, window=(a0 - c0, a1 - c0),
+            sensor_info={n: self.sensor_info[n] for n in names if n in self.sensor_info},
+            provenance=self.provenance, rate_from=self.rate_from,
+        )
+
+    def _named(self, names) -> list[str]:
+        """``names`` (one name or several) as the recording's own names, each once."""
         if isinstance(names, str | bytes) or (isinstance(names, np.ndarray) and names.ndim == 0):
             names = [names]
         try:
@@ -279,51 +322,51 @@ class Recording:
         if not names:
             raise InputError(f"{self.source}: no sensor named; sensors in this recording: "
                              f"{', '.join(self.sensors)}")
-        data = {name: self._lookup(name) for name in names}
-        n, rate, source = self.n_samples, self.rate, self.source
-        win = self.window_slice(start, end)
-        w0, w1 = win.start, win.stop
-        arrays = {(name, kind): getattr(data[name], kind) for name in names
-                  for kind in ("gyr", "acc")}
-        gaps = {key: [g for g in self.gaps if (g.sensor, g.kind) == key] for key in arrays}
-        span = self._span(w0, w1)
+        return names
 
+    def _finite_span(self, gaps: dict, names: list[str], w0: int, w1: int,
+                     span: str) -> tuple[int, int]:
+        """The window's samples without the runs of non-finite values that touch the
+        recording's first or last sample (a sensor that started late or stopped early:
+        nothing lies beyond them to interpolate from); InputError when fewer than 2 are
+        left, or a signal has no finite sample at all."""
+        n = self.n_samples
         for (name, kind), runs in gaps.items():
             if sum(g.length for g in runs) == n:
                 raise InputError(
-                    f"{source}: sensor '{name}' {kind} has no finite sample (all NaN or Inf)"
+                    f"{self.source}: sensor '{name}' {kind} has no finite sample (all NaN or "
+                    "Inf)"
                 )
-        # Runs touching the recording's first or last sample are a sensor that started
-        # late or stopped early: nothing lies beyond them to interpolate from.
         lead = max((g.length for r in gaps.values() for g in r if g.start == 0), default=0)
         trail = max((g.length for r in gaps.values() for g in r if g.start + g.length == n),
                     default=0)
         a0, a1 = max(w0, lead), min(w1, n - trail)
         if a1 - a0 < 2:
             raise InputError(
-                f"{source}: fewer than 2 samples are finite (not NaN or Inf) in every sensor "
-                f"used ({', '.join(names)}) at once in {span}"
+                f"{self.source}: fewer than 2 samples are finite (not NaN or Inf) in every "
+                f"sensor used ({', '.join(names)}) at once in {span}"
             )
-        inner = {key: [g for g in runs if 0 < g.start and g.start + g.length < n
-                       and g.start < a1 and g.start + g.length > a0]
-                 for key, runs in gaps.items()}
-        self._refuse_first_offence(inner, a0, a1, span)
+        return a0, a1
 
-        # the file's notes about one sensor ("sensor 'Foot': ...") concern only that one
-        others = {f"sensor '{other}'" for other in self.sensors if other not in names}
-        notes = [note for note in self.notes if not note.startswith(tuple(others))]
-        if a0 > w0 or a1 < w1:
-            culprits = [f"'{g.sensor}' {g.kind}" for runs in gaps.values() for g in runs[:1]
-                        + runs[-1:] if (g.start == 0 and g.length > w0)
-                        or (g.start + g.length == n and g.start < w1)]
-            notes.append(
-                f"dropped {a0 - w0} sample(s) at the start and {w1 - a1} at the end of "
+    def _dropped_note(self, gaps: dict, w0: int, w1: int, a0: int, a1: int,
+                      span: str) -> str:
+        n = self.n_samples
+        culprits = [f"'{g.sensor}' {g.kind}" for runs in gaps.values() for g in runs[:1]
+                    + runs[-1:] if (g.start == 0 and g.length > w0)
+                    or (g.start + g.length == n and g.start < w1)]
+        return (f"dropped {a0 - w0} sample(s) at the start and {w1 - a1} at the end of "
                 f"{span}, where sensor {', '.join(dict.fromkeys(culprits))} has non-finite "
                 "values (NaN or Inf) up to the recording's start or end; the data used run "
-                f"from t={self.time[a0]:g} to {self.time[a1 - 1]:g} s"
-            )
+                f"from t={self.time[a0]:g} to {self.time[a1 - 1]:g} s")
+
+    def _repaired(self, arrays: dict, gaps: dict, inner: dict, a0: int,
+                  a1: int) -> tuple[dict, np.ndarray, list[str]]:
+        """Copies of the signals with the gaps inside the window filled by linear
+        interpolation, where any signal is left non-finite (``bad``), and a note per
+        repaired signal."""
         repaired = {key: arr.copy() for key, arr in arrays.items()}
-        bad = np.zeros(n, dtype=bool)  # what is left non-finite in any signal used
+        bad = np.zeros(self.n_samples, dtype=bool)
+        notes = []
         for key, runs in gaps.items():
             for g in runs:
                 if g in inner[key]:
@@ -336,27 +379,10 @@ class Recording:
                 notes.append(
                     f"sensor '{key[0]}' {key[1]}: {count} non-finite sample(s) (NaN or Inf) "
                     f"in {len(inner[key])} gap(s), the first at t={inner[key][0].time:g} s, "
-                    f"the longest {longest.length} sample(s) ({longest.length / rate:g} s), "
-                    "filled by linear interpolation"
+                    f"the longest {longest.length} sample(s) ({longest.length / self.rate:g} "
+                    "s), filled by linear interpolation"
                 )
-        c0, c1 = a0, a1
-        if context:
-            before, after = np.flatnonzero(bad[:a0]), np.flatnonzero(bad[a1:])
-            c0 = int(before[-1]) + 1 if before.size else 0
-            c1 = a1 + int(after[0]) if after.size else n
-        sensors = {name: SensorData(gyr=repaired[name, "gyr"][c0:c1],
-                                    acc=repaired[name, "acc"][c0:c1]) for name in names}
-        checked = {name: SensorData(gyr=s.gyr[a0 - c0:a1 - c0], acc=s.acc[a0 - c0:a1 - c0])
-                   for name, s in sensors.items()}
-        units = {name: dict(self.units.get(name, {})) for name in names}
-        return Recording(
-            rate=rate, sensors=sensors, time=self.time[c0:c1].copy(), source=source,
-            units=units,
-            warnings=notes + _unit_warnings(checked, units) + _stuck_warnings(checked),
-            notes=self.notes, window=(a0 - c0, a1 - c0),
-            sensor_info={n: self.sensor_info[n] for n in names if n in self.sensor_info},
-            provenance=self.provenance, rate_from=self.rate_from,
-        )
+        return repaired, bad, notes
 
     def resolve(self, name: str) -> str:
         """The name of the sensor that ``name`` addresses (see :func:`match_sensor`)."""
