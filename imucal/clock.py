@@ -227,6 +227,22 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
     stamps or header rate); with time stamps it must agree with theirs within
     :data:`RATE_REFUSE`. Raises :class:`InputError` for unusable clocks.
     """
+    clocks, notes = _device_clocks(sensors, source, rate)
+    ref = clocks[sensors[0].name]
+    grid, firsts = _shared_grid(clocks, ref, source)
+    data, info = {}, {}
+    for s in sensors:
+        data[s.name], info[s.name], more = _onto_grid(s, clocks[s.name], grid, firsts[s.name],
+                                                      ref, sensors[0].name)
+        notes += more
+    return Aligned(time=grid - grid[0], rate=1.0 / ref.period, data=data, info=info,
+                   notes=notes, origin=float(grid[0]))
+
+
+def _device_clocks(sensors: list[RawSensor], source: str,
+                   rate: float | None) -> tuple[dict, list[str]]:
+    """Each device's clock (:func:`_clock`), its rate checked against the plausible range
+    and against its header's claim, and notes where they differ."""
     clocks, notes = {}, []
     for s in sensors:
         what = f"{source}: sensor '{s.name}'"
@@ -252,8 +268,12 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
             notes.append(f"sensor '{s.name}': --rate {rate:g} Hz is used; its time stamps "
                          f"say {clk.stamp_rate:.4g} Hz")
         clocks[s.name] = clk
+    return clocks, notes
 
-    ref = clocks[sensors[0].name]
+
+def _shared_grid(clocks: dict, ref, source: str) -> tuple[np.ndarray, dict]:
+    """The first device's sample times (``ref``) over the span every device recorded, s on
+    the devices' shared clock, and each device's first sample time."""
     firsts = {n: c.a for n, c in clocks.items()}
     lasts = {n: c.a + c.period * c.k[-1] for n, c in clocks.items()}
     start, end = max(firsts.values()), min(lasts.values())
@@ -267,62 +287,64 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
         )
     j0 = int(np.ceil((start - ref.a) / ref.period - SNAP))
     j1 = int(np.floor((end - ref.a) / ref.period + SNAP))
-    grid = ref.a + ref.period * np.arange(j0, j1 + 1)
+    return ref.a + ref.period * np.arange(j0, j1 + 1), firsts
 
-    data, info = {}, {}
-    for s in sensors:
-        clk = clocks[s.name]
-        full = int(clk.k[-1]) + 1
-        pos = (grid - clk.a) / clk.period
-        near = np.rint(pos)
-        pos = np.clip(np.where(np.abs(pos - near) < SNAP, near, pos), 0, full - 1)
-        interpolated = bool(np.any(pos != np.floor(pos)))
-        i = np.minimum(np.floor(pos).astype(np.int64), full - 1)
-        nxt = np.minimum(i + 1, full - 1)
-        frac = (pos - i)[:, None]
-        arrays = []
-        for arr in (s.gyr, s.acc):
-            filled = np.full((full, 3), np.nan)
-            filled[clk.k] = arr
-            # A grid point on a sample is that sample (0 * NaN of a dropped neighbour
-            # would otherwise spoil it); between samples, the straight line.
-            with np.errstate(invalid="ignore"):
-                out = np.where(frac == 0, filled[i], (1 - frac) * filled[i] + frac * filled[nxt])
-            arrays.append(out)
-        data[s.name] = tuple(arrays)
-        times = clk.a + clk.period * clk.k
-        cut0 = int(np.sum(times < grid[0] - SNAP * clk.period))
-        cut1 = int(np.sum(times > grid[-1] + SNAP * clk.period))
-        info[s.name] = {
-            "label": s.name,
-            "serial": s.serial,
-            "rate_hz": 1.0 / clk.period,
-            "claimed_rate_hz": s.claimed_rate,
-            "time_from": clk.source_of_time,
-            "start_s": firsts[s.name] - grid[0],
-            "duration_s": clk.period * full,
-            "samples": int(s.gyr.shape[0]),
-            "units_read": {"gyr": s.gyr_units, "acc": s.acc_units},
-            "dropped": clk.dropped,
-            "cut": [cut0, cut1],
-            "interpolated": interpolated,
-            "files": list(s.files),
-        }
-        if clk.dropped:
-            notes.append(
-                f"sensor '{s.name}': {clk.dropped} sample(s) missing from its "
-                f"{clk.source_of_time} (dropped packets), left as gaps"
-            )
-        if cut0 or cut1:
-            notes.append(
-                f"sensor '{s.name}': {cut0} sample(s) before and {cut1} after the span all "
-                "sensors share are not used"
-            )
-        if interpolated:
-            notes.append(
-                f"sensor '{s.name}' ({1 / clk.period:.6g} Hz) does not sample at the grid's "
-                f"times ({1 / ref.period:.6g} Hz, '{sensors[0].name}'): linearly interpolated "
-                "onto it"
-            )
-    return Aligned(time=grid - grid[0], rate=1.0 / ref.period, data=data, info=info,
-                   notes=notes, origin=float(grid[0]))
+
+def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
+               ref_name: str) -> tuple[tuple, dict, list[str]]:
+    """One device's (gyr, acc) on the grid (its samples where they fall on it, the
+    straight line between them elsewhere, dropped samples NaN), its provenance entry,
+    and notes on what was dropped, cut or interpolated."""
+    full = int(clk.k[-1]) + 1
+    pos = (grid - clk.a) / clk.period
+    near = np.rint(pos)
+    pos = np.clip(np.where(np.abs(pos - near) < SNAP, near, pos), 0, full - 1)
+    interpolated = bool(np.any(pos != np.floor(pos)))
+    i = np.minimum(np.floor(pos).astype(np.int64), full - 1)
+    nxt = np.minimum(i + 1, full - 1)
+    frac = (pos - i)[:, None]
+    arrays = []
+    for arr in (s.gyr, s.acc):
+        filled = np.full((full, 3), np.nan)
+        filled[clk.k] = arr
+        # A grid point on a sample is that sample (0 * NaN of a dropped neighbour
+        # would otherwise spoil it); between samples, the straight line.
+        with np.errstate(invalid="ignore"):
+            out = np.where(frac == 0, filled[i], (1 - frac) * filled[i] + frac * filled[nxt])
+        arrays.append(out)
+    times = clk.a + clk.period * clk.k
+    cut0 = int(np.sum(times < grid[0] - SNAP * clk.period))
+    cut1 = int(np.sum(times > grid[-1] + SNAP * clk.period))
+    info = {
+        "label": s.name,
+        "serial": s.serial,
+        "rate_hz": 1.0 / clk.period,
+        "claimed_rate_hz": s.claimed_rate,
+        "time_from": clk.source_of_time,
+        "start_s": first - grid[0],
+        "duration_s": clk.period * full,
+        "samples": int(s.gyr.shape[0]),
+        "units_read": {"gyr": s.gyr_units, "acc": s.acc_units},
+        "dropped": clk.dropped,
+        "cut": [cut0, cut1],
+        "interpolated": interpolated,
+        "files": list(s.files),
+    }
+    notes = []
+    if clk.dropped:
+        notes.append(
+            f"sensor '{s.name}': {clk.dropped} sample(s) missing from its "
+            f"{clk.source_of_time} (dropped packets), left as gaps"
+        )
+    if cut0 or cut1:
+        notes.append(
+            f"sensor '{s.name}': {cut0} sample(s) before and {cut1} after the span all "
+            "sensors share are not used"
+        )
+    if interpolated:
+        notes.append(
+            f"sensor '{s.name}' ({1 / clk.period:.6g} Hz) does not sample at the grid's "
+            f"times ({1 / ref.period:.6g} Hz, '{ref_name}'): linearly interpolated "
+            "onto it"
+        )
+    return tuple(arrays), info, notes
