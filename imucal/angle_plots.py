@@ -49,14 +49,19 @@ def angles_figure(result, *, truth: dict | None = None, gyro_only: bool = True):
     joints = list(result.joints.values())
     walking = any(j.gait is not None for j in joints)
     heads = [_joint_header(j) for j in joints]
+    top = _figure_header(result)
     heights = [2.6 + _LINE_IN * len(lines) for lines, _ in heads]
-    fig = Figure(figsize=(12 if walking else 9, sum(heights)), layout="constrained")
+    fig = Figure(figsize=(12 if walking else 9, sum(heights) + _LINE_IN * (len(top) + 1)),
+                 layout="constrained")
+    # (parse_math off: a "$" in a file or joint name is no formula)
+    fig.suptitle("\n".join(top), fontsize=10, parse_math=False)
     subs = np.atleast_1d(fig.subfigures(len(joints), 1, height_ratios=heights))
     t = result.time
     for sub, j, (lines, colour) in zip(subs, joints, heads, strict=True):
         row = np.atleast_1d(sub.subplots(
             1, 2 if walking else 1, gridspec_kw={"width_ratios": [3, 1]} if walking else None))
-        sub.suptitle("\n".join(lines), x=0.01, ha="left", fontsize=9, color=colour)
+        sub.suptitle("\n".join(lines), x=0.01, ha="left", fontsize=9, color=colour,
+                     parse_math=False)
         ax = row[0]
         if gyro_only:
             ax.plot(t, j.gyro_only_deg, color="0.6", lw=0.8, label="gyro integration only")
@@ -101,13 +106,27 @@ def staged_angles_figure(result, path: str | Path, *, truth: dict | None = None,
 #: Height of one title line above a joint's panels, inches; characters per line.
 _LINE_IN = 0.2
 _WRAP = 120
-#: Warning lines shown above a joint at most (all of them are on stderr and in the JSON).
-_MAX_WARNING_LINES = 6
+#: Warning lines shown above a joint at most (whole warnings only; all of them are in the
+#: joint's ``warnings`` and on the command line's stderr).
+_MAX_WARNING_LINES = 10
+
+
+def _figure_header(result) -> list[str]:
+    """Which recording, window and calibration, and the recording's own warnings."""
+    from pathlib import Path
+
+    lines = [f"Knee flexion: {Path(str(result.source)).name}, "
+             f"t = {result.time[0]:g} to {result.time[-1]:g} s, calibration "
+             f"{Path(str(result.calibration)).name}"]
+    for w in result.warnings:
+        lines += textwrap.wrap(f"warning: {w}", _WRAP + 20, subsequent_indent="    ")
+    return lines
 
 
 def _joint_header(j) -> tuple[list[str], str]:
     """Title lines above one joint and their colour: red when the joint does not fit
-    its calibration, orange with warnings, black otherwise."""
+    its calibration, orange with warnings or a calibration to use with care, black
+    otherwise."""
     lines = [f"{j.name}: flexion in deg; + = flexion; 0 = {zero_label(j.zero)}"]
     verdict = j.check.get("calibration_verdict")
     if not j.fits:
@@ -119,12 +138,20 @@ def _joint_header(j) -> tuple[list[str], str]:
         lines.append(f"fits its calibration (calibration verdict: {verdict})")
     else:
         lines.append("fits its calibration")
-    warned = [text for w in j.warnings
-              for text in textwrap.wrap(f"warning: {w}", _WRAP, subsequent_indent="    ")]
-    if len(warned) > _MAX_WARNING_LINES:
-        warned = warned[:_MAX_WARNING_LINES - 1] + ["... (every warning is on stderr)"]
     wrapped = [text for line in lines for text in textwrap.wrap(line, _WRAP)]
-    colour = "tab:red" if not j.fits else ("darkorange" if j.warnings else "k")
+    warned: list[str] = []
+    # this recording's warnings (sign, zero, fit) before those copied from the calibration
+    ordered = sorted(j.warnings, key=lambda w: w.startswith("calibration:"))
+    for k, w in enumerate(ordered):
+        more = textwrap.wrap(f"warning: {w}", _WRAP, subsequent_indent="    ")
+        left = len(ordered) - k
+        if len(warned) + len(more) > _MAX_WARNING_LINES - (left > 1):
+            warned.append(f"... and {left} more warning(s) (the joint's warnings; stderr of "
+                          "imucal angles)")
+            break
+        warned += more
+    careful = j.warnings or verdict not in (None, "good")
+    colour = "tab:red" if not j.fits else ("darkorange" if careful else "k")
     return wrapped + warned, colour
 
 

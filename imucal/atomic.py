@@ -159,15 +159,20 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
 @contextlib.contextmanager
 def staged(path: str | Path, write: Callable[[Path], None]):
     """:func:`write_atomic` in two steps: ``write(tmp)`` on entering the block, the file
-    put in place when the block ends, and nothing written when it raises.
+    put in place when the block ends, and nothing written when it raises. (A target that
+    is not a regular file, a device or pipe, is written on entering.)
 
     For an output that must not appear unless another one is written too: a figure
     whose run then failed to write its JSON (``--out /dev/full``) was left behind.
     """
     path = as_path(path, "an output file name")
     if _through(path):
+        # a device or pipe cannot be put in place later: written now, as before the
+        # output it waits for (a copy that failed after a complete JSON on stdout would
+        # leave a result behind with exit 2)
         with _written_through(path, write):
-            yield
+            pass
+        yield
         return
     target = _target(path)
     folder = target.parent if str(target.parent) else Path(".")

@@ -856,8 +856,7 @@ def _staged_figure(plot: Path | None, job, outcome, doc: dict):
     from .runner import COMMANDS
 
     pair = f"{job.sensors[0]} - {job.sensors[1]}"
-    source = Path(str(doc["input"].get("path") or "")).name
-    fig = COMMANDS[job.command].figure(outcome.result, pair, source)
+    fig = COMMANDS[job.command].figure(outcome.result, pair, doc)
     return staged(plot, lambda tmp: save_figure(fig, tmp, plot.suffix))
 
 

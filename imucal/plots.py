@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import textwrap
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from matplotlib import ticker
@@ -64,7 +65,7 @@ VERDICT_COLOURS = {"good": "tab:green", "use with care": "darkorange",
 #: Header text: characters per line, and lines of reasons and warnings at most (all of
 #: them are in the JSON).
 _WRAP = 150
-_MAX_REASON_LINES = 8
+_MAX_REASON_LINES = 12
 #: Height of one header line, inches.
 _LINE_IN = 0.24
 #: Sample-wise panels span at least this many rad/s: the rates of a still sensor, a few
@@ -82,17 +83,21 @@ class _Stage:
     colour: str
 
 
-def axis_figure(result: AxisResult, sensors: str = "", source: str = "") -> Figure:
+def axis_figure(result: AxisResult, sensors: str = "", document: dict | None = None
+                ) -> Figure:
     """The axis estimate's convergence (Fig. 4 of the paper) and its data dependence.
 
     Header: the verdict, the reported 1-sigma (deg), the residual, the sensors' motion
     and the warnings. Panels: cost per iteration by stage (rad/s); j1, j2 components per
     iteration; each restart's subset fit as an angle from the estimate (deg); eq. (1) at
     the estimate; both sensors' rates in their joint planes (rad/s, drawn as points).
-    ``sensors``: "first - second" for the title; ``source``: the recording's name.
+    ``sensors``: "first - second" for the title; ``document``: the run's JSON document
+    (:func:`imucal.report.axis_report`), whose verdict and warnings (which count the
+    loader's) and input (file, window on the recording's time axis) the figure then
+    states, so that both say the same.
     """
-    lines = _header_lines(result, "j", result.uncertainty_deg, result.spread_deg, "deg",
-                          _axis_motion(result))
+    lines = _header_lines(result, document, "j", result.uncertainty_deg, result.spread_deg,
+                          "deg", _axis_motion(result))
     header = _LINE_IN * (len(lines) + 0.6)
     fig = Figure(figsize=(12, 19 + header), layout="constrained")
     ax = _rows(fig, [["header"], ["cost"], ["j1", "j2"], ["spread", "fit"],
@@ -111,11 +116,13 @@ def axis_figure(result: AxisResult, sensors: str = "", source: str = "") -> Figu
     for key, g, j, name in (("plane1", result.gyr1, result.j1, "First"),
                             ("plane2", result.gyr2, result.j2, "Second")):
         _plane_panel(ax[key], g, j, name, result)
-    fig.suptitle(_title("Hinge axis estimation", sensors, source, result))
+    fig.suptitle(_title("Hinge axis estimation", sensors, document, result),
+                 parse_math=False)
     return fig
 
 
-def position_figure(result: PositionResult, sensors: str = "", source: str = "") -> Figure:
+def position_figure(result: PositionResult, sensors: str = "",
+                    document: dict | None = None) -> Figure:
     """The joint-position estimate's convergence (Fig. 5 of the paper), in mm.
 
     Header: the verdict, the reported 1-sigma (mm), the residual, the sensors' motion and
@@ -123,10 +130,11 @@ def position_figure(result: PositionResult, sensors: str = "", source: str = "")
     iteration (mm); each restart's subset fit relative to the estimate, per component
     (mm). For a hinge every point is first moved along the axis to the point closest to
     both sensors, as the estimate is, and the cost panel marks the estimate's residual
-    there. ``sensors``: "first - second" for the title; ``source``: the recording's name.
+    there. ``sensors`` and ``document`` as for :func:`axis_figure`
+    (:func:`imucal.report.position_report`).
     """
-    lines = _header_lines(result, "o", result.uncertainty_mm, result.spread_mm, "mm",
-                          _position_motion(result))
+    lines = _header_lines(result, document, "o", result.uncertainty_mm, result.spread_mm,
+                          "mm", _position_motion(result))
     header = _LINE_IN * (len(lines) + 0.6)
     fig = Figure(figsize=(12, 14 + header), layout="constrained")
     ax = _rows(fig, [["header"], ["cost"], ["o1", "o2"], ["spread"]],
@@ -147,8 +155,8 @@ def position_figure(result: PositionResult, sensors: str = "", source: str = "")
                          f"{key} ({which} sensor's frame) per iteration", "component (mm)",
                          unit=" mm")
     _position_spread_panel(ax["spread"], result, line)
-    fig.suptitle(_title(f"Joint position estimation ({result.joint})", sensors, source,
-                        result))
+    fig.suptitle(_title(f"Joint position estimation ({result.joint})", sensors, document,
+                        result), parse_math=False)
     return fig
 
 
@@ -159,8 +167,6 @@ def save_figure(fig: Figure, path, suffix: str | None = None) -> None:
     The same figure gives the same bytes: no creation date in PDF and SVG, and SVG's
     element ids are hashed from a fixed salt instead of a random one.
     """
-    from pathlib import Path
-
     import matplotlib
 
     suffix = (Path(path).suffix if suffix is None else suffix).lower()
@@ -182,25 +188,30 @@ def _rows(fig: Figure, rows: list[list[str]], heights: list[float]) -> dict:
     return axes
 
 
-def _title(what: str, sensors: str, source: str, result) -> str:
-    """The estimate, then which recording, window, samples and seed it comes from."""
+def _title(what: str, sensors: str, document: dict | None, result) -> str:
+    """The estimate, then which recording, window, samples and seed it comes from (the
+    document's where given: its window is on the recording's own time axis)."""
     first = f"{what}: {sensors}" if sensors else what
-    start, end = result.window
-    where = [f"{source}," if source else "", f"window {start:g}-{end:g} s,",
-             f"{result.samples_used} samples used"]
+    info = (document or {}).get("input", {})
+    start, end = info.get("window_s") or result.window
+    samples = info.get("samples_used", result.samples_used)
+    where = [f"window {start:g}-{end:g} s", f"{samples} samples used"]
+    if info.get("path"):
+        where.insert(0, Path(str(info["path"])).name)
     seed = result.settings.get("seed")
     if seed is not None:
-        where[-1] += ","
         where.append(f"seed {seed}")
-    return first + "\n" + " ".join(w for w in where if w)
+    return first + "\n" + ", ".join(where)
 
 
-def _header_lines(result, v: str, sigma: dict, spread: dict, unit: str,
-                  motion: str) -> list[tuple[str, str, str]]:
+def _header_lines(result, document: dict | None, v: str, sigma: dict, spread: dict,
+                  unit: str, motion: str) -> list[tuple[str, str, str]]:
     """(text, colour, weight) per header line: verdict, 1-sigma against the spread,
-    residual and motion, then the blocking reasons and warnings (wrapped, at most
-    ``_MAX_REASON_LINES``)."""
-    verdict = result.verdict
+    residual and motion, then the blocking reasons and warnings, each wrapped; whole
+    warnings only, as many as ``_MAX_REASON_LINES`` hold. Verdict and warnings are the
+    document's where given (they count the loader's warnings too)."""
+    quality = (document or {}).get("quality", {})
+    verdict = quality.get("verdict", result.verdict)
     colour = VERDICT_COLOURS.get(verdict, "k")
     head = {"good": "Verdict: good",
             "use with care": "Verdict: use with care (see the warnings below)",
@@ -210,21 +221,40 @@ def _header_lines(result, v: str, sigma: dict, spread: dict, unit: str,
     v1, v2 = f"{v}1", f"{v}2"
 
     def pair(d):
-        return f"{v1} {d[v1]:.3g} {unit}, {v2} {d[v2]:.3g} {unit}"
+        return f"{v1} {_num(d[v1], unit)}, {v2} {_num(d[v2], unit)}"
 
-    lines = [(head, colour, "bold"),
-             (f"Reported 1-sigma: {pair(sigma)}. The restarts' spread drawn below ("
-              f"{pair(spread)}) is not the uncertainty: random halves of the samples share "
-              "every stretch of the recording.", "k", "normal"),
-             (f"Relative residual {result.relative_residual:.1%}; {motion}", "k", "normal")]
-    reasons = [(f"not identifiable: {b}", "tab:red") for b in result.blocking] + \
-              [(f"warning: {w}", "darkorange") for w in result.warnings]
-    wrapped = [(text, c) for reason, c in reasons
-               for text in textwrap.wrap(reason, _WRAP, subsequent_indent="    ")]
-    if len(wrapped) > _MAX_REASON_LINES:
-        wrapped = wrapped[:_MAX_REASON_LINES - 1] + [
-            ("... (every reason and warning is in the JSON: quality.warnings)", "0.3")]
-    return lines + [(text, c, "normal") for text, c in wrapped]
+    lines = [(head, colour, "bold")]
+    for text in (f"Reported 1-sigma: {pair(sigma)}. The restarts' spread drawn below "
+                 f"({pair(spread)}) is not the uncertainty: random halves of the samples "
+                 "share every stretch of the recording.",
+                 f"Relative residual {result.relative_residual:.1%}; {motion}"):
+        lines += [(t, "k", "normal") for t in textwrap.wrap(text, _WRAP)]
+    warnings = quality.get("warnings", result.blocking + result.warnings)
+    blocking = len(result.blocking)
+    reasons = [(f"not identifiable: {w}" if k < blocking else f"warning: {w}",
+                "tab:red" if k < blocking else "darkorange")
+               for k, w in enumerate(warnings)]
+    return lines + [(t, c, "normal") for t, c in _budget(reasons, _MAX_REASON_LINES)]
+
+
+def _budget(reasons: list[tuple[str, str]], max_lines: int) -> list[tuple[str, str]]:
+    """The reasons wrapped, whole ones only, as many as ``max_lines`` hold (never cut in
+    the middle of a sentence), and a last line saying how many more there are."""
+    out: list[tuple[str, str]] = []
+    for k, (reason, colour) in enumerate(reasons):
+        wrapped = textwrap.wrap(reason, _WRAP, subsequent_indent="    ")
+        left = len(reasons) - k
+        if len(out) + len(wrapped) > max_lines - (left > 1):
+            out.append((f"... and {left} more (every reason and warning is in the JSON's "
+                        "quality.warnings and the result's warnings)", "0.3"))
+            break
+        out += [(t, colour) for t in wrapped]
+    return out
+
+
+def _num(value, unit: str) -> str:
+    """A number for the header as the JSON has it: null there, n/a here."""
+    return f"{value:.3g} {unit}" if value is not None and np.isfinite(value) else "n/a"
 
 
 def _header_panel(ax, lines: list[tuple[str, str, str]]) -> None:
@@ -233,7 +263,8 @@ def _header_panel(ax, lines: list[tuple[str, str, str]]) -> None:
     step = 1.0 / max(len(lines), 1)
     for k, (text, colour, weight) in enumerate(lines):
         ax.text(0.0, 1.0 - k * step, text, transform=ax.transAxes, va="top", ha="left",
-                color=colour, fontweight=weight, fontsize=10 if k == 0 else 8.5)
+                color=colour, fontweight=weight, fontsize=10 if k == 0 else 8.5,
+                parse_math=False)  # a "$" in a file or sensor name is no formula
 
 
 def _axis_motion(result: AxisResult) -> str:

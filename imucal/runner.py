@@ -48,8 +48,9 @@ class Command:
         first sample given) filled in.
     report : ``(result, input_info=..., trace=...) -> dict``: the JSON document
         (docs/json.md).
-    figure : ``(result, pair, source="") -> matplotlib Figure``; ``pair`` reads "first -
-        second", ``source`` names the recording.
+    figure : ``(result, pair, document=None) -> matplotlib Figure``; ``pair`` reads
+        "first - second", ``document`` is the report's JSON document, whose verdict,
+        warnings and input the figure then states.
     process : for a command that works on the whole recording rather than on two sensors
         (``calibrate``): ``(job, recording, outcome) -> None`` fills the outcome (document,
         result, headline, warnings, and exit code and error for a result that is not
@@ -87,11 +88,11 @@ def _report(name: str) -> Callable[..., dict]:
 
 
 def _figure(name: str) -> Callable[..., Any]:
-    def draw(result, pair, source=""):
+    def draw(result, pair, document=None):
         from . import plots
 
         return {"axis": plots.axis_figure, "position": plots.position_figure}[name](
-            result, pair, source)
+            result, pair, document)
 
     return draw
 

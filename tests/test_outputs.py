@@ -213,7 +213,7 @@ def _header_texts(fig):
 def test_axis_header_states_verdict_sigma_and_warnings(short_walk):
     thigh, shank = short_walk.sensor("thigh"), short_walk.sensor("shank")
     result = estimate_axis(thigh.gyr, shank.gyr, rate=short_walk.rate, restarts=12, seed=3)
-    fig = plots.axis_figure(result, "thigh - shank", "walk.h5")
+    fig = plots.axis_figure(result, "thigh - shank")
     texts = _header_texts(fig)
     first, colour = texts[0]
     assert first.startswith(f"Verdict: {result.verdict}")
@@ -230,8 +230,34 @@ def test_axis_header_states_verdict_sigma_and_warnings(short_walk):
         assert w[:60] in joined.replace("\n", " ")
     title = fig.get_suptitle()
     start, end = result.window
-    assert "walk.h5" in title and f"window {start:g}-{end:g} s" in title
+    assert f"window {start:g}-{end:g} s" in title
     assert f"{result.samples_used} samples used" in title and "seed 3" in title
+
+
+def test_figure_states_what_the_json_says(short_walk):
+    # the JSON's verdict counts the loader's warnings (a repaired gap: never "good") and
+    # its window is on the recording's own time axis; the figure said "good" in green and
+    # "window 2-12 s" for --start 1002 --end 1012 (review of the figure header). A "$"
+    # in a file name was read as a formula (exit 3).
+    from imucal.report import axis_report
+
+    thigh, shank = short_walk.sensor("thigh"), short_walk.sensor("shank")
+    result = estimate_axis(thigh.gyr, shank.gyr, rate=short_walk.rate, restarts=12, seed=3)
+    info = {"path": "/data/cost_$5_to_$10.h5", "sensors": ["thigh", "shank"],
+            "time_origin": 1000.0,  # the recording's clock at its first sample
+            "load_warnings": ["sensor 'thigh' gyr: 3 non-finite sample(s) ... filled"]}
+    doc = axis_report(result, input_info=info)
+    assert doc["quality"]["verdict"] != result.verdict or result.verdict != "good"
+    fig = plots.axis_figure(result, "thigh - shank", doc)
+    _draw(fig)  # no mathtext error
+    texts = _header_texts(fig)
+    assert texts[0][0].startswith(f"Verdict: {doc['quality']['verdict']}")
+    joined = " ".join(t for t, _ in texts)
+    assert "warning: input: sensor 'thigh' gyr" in joined
+    title = fig.get_suptitle()
+    start, end = doc["input"]["window_s"]
+    assert start >= 1000 and "cost_$5_to_$10.h5" in title and f"window {start:g}-{end:g} s" \
+        in title
 
 
 def test_a_still_window_is_red_and_drawn_to_scale():
@@ -286,6 +312,18 @@ def test_position_spread_dashes_are_each_components_rms(short_walk):
                      for seg in c.get_segments() for y in seg[:, 1] if y > 0})
     expected = sorted(round(float(np.sqrt(np.mean(d[keep, k] ** 2))), 9) for k in range(6))
     np.testing.assert_allclose(levels, expected, rtol=1e-6)
+
+
+def test_a_device_as_plot_is_written_before_the_json(rec, tmp_path):
+    # a device cannot be put in place after the JSON: a copy that failed then left a
+    # complete JSON on stdout with exit 2
+    if not Path("/dev/full").exists():
+        pytest.skip("needs /dev/full (Linux)")
+    full = tmp_path / "full.png"
+    full.symlink_to("/dev/full")
+    run = imucal("axis", rec, "--seed", 1, "--restarts", 5, "--plot", full, "--quiet")
+    assert run.returncode == 2 and b"No space left" in run.stderr
+    assert run.stdout == b""
 
 
 def test_no_figure_is_left_by_a_run_whose_json_cannot_be_written(rec, tmp_path):
