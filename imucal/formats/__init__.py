@@ -1,5 +1,11 @@
-"""Vendor exports: one module per format, each with ``sniff(path) -> bool`` and
-``read(path, rate=None) -> RawRecording``.
+"""Vendor exports: one module per format. Each module has
+
+* ``NAME``: the format's name in messages and in ``imucal info``;
+* ``sniff(path: Path) -> bool``: whether ``path`` (a file or a folder) holds this format,
+  judged by its content (cheap: the first bytes or lines, a folder's file names);
+* ``read(path: Path, source: str | None = None) -> RawRecording``: every sensor's raw
+  samples; ``source`` is the name used in messages (default ``str(path)``);
+  :class:`imucal.errors.InputError` naming it and the problem for anything unusable.
 
 A recording is a file or a folder (an export of one file or folder per sensor). Formats
 are recognised by their content, not only the name; :func:`detect` asks each module in
