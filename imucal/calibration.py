@@ -450,6 +450,19 @@ def load_calibration(path: str | Path) -> Calibration:
     InputError
         Naming the file: a missing file, a file that is not JSON or not a calibration,
         another format version, or a joint without its vectors.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import imucal
+    >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"),
+    ...                        restarts=10, seed=1)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     cal.write(Path(folder) / "cal.json")
+    ...     again = imucal.load_calibration(Path(folder) / "cal.json")
+    >>> sorted(again.joints) == sorted(cal.joints)
+    True
     """
     from .atomic import as_path
 

@@ -108,6 +108,15 @@ def load_recording(
     ------
     InputError
         One line naming the file and the problem, for every unusable input.
+
+    Examples
+    --------
+    >>> from imucal import load_recording
+    >>> rec = load_recording("sample_data/circling.h5")
+    >>> rec.rate, sorted(rec.sensors), rec.duration
+    (100.0, ['foot', 'shank', 'thigh'], 20.0)
+    >>> rec.sensor("thigh").gyr.shape  # rad/s, the thigh sensor's frame
+    (2000, 3)
     """
     if isinstance(path, bytes):  # as a str: it keeps its trailing '/', which Path drops
         path = os.fsdecode(path)

@@ -558,6 +558,21 @@ def make_recording(
     ------
     InputError
         With one line naming ``source`` and the problem.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal import make_recording
+    >>> t = np.arange(500) / 100.0
+    >>> gyr = np.column_stack([np.sin(t), np.cos(t), 0 * t])         # rad/s
+    >>> acc = np.tile([0.0, 0.0, 9.81], (500, 1))                     # m/s^2
+    >>> rec = make_recording({"thigh": {"gyr": gyr, "acc": acc}}, rate=100.0)
+    >>> rec.n_samples, rec.duration, rec.units["thigh"]["gyr"]
+    (500, 5.0, 'rad/s')
+    >>> in_deg = make_recording({"thigh": {"gyr": gyr, "acc": acc}}, rate=100.0,
+    ...                         units={"thigh": {"gyr": "deg/s"}})  # converted to rad/s
+    >>> bool(np.allclose(in_deg.sensor("thigh").gyr, np.radians(gyr)))
+    True
     """
     if not isinstance(sensors, Mapping):
         raise InputError(f"{source}: sensors must be a mapping {{name: {{'gyr': array, "

@@ -118,13 +118,14 @@ def test_public_estimators_have_numpydoc_sections(func):
 @pytest.mark.parametrize("func", [imucal.load_recording, imucal.make_recording,
                                   imucal.load_calibration])
 def test_loaders_have_numpydoc_sections(func):
-    for section in ("Parameters", "Returns", "Raises"):
+    for section in ("Parameters", "Returns", "Raises", "Examples"):
         assert re.search(rf"^\s*{section}\n\s*-+\n", func.__doc__, re.M), \
             f"{func.__name__}: no {section} section"
 
 
 @pytest.mark.parametrize("func", [estimate_axis, estimate_position, imucal.calibrate,
-                                  imucal.joint_angles])
+                                  imucal.joint_angles, imucal.load_recording,
+                                  imucal.make_recording, imucal.load_calibration])
 def test_the_examples_run(func, monkeypatch):
     # the docstrings' examples use sample_data/ from the repository root
     import doctest
