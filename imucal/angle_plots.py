@@ -48,10 +48,11 @@ def angles_figure(result, *, truth: dict | None = None, gyro_only: bool = True):
 
     joints = list(result.joints.values())
     walking = any(j.gait is not None for j in joints)
-    heads = [_joint_header(j) for j in joints]
-    top = _figure_header(result)
+    width = 12 if walking else 9
+    heads = [_joint_header(j, _chars(width, 9)) for j in joints]
+    top = _figure_header(result, _chars(width, 10))
     heights = [2.6 + _LINE_IN * len(lines) for lines, _ in heads]
-    fig = Figure(figsize=(12 if walking else 9, sum(heights) + _LINE_IN * (len(top) + 1)),
+    fig = Figure(figsize=(width, sum(heights) + _LINE_IN * (len(top) + 1)),
                  layout="constrained")
     # (parse_math off: a "$" in a file or joint name is no formula)
     fig.suptitle("\n".join(top), fontsize=10, parse_math=False)
@@ -103,27 +104,32 @@ def staged_angles_figure(result, path: str | Path, *, truth: dict | None = None,
     return staged(path, lambda tmp: save_figure(fig, tmp, path.suffix))
 
 
-#: Height of one title line above a joint's panels, inches; characters per line.
+#: Height of one title line above a joint's panels, inches.
 _LINE_IN = 0.2
-_WRAP = 120
 #: Warning lines shown above a joint at most (whole warnings only; all of them are in the
 #: joint's ``warnings`` and on the command line's stderr).
 _MAX_WARNING_LINES = 10
 
 
-def _figure_header(result) -> list[str]:
+def _chars(width_in: float, points: float) -> int:
+    """Characters of text ``points`` high that fit a line across ``width_in`` inches (an
+    average character is about 0.6 of the font size wide, with a margin)."""
+    return int(0.9 * width_in * 72 / (0.6 * points))
+
+
+def _figure_header(result, wrap: int) -> list[str]:
     """Which recording, window and calibration, and the recording's own warnings."""
     from pathlib import Path
 
-    lines = [f"Knee flexion: {Path(str(result.source)).name}, "
-             f"t = {result.time[0]:g} to {result.time[-1]:g} s, calibration "
-             f"{Path(str(result.calibration)).name}"]
+    lines = textwrap.wrap(f"Flexion: {Path(str(result.source)).name}, t = "
+                          f"{result.time[0]:g} to {result.time[-1]:g} s, calibration "
+                          f"{Path(str(result.calibration)).name}", wrap)
     for w in result.warnings:
-        lines += textwrap.wrap(f"warning: {w}", _WRAP + 20, subsequent_indent="    ")
+        lines += textwrap.wrap(f"warning: {w}", wrap, subsequent_indent="    ")
     return lines
 
 
-def _joint_header(j) -> tuple[list[str], str]:
+def _joint_header(j, wrap: int) -> tuple[list[str], str]:
     """Title lines above one joint and their colour: red when the joint does not fit
     its calibration, orange with warnings or a calibration to use with care, black
     otherwise."""
@@ -138,12 +144,12 @@ def _joint_header(j) -> tuple[list[str], str]:
         lines.append(f"fits its calibration (calibration verdict: {verdict})")
     else:
         lines.append("fits its calibration")
-    wrapped = [text for line in lines for text in textwrap.wrap(line, _WRAP)]
+    wrapped = [text for line in lines for text in textwrap.wrap(line, wrap)]
     warned: list[str] = []
     # this recording's warnings (sign, zero, fit) before those copied from the calibration
     ordered = sorted(j.warnings, key=lambda w: w.startswith("calibration:"))
     for k, w in enumerate(ordered):
-        more = textwrap.wrap(f"warning: {w}", _WRAP, subsequent_indent="    ")
+        more = textwrap.wrap(f"warning: {w}", wrap, subsequent_indent="    ")
         left = len(ordered) - k
         if len(warned) + len(more) > _MAX_WARNING_LINES - (left > 1):
             warned.append(f"... and {left} more warning(s) (the joint's warnings; stderr of "

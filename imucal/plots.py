@@ -201,7 +201,8 @@ def _title(what: str, sensors: str, document: dict | None, result) -> str:
     seed = result.settings.get("seed")
     if seed is not None:
         where.append(f"seed {seed}")
-    return first + "\n" + ", ".join(where)
+    # a long file or sensor name must not run off the figure (12 in at 12 pt)
+    return "\n".join(textwrap.fill(line, 105) for line in (first, ", ".join(where)))
 
 
 def _header_lines(result, document: dict | None, v: str, sigma: dict, spread: dict,

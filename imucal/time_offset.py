@@ -37,9 +37,6 @@ from .quality import (
     uncertainty_totals,
     uncertainty_warning,
 )
-
-# the search range and the offset check live with the settings; imported here for the
-# callers of their old home
 from .settings import OFFSET_SEARCH_S
 
 #: The profile refits use about this many of the samples and this many plain

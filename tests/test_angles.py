@@ -559,3 +559,32 @@ def test_angles_figure_labels_and_reproducible_bytes(session, tmp_path):
     for name in ("a.pdf", "b.pdf"):
         plot_angles(result, tmp_path / name)
     assert (tmp_path / "a.pdf").read_bytes() == (tmp_path / "b.pdf").read_bytes()
+
+
+@pytest.mark.parametrize("walking", [True, False])
+def test_angles_figure_text_stays_on_the_figure(session, walking):
+    # the recording's warnings were wrapped at 140 characters whatever the width: on the
+    # 9 in figure without gait cycles they lost characters on both sides (review)
+    import dataclasses
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from imucal.angle_plots import angles_figure
+    from imucal.angles import joint_angles
+
+    calibration, walk, _ = session
+    result = joint_angles(walk, calibration, end=20.0)
+    joints = {n: j if walking else dataclasses.replace(j, gait=None)
+              for n, j in result.joints.items()}
+    long = "a very long folder name of a gait lab's study " * 4
+    result = dataclasses.replace(
+        result, joints=joints, source=f"/data/{long.replace(' ', '_')}.h5",
+        warnings=["sensor 'thigh' gyr: 3 non-finite sample(s) " + "and more words " * 20])
+    fig = angles_figure(result)
+    FigureCanvasAgg(fig).draw()
+    box = fig.bbox
+    texts = [fig._suptitle] + [sub._suptitle for sub in fig.subfigs]
+    assert len(texts) == 1 + len(joints)
+    for t in texts:
+        extent = t.get_window_extent()
+        assert box.x0 - 1 <= extent.x0 and extent.x1 <= box.x1 + 1, t.get_text()[:80]
