@@ -150,7 +150,7 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
 
     The temporary file keeps the target's suffix (libraries pick formats by it) and gets
     the usual umask-based permissions rather than tempfile's 0600. A target that is not a
-    regular file is written through (:func:`_written_through`).
+    regular file is written through (:func:`_write_through`).
     """
     with staged(path, write):
         pass
@@ -170,8 +170,7 @@ def staged(path: str | Path, write: Callable[[Path], None]):
         # a device or pipe cannot be put in place later: written now, as before the
         # output it waits for (a copy that failed after a complete JSON on stdout would
         # leave a result behind with exit 2)
-        with _written_through(path, write):
-            pass
+        _write_through(path, write)
         yield
         return
     target = _target(path)
@@ -210,12 +209,11 @@ def _suffix(path: Path) -> str:
     return path.suffix if len(path.suffix) <= 16 else ""
 
 
-@contextlib.contextmanager
-def _written_through(path: Path, write: Callable[[Path], None]):
+def _write_through(path: Path, write: Callable[[Path], None]) -> None:
     """Write a descriptor, device or FIFO: the whole output is made in a temporary file
-    first (writers need a file name, and a failure then writes nothing), then, when the
-    block ends, copied in: through the descriptor itself where ``path`` names one
-    (:func:`descriptor_of`), else through ``path`` opened for writing."""
+    first (writers need a file name, and a failure then writes nothing), then copied in:
+    through the descriptor itself where ``path`` names one (:func:`descriptor_of`), else
+    through ``path`` opened for writing."""
     tmp = None
     try:
         try:
@@ -228,21 +226,19 @@ def _written_through(path: Path, write: Callable[[Path], None]):
             raise InputError(f"{path}: cannot make the output in the temporary folder "
                              f"'{tempfile.gettempdir()}' first ({err.strerror or err})"
                              ) from None
-        yield
-        try:
-            descriptor = descriptor_of(path)
-            if descriptor is not None:
-                if descriptor == 1:
-                    sys.stdout.flush()  # what the command printed there comes first
-                target = os.fdopen(os.dup(descriptor), "wb")  # the same file position
-            else:
-                target = open(path, "wb")  # closed by the with block below
-            with open(tmp, "rb") as src, target:
-                shutil.copyfileobj(src, target)
-        except BrokenPipeError:
-            raise  # the reader stopped: the command line's SIGPIPE exit, as for stdout
-        except OSError as err:
-            raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
+        descriptor = descriptor_of(path)
+        if descriptor is not None:
+            if descriptor == 1:
+                sys.stdout.flush()  # what the command printed there comes first
+            target = os.fdopen(os.dup(descriptor), "wb")  # the same file position
+        else:
+            target = open(path, "wb")  # closed by the with block below
+        with open(tmp, "rb") as src, target:
+            shutil.copyfileobj(src, target)
+    except BrokenPipeError:
+        raise  # the reader stopped: the command line's SIGPIPE exit, as for stdout
+    except OSError as err:
+        raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
     finally:
         if tmp is not None:
             tmp.unlink(missing_ok=True)
