@@ -145,17 +145,15 @@ def _joint_header(j, wrap: int) -> tuple[list[str], str]:
     else:
         lines.append("fits its calibration")
     wrapped = [text for line in lines for text in textwrap.wrap(line, wrap)]
-    warned: list[str] = []
+    from .plots import wrapped_whole
+
     # this recording's warnings (sign, zero, fit) before those copied from the calibration
     ordered = sorted(j.warnings, key=lambda w: w.startswith("calibration:"))
-    for k, w in enumerate(ordered):
-        more = textwrap.wrap(f"warning: {w}", wrap, subsequent_indent="    ")
-        left = len(ordered) - k
-        if len(warned) + len(more) > _MAX_WARNING_LINES - (left > 1):
-            warned.append(f"... and {left} more warning(s) (the joint's warnings; stderr of "
-                          "imucal angles)")
-            break
-        warned += more
+    shown, left = wrapped_whole([f"warning: {w}" for w in ordered], wrap, _MAX_WARNING_LINES)
+    warned = [t for texts in shown for t in texts]
+    if left:
+        warned.append(f"... and {left} more warning(s) (the joint's warnings; stderr of "
+                      "imucal angles)")
     careful = j.warnings or verdict not in (None, "good")
     colour = "tab:red" if not j.fits else ("darkorange" if careful else "k")
     return wrapped + warned, colour

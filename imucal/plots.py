@@ -235,22 +235,31 @@ def _header_lines(result, document: dict | None, v: str, sigma: dict, spread: di
     reasons = [(f"not identifiable: {w}" if k < blocking else f"warning: {w}",
                 "tab:red" if k < blocking else "darkorange")
                for k, w in enumerate(warnings)]
-    return lines + [(t, c, "normal") for t, c in _budget(reasons, _MAX_REASON_LINES)]
+    shown, left = wrapped_whole([text for text, _ in reasons], _WRAP, _MAX_REASON_LINES)
+    # (shown may be shorter than reasons: the ones left out are counted below)
+    lines += [(t, c, "normal") for (_, c), texts in zip(reasons, shown, strict=False)
+              for t in texts]
+    if left:
+        lines.append((f"... and {left} more (every reason and warning is in the JSON's "
+                      "quality.warnings and the result's warnings)", "0.3", "normal"))
+    return lines
 
 
-def _budget(reasons: list[tuple[str, str]], max_lines: int) -> list[tuple[str, str]]:
-    """The reasons wrapped, whole ones only, as many as ``max_lines`` hold (never cut in
-    the middle of a sentence), and a last line saying how many more there are."""
-    out: list[tuple[str, str]] = []
-    for k, (reason, colour) in enumerate(reasons):
-        wrapped = textwrap.wrap(reason, _WRAP, subsequent_indent="    ")
-        left = len(reasons) - k
-        if len(out) + len(wrapped) > max_lines - (left > 1):
-            out.append((f"... and {left} more (every reason and warning is in the JSON's "
-                        "quality.warnings and the result's warnings)", "0.3"))
-            break
-        out += [(t, colour) for t in wrapped]
-    return out
+def wrapped_whole(texts: list[str], wrap: int, max_lines: int) -> tuple[list[list[str]], int]:
+    """Each of ``texts`` wrapped to ``wrap`` characters (continuation lines indented),
+    whole ones only (never cut in the middle of a sentence), as many as ``max_lines``
+    hold with one line left to say how many more there are: the lines of each text
+    shown, and how many were left out."""
+    shown: list[list[str]] = []
+    used = 0
+    for k, text in enumerate(texts):
+        lines = textwrap.wrap(text, wrap, subsequent_indent="    ")
+        left = len(texts) - k
+        if used + len(lines) > max_lines - (left > 1):
+            return shown, left
+        shown.append(lines)
+        used += len(lines)
+    return shown, 0
 
 
 def _num(value, unit: str) -> str:
