@@ -46,11 +46,13 @@ def angles_figure(result, *, truth: dict | None = None, gyro_only: bool = True):
     ``truth``: joint -> (N,) true flexion (simulations)."""
     from matplotlib.figure import Figure
 
+    from .plots import chars_per_line
+
     joints = list(result.joints.values())
     walking = any(j.gait is not None for j in joints)
     width = 12 if walking else 9
-    heads = [_joint_header(j, _chars(width, 9)) for j in joints]
-    top = _figure_header(result, _chars(width, 10))
+    heads = [_joint_header(j, chars_per_line(width, 9)) for j in joints]
+    top = _figure_header(result, chars_per_line(width, 10))
     heights = [2.6 + _LINE_IN * len(lines) for lines, _ in heads]
     fig = Figure(figsize=(width, sum(heights) + _LINE_IN * (len(top) + 1)),
                  layout="constrained")
@@ -109,12 +111,6 @@ _LINE_IN = 0.2
 #: Warning lines shown above a joint at most (whole warnings only; all of them are in the
 #: joint's ``warnings`` and on the command line's stderr).
 _MAX_WARNING_LINES = 10
-
-
-def _chars(width_in: float, points: float) -> int:
-    """Characters of text ``points`` high that fit a line across ``width_in`` inches (an
-    average character is about 0.6 of the font size wide, with a margin)."""
-    return int(0.9 * width_in * 72 / (0.6 * points))
 
 
 def _figure_header(result, wrap: int) -> list[str]:

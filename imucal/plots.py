@@ -62,10 +62,10 @@ HEADER_GID = "header"
 #: Colour of each verdict in the header.
 VERDICT_COLOURS = {"good": "tab:green", "use with care": "darkorange",
                    "not identifiable": "tab:red"}
-#: Header text: characters per line, and lines of reasons and warnings at most (all of
-#: them are in the JSON).
-_WRAP = 150
+#: Lines of reasons and warnings in the header at most (all of them are in the JSON).
 _MAX_REASON_LINES = 12
+#: Width of the axis and position figures, inches.
+FIGURE_WIDTH_IN = 12
 #: Height of one header line, inches.
 _LINE_IN = 0.24
 #: Sample-wise panels span at least this many rad/s: the rates of a still sensor, a few
@@ -99,7 +99,7 @@ def axis_figure(result: AxisResult, sensors: str = "", document: dict | None = N
     lines = _header_lines(result, document, "j", result.uncertainty_deg, result.spread_deg,
                           "deg", _axis_motion(result))
     header = _LINE_IN * (len(lines) + 0.6)
-    fig = Figure(figsize=(12, 19 + header), layout="constrained")
+    fig = Figure(figsize=(FIGURE_WIDTH_IN, 19 + header), layout="constrained")
     ax = _rows(fig, [["header"], ["cost"], ["j1", "j2"], ["spread", "fit"],
                      ["plane1", "plane2"]], [header, 4.0, 5.0, 5.0, 5.0])
     _header_panel(ax["header"], lines)
@@ -136,7 +136,7 @@ def position_figure(result: PositionResult, sensors: str = "",
     lines = _header_lines(result, document, "o", result.uncertainty_mm, result.spread_mm,
                           "mm", _position_motion(result))
     header = _LINE_IN * (len(lines) + 0.6)
-    fig = Figure(figsize=(12, 14 + header), layout="constrained")
+    fig = Figure(figsize=(FIGURE_WIDTH_IN, 14 + header), layout="constrained")
     ax = _rows(fig, [["header"], ["cost"], ["o1", "o2"], ["spread"]],
                [header, 4.3, 5.1, 4.6])
     _header_panel(ax["header"], lines)
@@ -202,7 +202,8 @@ def _title(what: str, sensors: str, document: dict | None, result) -> str:
     if seed is not None:
         where.append(f"seed {seed}")
     # a long file or sensor name must not run off the figure (12 in at 12 pt)
-    return "\n".join(textwrap.fill(line, 105) for line in (first, ", ".join(where)))
+    wrap = chars_per_line(FIGURE_WIDTH_IN, 12)  # a suptitle's 12 pt
+    return "\n".join(textwrap.fill(line, wrap) for line in (first, ", ".join(where)))
 
 
 def _header_lines(result, document: dict | None, v: str, sigma: dict, spread: dict,
@@ -224,18 +225,19 @@ def _header_lines(result, document: dict | None, v: str, sigma: dict, spread: di
     def pair(d):
         return f"{v1} {_num(d[v1], unit)}, {v2} {_num(d[v2], unit)}"
 
+    wrap = chars_per_line(FIGURE_WIDTH_IN, 8.5)  # the header's 8.5 pt
     lines = [(head, colour, "bold")]
     for text in (f"Reported 1-sigma: {pair(sigma)}. The restarts' spread drawn below "
                  f"({pair(spread)}) is not the uncertainty: random halves of the samples "
                  "share every stretch of the recording.",
                  f"Relative residual {result.relative_residual:.1%}; {motion}"):
-        lines += [(t, "k", "normal") for t in textwrap.wrap(text, _WRAP)]
+        lines += [(t, "k", "normal") for t in textwrap.wrap(text, wrap)]
     warnings = quality.get("warnings", result.blocking + result.warnings)
     blocking = len(result.blocking)
     reasons = [(f"not identifiable: {w}" if k < blocking else f"warning: {w}",
                 "tab:red" if k < blocking else "darkorange")
                for k, w in enumerate(warnings)]
-    shown, left = wrapped_whole([text for text, _ in reasons], _WRAP, _MAX_REASON_LINES)
+    shown, left = wrapped_whole([text for text, _ in reasons], wrap, _MAX_REASON_LINES)
     # (shown may be shorter than reasons: the ones left out are counted below)
     lines += [(t, c, "normal") for (_, c), texts in zip(reasons, shown, strict=False)
               for t in texts]
@@ -243,6 +245,12 @@ def _header_lines(result, document: dict | None, v: str, sigma: dict, spread: di
         lines.append((f"... and {left} more (every reason and warning is in the JSON's "
                       "quality.warnings and the result's warnings)", "0.3", "normal"))
     return lines
+
+
+def chars_per_line(width_in: float, points: float) -> int:
+    """Characters of text ``points`` high that fit a line across ``width_in`` inches (an
+    average character is about 0.6 of the font size wide, with a margin)."""
+    return int(0.9 * width_in * 72 / (0.6 * points))
 
 
 def wrapped_whole(texts: list[str], wrap: int, max_lines: int) -> tuple[list[list[str]], int]:
