@@ -119,9 +119,8 @@ def test_angles_to_h5_with_a_figure(cal_file, tmp_path):
 
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
 def test_no_angles_figure_is_left_when_the_table_cannot_be_written(cal_file, tmp_path):
-    if not Path("/dev/full").exists():
-        pytest.skip("needs /dev/full (Linux)")
     import subprocess
     import sys
 

@@ -314,11 +314,10 @@ def test_position_spread_dashes_are_each_components_rms(short_walk):
     np.testing.assert_allclose(levels, expected, rtol=1e-6)
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
 def test_a_device_as_plot_is_written_before_the_json(rec, tmp_path):
     # a device cannot be put in place after the JSON: a copy that failed then left a
     # complete JSON on stdout with exit 2
-    if not Path("/dev/full").exists():
-        pytest.skip("needs /dev/full (Linux)")
     full = tmp_path / "full.png"
     full.symlink_to("/dev/full")
     run = imucal("axis", rec, "--seed", 1, "--restarts", 5, "--plot", full, "--quiet")
@@ -326,9 +325,8 @@ def test_a_device_as_plot_is_written_before_the_json(rec, tmp_path):
     assert run.stdout == b""
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
 def test_no_figure_is_left_by_a_run_whose_json_cannot_be_written(rec, tmp_path):
-    if not Path("/dev/full").exists():
-        pytest.skip("needs /dev/full (Linux)")
     fig = tmp_path / "knee.png"
     run = imucal("axis", rec, "--seed", 1, "--restarts", 5, "--plot", fig, "--out",
                  "/dev/full", "--quiet")
