@@ -8,6 +8,12 @@ def run() -> None:
 
     Loading the command line (typer, click) takes the first 0.1-0.2 s; a Ctrl-C or
     SIGTERM then ends with the same line and status as later, not Python's traceback.
+
+    Raises
+    ------
+    SystemExit
+        with the command's exit status (docs/errors.md); also when Ctrl-C, SIGTERM or SIGHUP
+        arrives while the command line loads.
     """
     raise_on_signals()
     try:

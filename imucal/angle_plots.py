@@ -94,7 +94,14 @@ def staged_angles_figure(result, path: str | Path, *, truth: dict | None = None,
                          gyro_only: bool = True):
     """:func:`plot_angles` as a block (:func:`imucal.atomic.staged`): the figure is in place
     only when the block ends without an exception, so that a run whose table then fails
-    to be written leaves no figure of it."""
+    to be written leaves no figure of it.
+
+    Raises
+    ------
+    InputError
+        ``path``'s suffix is not a figure format matplotlib writes, or the figure cannot be
+        written.
+    """
     from .atomic import staged
     from .plots import save_figure
 

@@ -223,7 +223,14 @@ def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
 
 
 def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fusion:
-    """Gyro angle plus a zero-phase local-linear estimate of the acc-minus-gyro offset."""
+    """Gyro angle plus a zero-phase local-linear estimate of the acc-minus-gyro offset.
+
+    Raises
+    ------
+    NotIdentifiableError
+        the joint centre's acceleration never lies in the joint plane: no accelerometer
+        angle corrects the gyro drift.
+    """
     n = sig.theta_gyro.shape[0]
     w = sig.weight
     if not np.any(w > 0):
@@ -598,6 +605,7 @@ class JointAngle:
 
     @property
     def fits(self) -> bool:
+        """Whether the "still fits" check passed (``check["fits"]``, docs/angles.md)."""
         return bool(self.check["fits"])
 
 
@@ -628,6 +636,7 @@ class JointAngles:
 
     @property
     def fits(self) -> bool:
+        """Whether every joint passed its "still fits" check."""
         return all(j.fits for j in self.joints.values())
 
     def problems(self) -> list[str]:
@@ -727,7 +736,14 @@ class JointAngles:
         """The table to ``.csv`` (one row per sample) or ``.h5`` (one dataset per column
         with its ``units``, ``description`` and, for a joint, ``joint``, ``sensors`` and
         ``frame`` attributes; the summary document as the root attribute ``imucal``),
-        atomically."""
+        atomically.
+
+        Raises
+        ------
+        InputError
+            the suffix is neither ``.csv`` nor ``.h5``/``.hdf5``, or the file cannot be
+            written.
+        """
         from .atomic import as_path, write_atomic, write_hdf5_atomic
         from .report import dumps
 

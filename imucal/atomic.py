@@ -25,7 +25,14 @@ from .signals import held
 
 
 def check_writable(path: str | Path) -> Path:
-    """Fail early (before any computation) when ``path`` cannot be written."""
+    """Fail early (before any computation) when ``path`` cannot be written.
+
+    Raises
+    ------
+    InputError
+        ``path`` is a folder or a block device, a descriptor that is closed or not open for
+        writing, not writable, or its folder is missing, a file or not writable.
+    """
     path = Path(path)
     fd = descriptor_of(path)
     if fd is not None:
@@ -164,6 +171,12 @@ def staged(path: str | Path, write: Callable[[Path], None]):
 
     For an output that must not appear unless another one is written too: a figure
     whose run then failed to write its JSON (``--out /dev/full``) was left behind.
+
+    Raises
+    ------
+    InputError
+        the temporary file or the target cannot be written. Exceptions of the block itself
+        pass through, and nothing is left behind.
     """
     path = as_path(path, "an output file name")
     if _through(path):
@@ -250,6 +263,11 @@ def write_hdf5_atomic(path: str | Path, fill: Callable) -> None:
     The file is built in memory and its bytes written as any other output's: the HDF5
     library writing to a full disk itself printed a dozen tracebacks and then crashed
     the interpreter (segmentation fault) instead of failing with the error.
+
+    Raises
+    ------
+    InputError
+        not enough memory to build the file, or it cannot be written.
     """
     import h5py
 
@@ -273,7 +291,15 @@ def write_stdout(text: str) -> None:
     """``text`` to standard output, flushed (a reader, jq or ``tail -f``, sees it at
     once). A failed write names standard output (it said only "No space left on device"
     for ``> /dev/full``); a reader that is gone stays a BrokenPipeError, which the command
-    line ends quietly as a shell does."""
+    line ends quietly as a shell does.
+
+    Raises
+    ------
+    InputError
+        standard output cannot be written (a full disk, a closed descriptor).
+    BrokenPipeError
+        the reader has gone.
+    """
     try:
         sys.stdout.write(text)
         sys.stdout.flush()

@@ -123,6 +123,7 @@ class Calibration:
 
     @property
     def hinges(self) -> list[JointCalibration]:
+        """The joints calibrated as hinges (the knees), in file order."""
         return [j for j in self.joints.values() if j.kind == "hinge"]
 
     def to_document(self) -> dict:

@@ -122,7 +122,13 @@ def default_subsample(rate: float, cutoff: float | None) -> int:
 
 
 def resolve_subsample(rate: float, cutoff: float | None, subsample: int | None) -> int:
-    """``subsample`` checked, or :func:`default_subsample` when it is None."""
+    """``subsample`` checked, or :func:`default_subsample` when it is None.
+
+    Raises
+    ------
+    InputError
+        ``subsample`` is not a positive integer.
+    """
     step = default_subsample(rate, cutoff) if subsample is None else int(subsample)
     if step < 1:
         raise InputError(f"subsample must be a positive integer, got {subsample}")
@@ -186,6 +192,12 @@ def lowpass(x: np.ndarray, rate: float, cutoff: float | None,
     ``order`` is that of one pass (filtfilt doubles it).
 
     Short signals are padded less, so any N >= 2 works.
+
+    Raises
+    ------
+    InputError
+        ``cutoff`` is negative or NaN, not below half of ``rate``, or too low to filter at
+        ``rate``.
     """
     if cutoff is None or cutoff == 0:
         return np.asarray(x, dtype=np.float64)

@@ -47,6 +47,7 @@ class Verdict:
 
     @property
     def identifiable(self) -> bool:
+        """No blocking reason: the verdict is not "not identifiable"."""
         return not self.blocking
 
     @property

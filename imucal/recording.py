@@ -176,6 +176,7 @@ class Recording:
 
     @property
     def n_samples(self) -> int:
+        """Samples per sensor (on the shared time grid)."""
         return int(self.time.shape[0])
 
     @property
@@ -385,7 +386,14 @@ class Recording:
         return repaired, bad, notes
 
     def resolve(self, name: str) -> str:
-        """The name of the sensor that ``name`` addresses (see :func:`match_sensor`)."""
+        """The name of the sensor that ``name`` addresses (see :func:`match_sensor`).
+
+        Raises
+        ------
+        InputError
+            no sensor or several match ``name`` (:func:`match_sensor`); sensors whose files
+            were empty are named.
+        """
         if name in self.sensors:
             return name
         try:
@@ -888,6 +896,12 @@ def window_slice(
 
     ``origin`` is the first sample's time on the recording's own time axis; messages
     give times on that axis, as the user typed them.
+
+    Raises
+    ------
+    InputError
+        ``start`` or ``end`` is not finite or lies outside the recording, or ``end`` is not
+        after ``start``.
     """
     duration = n / rate
     s = 0.0 if start is None else float(start)

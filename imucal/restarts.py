@@ -16,7 +16,13 @@ from .errors import InputError
 
 
 def resolve_seed(seed: int | None) -> int:
-    """``seed`` itself, or a fresh one (recorded in results so the run can be repeated)."""
+    """``seed`` itself, or a fresh one (recorded in results so the run can be repeated).
+
+    Raises
+    ------
+    InputError
+        ``seed`` is negative.
+    """
     if seed is None:
         return int(np.random.SeedSequence().generate_state(1, dtype=np.uint32)[0])
     seed = int(seed)
@@ -34,7 +40,13 @@ def subset_mask(
 ) -> np.ndarray | None:
     """(restarts, n) 0/1 weights: row r marks restart r's random subset, each sample in
     with probability ``fraction`` (independently: an exact count would need a sort per
-    row and buys nothing). None when every restart sees all samples (``fraction`` 1)."""
+    row and buys nothing). None when every restart sees all samples (``fraction`` 1).
+
+    Raises
+    ------
+    InputError
+        ``fraction`` is not in (0, 1].
+    """
     if not 0 < fraction <= 1:
         raise InputError(f"subset fraction must be in (0, 1], got {fraction}")
     if fraction == 1:
@@ -64,6 +76,11 @@ def best_restart(
     ``finals`` (R, s) and ``costs`` (R,) must come from the same data (all samples), so
     the costs are comparable: the lowest one is the least-squares answer, however few
     restarts found it. Non-finite restarts never win and never agree.
+
+    Raises
+    ------
+    InputError
+        no restart produced a finite result.
     """
     finite = np.isfinite(costs) & np.isfinite(finals).all(axis=1)
     if not finite.any():

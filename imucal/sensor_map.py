@@ -137,6 +137,13 @@ def apply_sensor_map(recording: Recording, names: Mapping[str, str] | str | Path
     ``source`` names the map in messages (default: the file, or ``names=``). The renamed
     sensors keep their serials and labels in ``sensor_info``; ``provenance["sensor_map"]``
     records the map and what it renamed.
+
+    Raises
+    ------
+    InputError
+        the map cannot be read or is not a mapping; a key matches no sensor or several; two
+        sensors get one name; one sensor is mapped twice; or a new name is that of a sensor
+        the map leaves as it is. Each message names ``source``.
     """
     if isinstance(names, str | bytes | os.PathLike):
         if not isinstance(names, str):

@@ -165,7 +165,14 @@ def held():
     would keep them blocked for the caller's later processes).
 
     The mask holds them in this thread; one that another thread takes is held by
-    :func:`_raise` until the block ends."""
+    :func:`_raise` until the block ends.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        when the block ends, for a signal held during it (:class:`Terminated` for SIGTERM
+        and SIGHUP).
+    """
     if not _installed or not hasattr(signal, "pthread_sigmask"):
         yield
         return

@@ -1130,7 +1130,13 @@ def _realism_truth(mot, t, clock, bias, noise_std, tissue, knee_angle, rot_deg, 
 
 
 def parse_clock_offsets(items: list[str] | None, option: str = "--clock-offset") -> dict:
-    """``["shank=0.02", ...]`` -> ``{"shank": 0.02}`` (seconds); one-line errors."""
+    """``["shank=0.02", ...]`` -> ``{"shank": 0.02}`` (seconds); one-line errors.
+
+    Raises
+    ------
+    InputError
+        an item is not ``SENSOR=SECONDS`` with a number of seconds.
+    """
     out = {}
     usage = f"use SENSOR=SECONDS with SENSOR one of {', '.join(SENSORS)}, e.g. shank=0.02"
     for item, name, value in _sensor_items(items or [], option, usage):
@@ -1159,7 +1165,13 @@ def _sensor_items(items: list[str], option: str, usage: str):
 def parse_sensor_bias(items: list[str] | None, option: str = "--gyr-bias", unit: str = "rad/s"):
     """``--gyr-bias`` (rad/s) or ``--acc-bias`` (m/s^2, with ``option``, ``unit``):
     ``["0.02"]`` -> 0.02 (every sensor, random directions); ``["shank=0.02",
-    "foot=0.01,0,0"]`` -> ``{"shank": 0.02, "foot": (0.01, 0.0, 0.0)}``."""
+    "foot=0.01,0,0"]`` -> ``{"shank": 0.02, "foot": (0.01, 0.0, 0.0)}``.
+
+    Raises
+    ------
+    InputError
+        an item is neither one magnitude nor ``SENSOR=`` one magnitude or three components.
+    """
     if not items:
         return None
     if len(items) == 1 and "=" not in items[0]:

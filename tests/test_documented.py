@@ -136,3 +136,56 @@ def test_the_examples_run(func, monkeypatch):
         runner.run(test)
     assert runner.summarize(verbose=False).failed == 0
     assert runner.summarize(verbose=False).attempted >= 2
+
+
+def _public_functions():
+    """(where, function node) of every public function and public class's public method
+    in the package; typer commands are left out (their docstring is the --help text)."""
+    import ast
+
+    root = Path(imucal.__file__).parent
+    for path in sorted(root.rglob("*.py")):
+        tree = ast.parse(path.read_text())
+        for node in tree.body:
+            found = []
+            if isinstance(node, ast.FunctionDef) and not node.name.startswith("_"):
+                found = [(node.name, node)]
+            elif isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+                found = [(f"{node.name}.{m.name}", m) for m in node.body
+                         if isinstance(m, ast.FunctionDef) and not m.name.startswith("_")]
+            for name, func in found:
+                if any("command" in ast.unparse(d) or "callback" in ast.unparse(d)
+                       for d in func.decorator_list):
+                    continue
+                yield f"{path.relative_to(root.parent)}:{func.lineno} {name}", func
+
+
+def _raised_classes(func) -> set[str]:
+    """Exception classes ``func`` raises itself (``raise Name(...)``; not re-raises of a
+    caught exception held in a variable)."""
+    import ast
+
+    names = set()
+    for node in ast.walk(func):
+        if isinstance(node, ast.Raise) and node.exc is not None:
+            exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
+            name = ast.unparse(exc).split(".")[-1]
+            if name[:1].isupper():
+                names.add(name)
+    return names
+
+
+def test_every_public_function_has_a_docstring_naming_what_it_raises():
+    import ast
+
+    problems = []
+    for where, func in _public_functions():
+        doc = ast.get_docstring(func)
+        if not doc:
+            problems.append(f"{where}: no docstring")
+            continue
+        unnamed = {name for name in _raised_classes(func)
+                   if not re.search(rf"\b{name}\b", doc)}
+        if unnamed:
+            problems.append(f"{where}: raises {sorted(unnamed)}, its docstring never says")
+    assert not problems, "\n".join(problems)

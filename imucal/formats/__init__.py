@@ -90,7 +90,13 @@ def read_export(path: Path, source: str, files: list[Path], read_file, format_na
                 what: str) -> RawRecording:
     """A :class:`RawRecording` of one-file-per-sensor ``files`` (from :func:`export_files`),
     each read by ``read_file(file, source, many)``; other files in the folder are named
-    in a note (``what``: the export's name in messages)."""
+    in a note (``what``: the export's name in messages).
+
+    Raises
+    ------
+    InputError
+        ``files`` is empty (no file of the export), or ``read_file`` cannot read one.
+    """
     if not files:
         raise InputError(f"{source}: no {what} found")
     notes = []
@@ -124,6 +130,7 @@ FORMATS = (
 
 
 def describe_formats() -> str:
+    """The formats imucal reads, as one line for messages and ``--help``."""
     return ", ".join(FORMATS)
 
 
@@ -144,7 +151,13 @@ def detect(path: Path):
 
 
 def read_text(path: Path, source: str | None = None) -> str:
-    """A text file's content: UTF-8 (with or without a byte-order mark), else Latin-1."""
+    """A text file's content: UTF-8 (with or without a byte-order mark), else Latin-1.
+
+    Raises
+    ------
+    InputError
+        the file cannot be read, or it holds binary data.
+    """
     try:
         data = Path(path).read_bytes()
     except OSError as err:
@@ -196,6 +209,12 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
     Empty cells and ``NaN`` read as NaN. A last row with fewer fields than the header
     (a truncated file) is dropped with a note; a cell holding text stops loading with its
     row and column.
+
+    Raises
+    ------
+    InputError
+        a header without data rows, a table pandas cannot parse, or a cell that is not a
+        number (with its row and column).
     """
     import pandas as pd
 

@@ -33,6 +33,8 @@ def _split(lines):
 
 
 def sniff(path: Path) -> bool:
+    """Whether ``path`` (a file or a folder) holds a Shimmer Consensys export, judged by its content
+    (cheap: the first bytes or lines, a folder's file names)."""
     if not path.is_file() or path.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
         return False
     lines = head_text(path, 4096).splitlines()
@@ -44,6 +46,14 @@ def sniff(path: Path) -> bool:
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
+    """Every sensor's raw samples of ``path``, in the units the file declares; ``source``
+    names it in messages (default ``str(path)``).
+
+    Raises
+    ------
+    InputError
+        naming ``source`` and the problem, for anything that cannot be read as this format.
+    """
     source = source or str(path)
     lines = read_text(path, source).splitlines()
     sep, start = _split(lines)
