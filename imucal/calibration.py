@@ -23,7 +23,7 @@ from . import __version__
 from .errors import ImucalError, InputError
 from .quality import NOT_IDENTIFIABLE
 from .recording import Recording, check_recording, estimator_window, normalised_name, segment_of
-from .settings import ACC_ERROR_M_S2
+from .settings import ACC_ERROR_M_S2, OFFSET_SEARCH_S
 
 FORMAT = "imucal-calibration"
 #: 2: the angle block's ``hinge_residual`` is relative to the angular rates, and its
@@ -258,7 +258,8 @@ def _joint_specs(recording: Recording, joints) -> tuple[list[JointSpec], list[st
 
 def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
               seed: int | None = None, start: float | None = None, end: float | None = None,
-              time_offset: float | str = "auto", smoothing_s: float | None = None,
+              time_offset: float | str = "auto", offset_search: float = OFFSET_SEARCH_S,
+              smoothing_s: float | None = None,
               acc_error: float = ACC_ERROR_M_S2) -> Calibration:
     """Calibrate every joint of ``recording`` (module docstring).
 
@@ -270,7 +271,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     joints
         None: found from the sensor names (:func:`discover_joints`); or a list of specs
         (``"left_knee=hinge:left_thigh,left_shank"`` or :class:`JointSpec`).
-    restarts, seed, start, end, time_offset
+    restarts, seed, start, end, time_offset, offset_search
         As in :func:`imucal.estimate_axis` / :func:`imucal.estimate_position` (window in s
         on the recording's time axis); every joint uses the same.
     smoothing_s
@@ -318,7 +319,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     # usage errors before any joint runs (each joint's estimate would stop on them, and
     # they came back as joints marked `failed`); the window against the recording too
     CalibrateSettings(restarts=restarts, seed=seed, time_offset=time_offset,
-                      acc_error=acc_error)
+                      offset_search=offset_search, acc_error=acc_error)
     AxisSettings(start=start, end=end)
     asked = recording.window_slice(start, end)
     smoothing_s = check_smoothing(SMOOTHING_S if smoothing_s is None else smoothing_s)
@@ -328,6 +329,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     for spec in specs:
         jc, window, err = _calibrate_joint(recording, spec, restarts=restarts, seed=seed,
                                            start=start, end=end, time_offset=time_offset,
+                                           offset_search=offset_search,
                                            smoothing_s=smoothing_s, acc_error=acc_error)
         jc.warnings = notes + jc.warnings
         out[spec.name] = jc
@@ -348,7 +350,8 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
         joints=out, source=recording.source, window_s=window_s,
         sample_rate_hz=recording.rate,
         settings={"restarts": restarts, "seed": seed, "start": start, "end": end,
-                  "time_offset": time_offset, "smoothing_s": smoothing_s,
+                  "time_offset": time_offset, "offset_search_s": offset_search,
+                  "smoothing_s": smoothing_s,
                   "acc_error_m_s2": acc_error,
                   "joints": [f"{s.name}={s.kind}:{s.first},{s.second}" for s in specs]},
         sensors={n: dict(recording.sensor_info.get(n, {}), units_in_file=dict(
@@ -357,7 +360,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
 
 
 def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, time_offset,
-                     smoothing_s, acc_error):
+                     offset_search, smoothing_s, acc_error):
     """One joint; an estimate that stops leaves verdict ``failed`` and its reason."""
     from . import estimate_axis, estimate_position
     from .report import axis_report, position_report
@@ -377,7 +380,7 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
                 "units_in_file": {n: recording.units.get(n, {}) for n in jc.sensors},
                 "time_origin": window["time_origin"], "load_warnings": list(used.warnings)}
         common = {"rate": used.rate, "restarts": restarts, "seed": seed,
-                  "time_offset": time_offset, **window}
+                  "time_offset": time_offset, "offset_search": offset_search, **window}
         axis = None
         if spec.kind == "hinge":
             axis = estimate_axis(s1.gyr, s2.gyr, acc1=s1.acc, acc2=s2.acc, **common)

@@ -149,9 +149,14 @@ MaxSamples = Annotated[int | None, typer.Option(
     show_default=False)]
 TimeOffset = Annotated[str, typer.Option(
     "--time-offset", help="Clock offset of the second sensor, s (positive: its clock is "
-    "late): auto (estimated from the constraint itself within +-0.2 s and applied when it "
-    "clearly improves the fit; reported in time_offset), 0 (clocks in sync) or a number "
-    "of seconds to apply.")]
+    "late): auto (estimated from the constraint itself within +-0.2 s, see "
+    "--offset-search, and applied when it clearly improves the fit; reported in "
+    "time_offset), 0 (clocks in sync) or a number of seconds to apply.")]
+OffsetSearch = Annotated[float, typer.Option(
+    "--offset-search", metavar="SECONDS", help="How far --time-offset auto searches, +- s "
+    "(at most 10). Widen it when the sensors' clocks may differ by more than 0.2 s; a "
+    "motion that repeats (gait, circling) can then show minima that are not the clock's "
+    "(docs/method.md).")]
 AccError = Annotated[float, typer.Option(
     "--acc-error", metavar="M/S^2", help="1-sigma of each accelerometer's error at 1 g, "
     "m/s^2: an offset of this size and a scale error of this / 1 g per axis, carried "
@@ -206,6 +211,7 @@ def axis(
         "positive/negative, e.g. --sign +x --j2-sign +x when both sensors' x axes point "
         "laterally.")] = "auto",
     time_offset: TimeOffset = "auto",
+    offset_search: OffsetSearch = 0.2,  # imucal.settings.OFFSET_SEARCH_S
     force: Force = False,
     trace: Trace = False,
     jobs: Jobs = 1,
@@ -220,7 +226,8 @@ def axis(
         settings = _settings(ctx, AxisSettings, restarts=restarts, seed=seed, cutoff=cutoff,
                              subsample=subsample, select=select,
                              max_samples=_max_samples(max_samples), sign=sign,
-                             j2_sign=j2_sign, time_offset=time_offset)
+                             j2_sign=j2_sign, time_offset=time_offset,
+                             offset_search=offset_search)
         job = _job(ctx, "axis", sensors, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force, trace=trace)
@@ -267,6 +274,7 @@ def position(
         "which decides the line the knee point is taken on (see imucal axis --help).")]
     = "auto",
     time_offset: TimeOffset = "auto",
+    offset_search: OffsetSearch = 0.2,  # imucal.settings.OFFSET_SEARCH_S
     acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     force: Force = False,
     trace: Trace = False,
@@ -282,7 +290,8 @@ def position(
         settings = _settings(ctx, PositionSettings, restarts=restarts, seed=seed, joint=joint,
                              cutoff=cutoff, subsample=subsample, select=select,
                              max_samples=_max_samples(max_samples), sign=sign,
-                             j2_sign=j2_sign, time_offset=time_offset, acc_error=acc_error)
+                             j2_sign=j2_sign, time_offset=time_offset,
+                             offset_search=offset_search, acc_error=acc_error)
         job = _job(ctx, "position", sensors, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force, trace=trace)
@@ -314,6 +323,7 @@ def calibrate(
     start: Start = None,
     end: End = None,
     time_offset: TimeOffset = "auto",
+    offset_search: OffsetSearch = 0.2,  # imucal.settings.OFFSET_SEARCH_S
     acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", metavar="FILE", help="Write the calibration file (JSON) here instead "
@@ -341,7 +351,7 @@ def calibrate(
 
         settings = _settings(ctx, CalibrateSettings, joints=tuple(joint or ()),
                              restarts=restarts, seed=seed, time_offset=time_offset,
-                             acc_error=acc_error)
+                             offset_search=offset_search, acc_error=acc_error)
         job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)
@@ -731,6 +741,7 @@ def _job(ctx: typer.Context, command: str, sensors: str | None, settings, **opti
 _OPTIONS = {"restarts": "--restarts", "seed": "--seed", "cutoff": "--cutoff",
             "subsample": "--subsample", "max_samples": "--max-samples", "sign": "--sign",
             "j2_sign": "--j2-sign", "time offset": "--time-offset", "joint": "--joint",
+            "offset_search": "--offset-search",
             "acc_error": "--acc-error"}
 
 

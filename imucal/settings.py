@@ -173,7 +173,7 @@ class CalibrateSettings:
     joints : tuple of str or JointSpec
         Explicit joints (``"left_knee=hinge:left_thigh,left_shank"``), parsed into
         :class:`imucal.calibration.JointSpec`; empty: found from the sensor names.
-    restarts, seed, time_offset
+    restarts, seed, time_offset, offset_search
         As in :class:`AxisSettings`; every joint uses the same.
     acc_error : float
         As in :class:`PositionSettings`, m/s^2; every joint centre uses the same.
@@ -183,6 +183,7 @@ class CalibrateSettings:
     restarts: int = 100
     seed: int | None = None
     time_offset: float | str = "auto"
+    offset_search: float = OFFSET_SEARCH_S
     acc_error: float = ACC_ERROR_M_S2
 
     def __post_init__(self) -> None:
@@ -199,6 +200,7 @@ class CalibrateSettings:
         if self.seed is not None:
             _check_int(self, "seed", 0)
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
+        _check_number(self, "offset_search", low=0.0, open_low=True, high=MAX_TIME_OFFSET_S)
         _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
 
 

@@ -544,7 +544,8 @@ def offset_edge_reason(found: Offset, refused: bool = True) -> str:
     return (f"the clock offset between the sensors may exceed the +-{found.search_s:g} s "
             f"searched (the constraint's cost kept falling to the edge, {found.cost_ratio:.1f}"
             f" times lower there than in sync): {consequence}; align the recordings first, "
-            "or pass the offset with --time-offset (Python: widen offset_search)")
+            "widen the search (--offset-search, Python offset_search) or pass the offset "
+            "with --time-offset")
 
 
 def _parabola_minimum(cost: np.ndarray, deltas: np.ndarray) -> tuple[float, bool]:

@@ -96,6 +96,10 @@ def test_no_module_imports_the_command_line():
         (["position", "--joint", "knee"], "Invalid value for '--joint': joint must be one of"),
         (["position", "--acc-error", "-0.1"],
          "Invalid value for '--acc-error': acc_error must be in [0, 5], got -0.1"),
+        (["axis", "--offset-search", "0"],
+         "Invalid value for '--offset-search': offset_search must be in (0, 10], got 0"),
+        (["calibrate", "--offset-search", "20"],
+         "Invalid value for '--offset-search': offset_search must be in (0, 10], got 20"),
         (["calibrate", "--acc-error", "50"],
          "Invalid value for '--acc-error': acc_error must be in [0, 5], got 50"),
         # the axis (eq. 1) uses no accelerometer error: accepted and ignored before

@@ -443,3 +443,39 @@ def test_a_small_offset_found_but_not_applied_is_no_good_axis_when_it_would_move
     th, sh = rec.sensor("thigh"), rec.sensor("shank")
     r = estimate_axis(th.gyr, sh.gyr, rate=rec.rate, seed=1, acc1=th.acc, acc2=sh.acc)
     assert r.verdict == "good" and not any("would move" in w for w in r.warnings)
+
+
+def test_the_command_line_widens_the_search_for_every_estimate(tmp_path):
+    # the shank's clock 250 ms late: beyond the default +-0.2 s the ankle is refused;
+    # --offset-search 0.4 (axis, position, calibrate) finds it (docs/method.md advised
+    # an option the command line did not have)
+    import json
+
+    from conftest import run_imucal
+
+    from imucal import calibrate
+    from imucal.writers import save_recording
+
+    rec, truth = simulate(seed=19, motion="protocol", rate=100.0, duration=20.0,
+                          gyr_noise=0.01, acc_noise=0.05, clock_offset={"shank": 0.25})
+    path = tmp_path / "late.h5"
+    save_recording(rec, path)
+    args = ("position", path, "--restarts", "30", "--seed", "1", "-q")
+    narrow = run_imucal(*args, "--force")
+    wide = run_imucal(*args, "--offset-search", "0.4")
+    assert narrow.returncode == 0 and wide.returncode == 0
+    narrow, wide = json.loads(narrow.stdout), json.loads(wide.stdout)
+    assert narrow["time_offset"]["search_s"] == 0.2 and narrow["time_offset"]["at_edge"]
+    assert wide["time_offset"]["search_s"] == 0.4 and wide["time_offset"]["applied"]
+    # the foot's clock against the shank's: 250 ms early
+    assert abs(wide["time_offset"]["estimated_s"] + 0.25) < 0.005
+    axis = run_imucal("axis", path, "--restarts", "30", "--seed", "1", "-q",
+                      "--offset-search", "0.4")
+    assert json.loads(axis.stdout)["time_offset"]["search_s"] == 0.4
+    cal = calibrate(rec, joints=["ankle=spheroidal:shank,foot"], restarts=30, seed=1,
+                    offset_search=0.4)
+    assert cal.settings["offset_search_s"] == 0.4
+    assert cal.joints["ankle"].position["time_offset"]["search_s"] == 0.4
+    true = np.concatenate([truth["ankle"]["o1"], truth["ankle"]["o2"]])
+    assert 1000 * np.abs(np.concatenate([cal.joints["ankle"].o1,
+                                         cal.joints["ankle"].o2]) - true).max() < 5.0
