@@ -13,7 +13,6 @@ import errno
 import io
 import os
 import re
-import shutil
 import stat
 import sys
 import tempfile
@@ -243,11 +242,13 @@ def _write_through(path: Path, write: Callable[[Path], None]) -> None:
         if descriptor is not None:
             if descriptor == 1:
                 sys.stdout.flush()  # what the command printed there comes first
-            target = os.fdopen(os.dup(descriptor), "wb")  # the same file position
+            # the same file position; unbuffered: write_fully sees every short write
+            target = os.fdopen(os.dup(descriptor), "wb", buffering=0)
         else:
-            target = open(path, "wb")  # closed by the with block below
+            target = open(path, "wb", buffering=0)  # closed by the with block below
         with open(tmp, "rb") as src, target:
-            shutil.copyfileobj(src, target)
+            for chunk in iter(lambda: src.read(COPY_CHUNK), b""):
+                write_fully(target.write, chunk)
     except BrokenPipeError:
         raise  # the reader stopped: the command line's SIGPIPE exit, as for stdout
     except OSError as err:
@@ -287,6 +288,33 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
+#: Bytes copied per write when an output is written through (a device, a pipe).
+COPY_CHUNK = 1 << 16
+
+
+def write_fully(write: Callable, data: bytes) -> None:
+    """``data`` through ``write`` (a binary stream's ``write``) until all of it is out.
+
+    A short write is retried with the rest. When the reader of a pipe goes away during a
+    large write (``| head``), CPython's buffered stream returns the bytes written so far
+    instead of failing, and a text stream drops that count: the output was cut short
+    with exit status 0 and no word. The retry fails with BrokenPipeError instead.
+
+    Raises
+    ------
+    BrokenPipeError
+        the reader has gone.
+    OSError
+        the stream accepts nothing more (or any other write error).
+    """
+    view = memoryview(data)
+    while view.nbytes:
+        n = write(view)
+        if not n:  # (None: a non-blocking stream that would block)
+            raise OSError(errno.EIO, "the output accepted no more bytes")
+        view = view[n:]
+
+
 def write_stdout(text: str) -> None:
     """``text`` to standard output, flushed (a reader, jq or ``tail -f``, sees it at
     once). A failed write names standard output (it said only "No space left on device"
@@ -301,8 +329,17 @@ def write_stdout(text: str) -> None:
         the reader has gone.
     """
     try:
-        sys.stdout.write(text)
-        sys.stdout.flush()
+        buffer = getattr(sys.stdout, "buffer", None)
+        if buffer is None:  # a stand-in (imucal.cli's closed stdout)
+            sys.stdout.write(text)
+            sys.stdout.flush()
+        else:
+            sys.stdout.flush()
+            if os.linesep != "\n":  # as the text stream would translate them
+                text = text.replace("\n", os.linesep)
+            write_fully(buffer.write, text.encode(sys.stdout.encoding or "utf-8",
+                                                  sys.stdout.errors or "strict"))
+            buffer.flush()
     except BrokenPipeError:
         raise
     except OSError as err:

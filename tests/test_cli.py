@@ -218,6 +218,37 @@ def test_a_reader_that_stops_early_ends_the_command_quietly(files):
     assert err == b""
 
 
+def test_a_reader_that_stops_in_the_middle_of_the_output_is_no_success():
+    # `imucal angles walk.h5 -c cal.json | head -1` exited 0: a reader that leaves during
+    # one large write made Python's stream return the bytes written so far, not fail, so
+    # the output was cut short without a word. With --trace the JSON is about 80 kB, more
+    # than a pipe holds: the reader takes 10 bytes while the write is under way.
+    sample = str(ROOT / "sample_data" / "circling.h5")
+    proc = subprocess.Popen([sys.executable, "-m", "imucal", "axis", sample, "--trace",
+                             "--seed", "1", "-q"], bufsize=0,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout.read(10).startswith(b"{")  # the JSON has begun
+    proc.stdout.close()
+    err = proc.stderr.read()
+    assert proc.wait(timeout=120) == 141
+    assert err == b""
+
+
+def test_short_writes_are_retried_until_all_is_written():
+    from imucal.atomic import write_fully
+
+    got = []
+
+    def short(view):  # a stream that takes at most 3 bytes per call
+        got.append(bytes(view[:3]))
+        return len(got[-1])
+
+    write_fully(short, b"0123456789")
+    assert b"".join(got) == b"0123456789" and len(got) == 4
+    with pytest.raises(OSError, match="accepted no more bytes"):
+        write_fully(lambda view: 0, b"x")
+
+
 def test_the_summary_names_the_window_fitted():
     # the header described the whole file only: "2000 samples at 100 Hz (20.0 s)" for a
     # fit of 0-10 s
