@@ -166,7 +166,7 @@ Scheduler = Annotated[str | None, typer.Option(
     "--scheduler", metavar="ADDRESS", show_default=False,
     help="With several RECs: run the study on the Dask cluster whose scheduler listens "
     "at ADDRESS (e.g. tcp://host:8786) instead of local processes; same output and exit "
-    "status as --jobs. Needs the dask extra (docs/performance.md).")]
+    "status as --jobs. Needs the dask extra (docs/performance.md). One REC runs here.")]
 Force = Annotated[bool, typer.Option(
     "--force", help="Write the result even when the data cannot identify it (exit 0; the "
     "JSON carries the warnings). Without it such a run writes nothing and exits 1.")]
@@ -355,6 +355,7 @@ def calibrate(
         job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)
+        _one_or_study(rec, scheduler, quiet)
         if len(rec) > 1:
             from .study import run_study
 
@@ -757,8 +758,22 @@ def _usage_error(ctx: typer.Context, text: str) -> typer.BadParameter:
     return typer.BadParameter(text, ctx=ctx)
 
 
+def _one_or_study(recs, scheduler, quiet) -> None:
+    """``--scheduler``'s form checked whatever the number of recordings (a bad address
+    passed silently with one); with one recording, say that it runs here."""
+    if scheduler is None:
+        return
+    from .cluster import check_address
+
+    check_address(scheduler)
+    if len(recs) == 1 and not quiet:
+        say(f"imucal: warning: --scheduler {scheduler} is for studies of several "
+            "recordings; this one runs here")
+
+
 def _estimate(job, recs, *, out, plot, jobs, scheduler, quiet) -> int:
     """Run ``job`` on one recording (print its document) or a study; the exit status."""
+    _one_or_study(recs, scheduler, quiet)
     if len(recs) > 1:
         from .study import run_study
 

@@ -192,6 +192,21 @@ def _within(ask: Callable[[], int], timeout: float) -> int | None:
     return box.get("value")
 
 
+def check_address(address: str) -> str:
+    """``address`` if it has the form of a scheduler's address (HOST:PORT with an optional
+    scheme), checked before anything is read or connected.
+
+    Raises
+    ------
+    InputError
+        It has not.
+    """
+    if not re.fullmatch(r"(\w+://)?[^\s/]+:\d+", address):
+        raise InputError(f"--scheduler {address}: not a scheduler address; expected "
+                         "tcp://HOST:PORT (dask scheduler prints it)")
+    return address
+
+
 def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
     """Connect to the Dask scheduler at ``address`` and wait for a worker.
 
@@ -213,9 +228,7 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
     >>> cluster.workers                                               # doctest: +SKIP
     2
     """
-    if not re.fullmatch(r"(\w+://)?[^\s/]+:\d+", address):
-        raise InputError(f"--scheduler {address}: not a scheduler address; expected "
-                         "tcp://HOST:PORT (dask scheduler prints it)")
+    check_address(address)
     try:
         import distributed
     except ImportError:

@@ -70,13 +70,26 @@ def test_scheduler_without_dask_names_the_extra(files):
                                    "installed: pip install 'imucal-joints[dask]'\n")
 
 
-def test_a_bad_scheduler_address_is_refused_before_anything_runs(files):
+@pytest.mark.parametrize("command", ["axis", "position", "calibrate"])
+@pytest.mark.parametrize("recs", [["a.h5", "b.h5"], ["a.h5"]])
+def test_a_bad_scheduler_address_is_refused_before_anything_runs(files, command, recs):
+    # with one recording it passed silently (exit 0), although errors.md calls it an error
     folder, _ = files
-    run = imucal("axis", "a.h5", "b.h5", "--scheduler", "head-node", cwd=folder)
+    run = imucal(command, *recs, "--scheduler", "head-node", cwd=folder)
     assert run.returncode == 2 and run.stdout == b""
     assert run.stderr.decode() == ("imucal: error: --scheduler head-node: not a scheduler "
                                    "address; expected tcp://HOST:PORT (dask scheduler prints "
                                    "it)\n")
+
+
+def test_one_recording_runs_here_and_says_so(files):
+    folder, _ = files
+    run = imucal("axis", "a.h5", "--scheduler", "tcp://127.0.0.1:1", "--restarts", "5",
+                 "--seed", "1", cwd=folder)
+    assert run.returncode == 0 and run.stdout.startswith(b"{")
+    assert run.stderr.decode().startswith(
+        "imucal: warning: --scheduler tcp://127.0.0.1:1 is for studies of several "
+        "recordings; this one runs here\n")
 
 
 def test_a_port_that_is_no_scheduler_fails_instead_of_hanging(monkeypatch):
