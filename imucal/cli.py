@@ -512,7 +512,11 @@ def _angles_summary(result, out) -> None:
         say(f"  {j['column']}: {lo:.1f} to {hi:.1f} deg (median 1-sigma "
             f"{j['sigma_deg']['median']:.2f} deg), sign {j['flexion_sign']:+d} from "
             f"{j['sign_source']}, 0 = {j['zero']['method']}{gait}")
-        say(f"    fit check: {'fits' if j['fits'] else 'DOES NOT FIT'} (hinge residual "
+        # a knee the calibration marks not identifiable fails whatever the numbers say:
+        # the line named only numbers within their limits
+        marked = (c.get("calibration_verdict") == "not identifiable")
+        say(f"    fit check: {'fits' if j['fits'] else 'DOES NOT FIT'} ("
+            + ("not identifiable in the calibration; " if marked else "") + "hinge residual "
             f"{_num(c['hinge_residual'], '.3f')}, limit "
             f"{_num(c['hinge_residual_limit'], '.3f')}; acc-gyro disagreement "
             f"{_num(c['acc_gyro_disagreement_deg'], '.2f')} deg, limit "

@@ -281,3 +281,19 @@ def test_library_exports():
     assert imucal.load_calibration is calibration.load_calibration
     assert imucal.joint_angles is angles.joint_angles
     assert {"Calibration", "JointAngles", "calibrate", "joint_angles"} <= set(imucal.__all__)
+
+
+def test_forced_angles_of_a_knee_marked_not_identifiable_say_so_in_the_summary(tmp_path):
+    # the fit check line listed only numbers within their limits ("DOES NOT FIT (hinge
+    # residual 0.112, limit 0.815; ...)"), never the reason: the calibration's verdict
+    cal = tmp_path / "cal.json"
+    assert cli("calibrate", SAMPLE / "circling.h5", "--restarts", "5", "--seed", "1",
+               "--out", cal, "-q", "--force").returncode == 0
+    doc = json.loads(cal.read_text())
+    doc["joints"]["knee"]["verdict"] = "not identifiable"
+    cal.write_text(json.dumps(doc))
+    run = cli("angles", SAMPLE / "walking.h5", "-c", cal, "--force")
+    assert run.returncode == 0 and run.stdout.startswith("time,")
+    line = next(x for x in run.stderr.splitlines() if "fit check:" in x)
+    assert line.strip().startswith(
+        "fit check: DOES NOT FIT (not identifiable in the calibration; hinge residual")
