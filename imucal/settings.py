@@ -119,6 +119,9 @@ class AxisSettings:
         _check_number(self, "time_origin", low=-math.inf)
         for name in ("start", "end"):
             if getattr(self, name) is not None:
+                if as_real(getattr(self, name)) is None:  # worded as the window's check
+                    raise InputError(f"window {name} must be a finite number of seconds, "
+                                     f"got {getattr(self, name)!r}")
                 _check_number(self, name, low=0.0)
         if self.start is not None and self.end is not None and self.end <= self.start:
             raise InputError(f"window end {self.end:g} s must be after its start "

@@ -264,6 +264,13 @@ def test_numbers_in_other_containers(pair, rec, cal):
         imucal.estimate_axis(g1, g2, rate=100.0, seed=float(10**300) * 1e10)
     with pytest.raises(InputError, match="window start must be a finite number"):
         rec.select(["thigh"], 10**400)
+    # calibrate said "start must be a finite number" where every other entry names the
+    # window and its unit
+    for window in ({"start": float("nan")}, {"end": "1"}):
+        name = next(iter(window))
+        with pytest.raises(InputError, match=f"window {name} must be a finite number of "
+                                             "seconds"):
+            imucal.calibrate(rec, restarts=3, seed=1, **window)
     with pytest.raises(InputError, match="sample rate must be a positive number"):
         imucal.estimate_axis(g1, g2, rate=10**400)
     with pytest.raises(InputError, match="flexion sign must be auto"):
