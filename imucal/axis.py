@@ -638,7 +638,13 @@ def _diagnose(p: Prepared, q: dict, decision, gravity: dict) -> tuple[list[str],
     relative, sigma = q["relative"], max(q["uncertainty"].values())
     warnings = list(doubts)
     warned = gravity_warning(gravity)
-    if warned:
+    if warned and not blocking:
+        # an axis the still periods show is no one line is not the joint's: on the real
+        # recording's first 55 s the fit found the segments' long axes (gravity along
+        # both sensors' x while standing), 60-90 deg from any knee axis, at a 1-sigma of
+        # 19-40 deg; `calibrate` refused those knees already (angles.own_check_failure)
+        blocking = [warned]
+    elif warned:
         warnings.append(warned)
     if not blocking:
         warnings += disagreement_warning(

@@ -155,14 +155,18 @@ def test_knee_axis_split_halves_agree_within_the_reported_sigma(real_recording, 
         return estimate_axis(t.gyr, s.gyr, rate=rec.rate, seed=1, start=start, end=end,
                              acc1=t.acc, acc2=s.acc)
 
-    checked = 0
+    halves = {split: _halves(rec, fit, split) for split in SPLITS}
     for split in SPLITS:
-        checked += _agree_within_3_sigma(
-            _halves(rec, fit, split), ("j1", "j2"), _sign_free_deg,
-            lambda r: r.uncertainty_deg) is not None
-    # the right knee's first 55 s are identifiable in both halves; the left knee's first
-    # half is refused (restarts disagree, residual 38 %) and its 55-100 s is no hinge
-    assert checked >= (1 if side == "right" else 0)
+        _agree_within_3_sigma(halves[split], ("j1", "j2"), _sign_free_deg,
+                              lambda r: r.uncertainty_deg)
+    # the first 55 s: the fit finds the segments' long axes (gravity lies along both
+    # sensors' x while standing), which the still periods show are not one line. The
+    # right knee's halves were "use with care" there, 1-sigma 19-40 deg, some 85 deg
+    # from any knee axis; both halves are refused now, the left's first half for
+    # disagreeing restarts when nothing else stops it
+    first, second = halves["0-55"]
+    assert first.verdict == second.verdict == "not identifiable"
+    assert "not one physical line" in " ".join(second.blocking + second.warnings)
 
 
 @pytest.mark.parametrize("pair", [("left_shank", "left_foot"), ("right_shank", "right_foot"),

@@ -401,44 +401,48 @@ FOOTER = """
   accelerometer residual, moves the axes by up to 3.4 deg. In 55-100 s the two still
   agree within 0.6-3.7 deg: what imucal refuses there is the data, not its solver.
 - **Relative sign.** In 0-55 s both knees' j1 and j2 lie within 4-22 deg of the data
-  README's lateral axes with the same sign, as they must with both sensors' x axes
-  lateral: imucal now agrees with that reference (until issue 10 it reported j2 165-176
-  deg from it). The decision rests on the range test (the integrated flexion spans 49 and
-  65 deg with the reported j2, 189 and 177 deg with the flipped one, which no knee does)
-  and the accelerometer test (ratio 2.1); the integration-free plane test cannot tell on
-  this gait (1.01-1.11, slightly for the other sign, below the 1.5 at which a test counts
-  as contradicting). Combined evidence 7.1 (left) and 5.6 (right): no sign warning.
+  README's "lateral" axes with the same sign (until issue 10 j2 was 165-176 deg from
+  them); those reference axes lie along the sensors' x axes, which the accelerometers
+  show to be the segments' long axes (next point), so the axes themselves are refused.
+  The decision rests on the range test (the integrated flexion spans 49 and 65 deg with
+  the reported j2, 189 and 177 deg with the flipped one, which no knee does) and the
+  accelerometer test (ratio 2.1); the integration-free plane test cannot tell on this
+  gait (1.01-1.11, slightly for the other sign, below the 1.5 at which a test counts as
+  contradicting). Combined evidence 7.1 (left) and 5.6 (right): no sign warning.
 - **Not one physical line at rest (gravity mismatch).** The accelerometers say the
   knees' 0-55 s axes are not the knees' flexion axes: while the person sits (12-40 s:
   thighs horizontal, shanks vertical) the axis makes 83-85 deg with the vertical in the
   thigh sensors but 5-8 deg in the shank sensors, while in the standing periods both are
   within 5-21 deg of it. One hinge axis makes the same angle with the vertical from both
-  segments in any posture, so every 0-55 s knee axis carries that warning
-  (`quality.gravity`, [method.md](method.md#the-gravity-check-at-rest)); the data
-  README's "lateral" reference, about the sensors' x axes, is then the segments' long
-  axis, and agreeing with it says little. The knee-flexion section below follows this up.
+  segments in any posture, so every 0-55 s knee axis is refused for it (`not
+  identifiable`, `quality.gravity`, [method.md](method.md#the-gravity-check-at-rest)).
+  Until this was a refusal they were `use with care` with a 1-sigma of 19-40 deg, while
+  an axis along a segment's long axis is 60-90 deg from the knee's: the 1-sigma did not
+  cover the error. The data README's "lateral" reference, about the sensors' x axes, is
+  then the segments' long axis, and agreeing with it says little. The knee-flexion
+  section below follows this up.
 - **The vigorous part is not a hinge.** In 55-100 s the flexion angle about the fitted
   axis spans more than 170 deg within 60 s with either relative sign (207 / 266 deg left,
   192 / 308 deg right), so both knees are refused (`not identifiable`), and j2 lies 64 and
   86 deg from the lateral reference, as the data README describes. The relative residual
   alone would not show it: 0.41-0.43 there against 0.37-0.39 in 0-55 s, all below the
   0.5 at which imucal warns of a poor fit (real knees leave 0.35-0.45).
-- **Uncertainty.** The knee axes in 0-55 s have a 1-sigma of 18.8-40.4 deg. Most of it is
-  the model term (18-25 deg): the real knees' residual is large (0.37-0.39 of the
-  signal) and mostly smooth, the signature of soft tissue and of a knee that is no
-  perfect hinge, which no time block escapes. The cut-off shift (2.9-30.0 deg) is the
-  largest part for the right knee's j2; curvature (2.4-5.2 deg) and time blocks
-  (4.8-10.5 deg) are smaller. The warnings name the largest part ("uncertain (model)"
-  left, "uncertain (cut-off)" right). The ankles fitted as a hinge get 24.8-40.6 deg of
-  model term: they excite their weakest direction less than the knees do. For the joint
-  centres the two largest parts are the cut-off shift (refits at 0.75 and 1.5 x the
-  cut-off; 12-96 mm) and the model term (1-156 mm; the largest part of five of the
-  twelve, the left hip in 55-100 s at its poor fit most of all), against 2-22 mm of
-  curvature and 2-30 mm of time blocks. The answered centres have a 1-sigma of 26-186 mm
-  (25-99 mm before the joint centre's model term) and every one warns that it is
-  uncertain. The split halves agree well within these sigmas; a model error that both
-  halves share (soft tissue, a joint that is no ball) cannot show there, and that is
-  what the model term is for.
+- **Uncertainty.** The knee axes in 0-55 s (refused, above) have a 1-sigma of 18.8-40.4
+  deg. Most of it is the model term (18-25 deg): the real knees' residual is large
+  (0.37-0.39 of the signal) and mostly smooth, the signature of soft tissue and of a
+  knee that is no perfect hinge, which no time block escapes. The cut-off shift
+  (2.9-30.0 deg) is the largest part for the right knee's j2; curvature (2.4-5.2 deg)
+  and time blocks (4.8-10.5 deg) are smaller. The warnings name the largest part
+  ("uncertain (model)" left, "uncertain (cut-off)" right). The ankles fitted as a hinge
+  get 24.8-40.6 deg of model term: they excite their weakest direction less than the
+  knees do. For the joint centres the two largest parts are the cut-off shift (refits at
+  0.75 and 1.5 x the cut-off; 12-96 mm) and the model term (1-156 mm; the largest part
+  of five of the twelve, the left hip in 55-100 s at its poor fit most of all), against
+  2-22 mm of curvature and 2-30 mm of time blocks. The answered centres have a 1-sigma
+  of 26-186 mm (25-99 mm before the joint centre's model term) and every one warns that
+  it is uncertain. The split halves agree well within these sigmas; a model error that
+  both halves share (soft tissue, a joint that is no ball) cannot show there, and that
+  is what the model term is for.
 - **Ankles fitted as a hinge.** They leave 0.26-0.38 of the signal, below the real knees,
   and their restarts agree (this ankle moves mostly in one plane), so imucal does not
   refuse them. The left ankle in 55-100 s, which came out `good` (1-sigma 3.6 / 4.9 deg)
@@ -449,12 +453,12 @@ FOOTER = """
 - **Joint centres.** They moved with the new joint-centre filter (a flat fourth-order
   low-pass at a cut-off from the spectrum instead of a second-order one at 10 Hz, and an
   8th-order difference for `gdot`; [method.md](method.md#the-joint-centre-filter)): the
-  knees and ankles by 15-35 mm, within their sigmas. The knee
-  centres (`--joint hinge`, 0-55 s) lie 80-92 mm from each sensor, with 1-sigma 66-68
-  mm; in 55-100 s they inherit the axis' refusal. The ankle centres lie 147-180 mm from
-  the shank sensor and 95-109 mm from the foot sensor in both windows, with 1-sigma 31-92
-  mm. The hip (pelvis - thigh) fits the spheroidal model with a relative residual of
-  0.09-0.25 (the left hip in 55-100 s at the 0.25 where imucal warns of a poor fit);
+  knees and ankles by 15-35 mm, within their sigmas. The knee centres (`--joint hinge`,
+  0-55 s) lie 80-92 mm from each sensor, with 1-sigma 66-68 mm; they inherit the axis'
+  refusal in both windows (0-55 s: the gravity check). The ankle centres lie 147-180 mm
+  from the shank sensor and 95-109 mm from the foot sensor in both windows, with 1-sigma
+  31-92 mm. The hip (pelvis - thigh) fits the spheroidal model with a relative residual
+  of 0.09-0.25 (the left hip in 55-100 s at the 0.25 where imucal warns of a poor fit);
   in 55-100 s the right hip has a second centre 241 mm away within 1.05 x the best RMS
   residual, reached by 61 restarts: refused. The left hip in 55-100 s shows no such
   second minimum with this seed and is answered with a 1-sigma of 186 mm.
@@ -483,10 +487,11 @@ FOOTER = """
   model term). Before issue 10, with the curvature alone,
   the same splits disagreed by up to 15.3 combined sigma (left knee), 13.4 (right
   knee), 14.5 and 13.6 (left and right hip):
-  [quality.md](quality.md#how-the-uncertainty-is-computed-and-why). The knee axis has
-  only one split with both halves answered (right knee, 0-55 s: 0.3): the left knee's
-  0-27.5 s half is refused (restarts disagree and the hinge fits poorly), and every half
-  that contains most of 55-100 s spans more than a knee can. A refused half makes no
+  [quality.md](quality.md#how-the-uncertainty-is-computed-and-why). No knee axis half
+  is answered: the halves in 0-55 s fail the gravity check (the right knee's two, both
+  `use with care` before, agreed within 0.3 combined sigma on the segments' long axes:
+  halves that share a wrong axis agree), and every half that contains most of 55-100 s
+  spans more than a knee can. A refused half makes no
   claim, so the right hip's 2.5 (55-77.5 / 77.5-100 s) and 2.5 (0-50 / 50-100 s) do not
   count.
 
