@@ -399,11 +399,17 @@ def _unapplied_move_warning(result, found: Offset, rate: float, per_s: dict,
     worst = max(ratios, key=ratios.get)
     if not ratios[worst] > UNAPPLIED_MOVE_SIGMAS:
         return []
-    return [f"with the second sensor read {1000 * found.delta_s:+.1f} ms later, where the "
+    return [f"with the second sensor read {_read_at(found.delta_s, '.1f')}, where the "
             f"residual is lowest (by a factor {found.cost_ratio:.2f}, too little to apply "
             f"it), {worst} would move by {moves[worst]:.2g} {unit}, {ratios[worst]:.1f} times "
             "its 1-sigma: the estimate rests on the clocks being in sync. Check the "
             "synchronisation, or pass the offset with --time-offset"]
+
+
+def _read_at(delta_s: float, spec: str) -> str:
+    """"20 ms later" / "37 ms earlier" for a shift of the second sensor, s (it read
+    "-37 ms later")."""
+    return f"{format(1000 * abs(delta_s), spec)} ms {'earlier' if delta_s < 0 else 'later'}"
 
 
 def _follow(fit, profile, rate: float, search: float, found: Offset):
@@ -509,9 +515,9 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
         return []
     if found.at_edge:
         return [offset_edge_reason(found, refused=False)]
-    where = (f"at least {1000 * found.delta_s:+.0f} ms later (the end of the search)"
+    where = (f"at least {_read_at(found.delta_s, '.0f')} (the end of the search)"
              if at_search_end(found, rate)
-             else f"{1000 * found.delta_s:+.0f} ms later (+-{1000 * found.sigma_s:.0f} ms)")
+             else f"{_read_at(found.delta_s, '.0f')} (+-{1000 * found.sigma_s:.0f} ms)")
     if found.cost_ratio >= MIN_COST_RATIO and abs(found.delta_s) > MIN_APPLIED_SAMPLES / rate:
         return [f"the residual is lowest with the second sensor read {where}, lower by a "
                 f"factor {found.cost_ratio:.2f}, but the offset is not determined well "
