@@ -315,6 +315,34 @@ def write_fully(write: Callable, data: bytes) -> None:
         view = view[n:]
 
 
+#: Encodings whose encoder starts every call with a byte-order mark: encoded per call,
+#: each output would carry one (the text stream writes it once).
+_BOM_ENCODINGS = frozenset({"utf-16", "utf-32", "utf-8-sig"})
+
+
+def _byte_stream():
+    """Standard output's binary buffer where writing the encoded text there is what the
+    text stream would write: the interpreter's own stream (a TextIOWrapper over a
+    buffered file, or the raw file itself with ``python -u`` / PYTHONUNBUFFERED, whose
+    short writes the text stream drops as well), no newline translation (POSIX) and no
+    byte-order mark. Else None: a stand-in (imucal.cli's closed stdout, a notebook's or
+    a test harness's stream), which gets the text as it is."""
+    import codecs
+
+    out = sys.stdout
+    if type(out) is not io.TextIOWrapper or os.linesep != "\n":
+        return None
+    buffer = getattr(out, "buffer", None)
+    if not isinstance(buffer, io.BufferedWriter | io.FileIO):
+        return None
+    try:
+        if codecs.lookup(out.encoding).name in _BOM_ENCODINGS:
+            return None
+    except (LookupError, TypeError):
+        return None
+    return buffer
+
+
 def write_stdout(text: str) -> None:
     """``text`` to standard output, flushed (a reader, jq or ``tail -f``, sees it at
     once). A failed write names standard output (it said only "No space left on device"
@@ -329,16 +357,13 @@ def write_stdout(text: str) -> None:
         the reader has gone.
     """
     try:
-        buffer = getattr(sys.stdout, "buffer", None)
-        if buffer is None:  # a stand-in (imucal.cli's closed stdout)
+        buffer = _byte_stream()
+        if buffer is None:
             sys.stdout.write(text)
             sys.stdout.flush()
         else:
             sys.stdout.flush()
-            if os.linesep != "\n":  # as the text stream would translate them
-                text = text.replace("\n", os.linesep)
-            write_fully(buffer.write, text.encode(sys.stdout.encoding or "utf-8",
-                                                  sys.stdout.errors or "strict"))
+            write_fully(buffer.write, text.encode(sys.stdout.encoding, sys.stdout.errors))
             buffer.flush()
     except BrokenPipeError:
         raise

@@ -318,9 +318,14 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     check_recording(recording)
     # usage errors before any joint runs (each joint's estimate would stop on them, and
     # they came back as joints marked `failed`); the window against the recording too
-    CalibrateSettings(restarts=restarts, seed=seed, time_offset=time_offset,
-                      offset_search=offset_search, acc_error=acc_error)
-    AxisSettings(start=start, end=end)
+    checked = CalibrateSettings(restarts=restarts, seed=seed, time_offset=time_offset,
+                                offset_search=offset_search, acc_error=acc_error)
+    window = AxisSettings(start=start, end=end)
+    # the checked values from here on: a 0-d array (a number to the checks) stopped the
+    # calibration file's JSON at the end
+    restarts, seed, time_offset = checked.restarts, checked.seed, checked.time_offset
+    offset_search, acc_error = checked.offset_search, checked.acc_error
+    start, end = window.start, window.end
     asked = recording.window_slice(start, end)
     smoothing_s = check_smoothing(SMOOTHING_S if smoothing_s is None else smoothing_s)
     specs, notes = _joint_specs(recording, joints)

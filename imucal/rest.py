@@ -123,8 +123,9 @@ def gravity_check(gyr1, acc1, gyr2, acc2, j1, j2, rate: float, *,
 
 
 def gravity_warning(check: dict, what: str = "the axis") -> str | None:
-    """The warning for a failed :func:`gravity_check`, with its evidence; None if it passed
-    or could not be made."""
+    """The reason for a failed :func:`gravity_check`, with its evidence (it refuses the
+    axis, :func:`imucal.estimate_axis`; a warning where another reason refuses it first);
+    None if it passed or could not be made."""
     if check["consistent"] is not False:
         return None
     worst = max(check["periods"], key=lambda r: r["mismatch_deg"])

@@ -271,6 +271,15 @@ def test_numbers_in_other_containers(pair, rec, cal):
         with pytest.raises(InputError, match=f"window {name} must be a finite number of "
                                              "seconds"):
             imucal.calibrate(rec, restarts=3, seed=1, **window)
+    # numbers as 0-d arrays pass the checks, and the file records them as numbers (its
+    # JSON stopped at them)
+    cal0 = imucal.calibrate(rec, restarts=np.array(3), seed=np.array(1), start=np.array(0.0),
+                            offset_search=np.array(0.4), acc_error=np.array(0.05))
+    import json
+
+    settings = json.loads(json.dumps(cal0.to_document()))["settings"]
+    assert settings["restarts"] == 3 and settings["offset_search_s"] == 0.4
+    assert settings["acc_error_m_s2"] == 0.05 and settings["start"] == 0.0
     with pytest.raises(InputError, match="sample rate must be a positive number"):
         imucal.estimate_axis(g1, g2, rate=10**400)
     with pytest.raises(InputError, match="flexion sign must be auto"):

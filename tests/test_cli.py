@@ -218,14 +218,20 @@ def test_a_reader_that_stops_early_ends_the_command_quietly(files):
     assert err == b""
 
 
-def test_a_reader_that_stops_in_the_middle_of_the_output_is_no_success():
+@pytest.mark.parametrize("unbuffered", ["", "1"])
+def test_a_reader_that_stops_in_the_middle_of_the_output_is_no_success(unbuffered):
     # `imucal angles walk.h5 -c cal.json | head -1` exited 0: a reader that leaves during
     # one large write made Python's stream return the bytes written so far, not fail, so
     # the output was cut short without a word. With --trace the JSON is about 80 kB, more
     # than a pipe holds: the reader takes 10 bytes while the write is under way.
     sample = str(ROOT / "sample_data" / "circling.h5")
+    # (with PYTHONUNBUFFERED the text stream writes to the raw file, whose short write
+    # it drops just the same)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    if unbuffered:
+        env["PYTHONUNBUFFERED"] = unbuffered
     proc = subprocess.Popen([sys.executable, "-m", "imucal", "axis", sample, "--trace",
-                             "--seed", "1", "-q"], bufsize=0,
+                             "--seed", "1", "-q"], bufsize=0, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     assert proc.stdout.read(10).startswith(b"{")  # the JSON has begun
     proc.stdout.close()
@@ -448,3 +454,33 @@ def test_the_first_ending_signal_raises_and_later_ones_are_ignored():
         signals.uninstall()
         for s, handler in saved.items():
             signal.signal(s, handler)
+
+
+def test_standard_output_stand_ins_get_the_text_as_the_text_stream_would(monkeypatch):
+    # the byte path (for whole writes to a pipe) only where bytes are what the text
+    # stream would write: a notebook's StringIO, a UTF-16 stream (one byte-order mark,
+    # not one per write) and a subclass of the text stream get the text itself
+    import io
+
+    from imucal.atomic import write_stdout
+
+    text = io.StringIO()
+    monkeypatch.setattr(sys, "stdout", text)
+    write_stdout("a\n")
+    write_stdout("b\n")
+    assert text.getvalue() == "a\nb\n"
+    raw = io.BytesIO()
+    wide = io.TextIOWrapper(io.BufferedWriter(raw), encoding="utf-16")
+    monkeypatch.setattr(sys, "stdout", wide)
+    write_stdout("a\n")
+    write_stdout("b\n")
+    assert raw.getvalue().decode("utf-16") == "a\nb\n"
+    assert raw.getvalue().count(b"\xff\xfe") == 1
+
+    class Tee(io.TextIOWrapper):
+        pass
+
+    raw = io.BytesIO()
+    monkeypatch.setattr(sys, "stdout", Tee(io.BufferedWriter(raw), encoding="utf-8"))
+    write_stdout("c\n")
+    assert raw.getvalue() == b"c\n"
