@@ -32,8 +32,8 @@ US_PER_S = 1e6
 
 
 def sniff(path: Path) -> bool:
-    """Whether ``path`` (a file or a folder) holds an APDM Opal HDF5 file, judged by its content
-    (cheap: the first bytes or lines, a folder's file names)."""
+    """Whether ``path`` holds an APDM Opal HDF5 file (the plug-in ``sniff``,
+    :mod:`imucal.formats`)."""
     if not path.is_file():
         return False
     with open(path, "rb") as fh:
@@ -63,14 +63,8 @@ def _units(ds, kind: str, default: str) -> str:
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """Every sensor's raw samples of ``path``, in the units the file declares; ``source``
-    names it in messages (default ``str(path)``).
-
-    Raises
-    ------
-    InputError
-        naming ``source`` and the problem, for anything that cannot be read as this format.
-    """
+    """``path`` read as an APDM Opal HDF5 file (the plug-in ``read``, :mod:`imucal.formats`:
+    an InputError naming ``source`` for anything unusable)."""
     source = source or str(path)
     try:
         with h5py.File(path, "r") as h5:

@@ -28,8 +28,8 @@ def _motion_files(path: Path) -> list[Path]:
 
 
 def sniff(path: Path) -> bool:
-    """Whether ``path`` (a file or a folder) holds a BIDS-motion recording, judged by its content
-    (cheap: the first bytes or lines, a folder's file names)."""
+    """Whether ``path`` holds a BIDS-motion recording (the plug-in ``sniff``,
+    :mod:`imucal.formats`)."""
     return bool(_motion_files(path))
 
 
@@ -38,14 +38,8 @@ def _sidecar(motion: Path, suffix: str) -> Path:
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """Every sensor's raw samples of ``path``, in the units the file declares; ``source``
-    names it in messages (default ``str(path)``).
-
-    Raises
-    ------
-    InputError
-        naming ``source`` and the problem, for anything that cannot be read as this format.
-    """
+    """``path`` read as a BIDS-motion recording (the plug-in ``read``, :mod:`imucal.formats`:
+    an InputError naming ``source`` for anything unusable)."""
     source = source or str(path)
     files = _motion_files(path)
     if len(files) > 1:

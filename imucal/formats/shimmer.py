@@ -33,8 +33,8 @@ def _split(lines):
 
 
 def sniff(path: Path) -> bool:
-    """Whether ``path`` (a file or a folder) holds a Shimmer Consensys export, judged by its content
-    (cheap: the first bytes or lines, a folder's file names)."""
+    """Whether ``path`` holds a Shimmer Consensys export (the plug-in ``sniff``,
+    :mod:`imucal.formats`)."""
     if not path.is_file() or path.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
         return False
     lines = head_text(path, 4096).splitlines()
@@ -46,14 +46,8 @@ def sniff(path: Path) -> bool:
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """Every sensor's raw samples of ``path``, in the units the file declares; ``source``
-    names it in messages (default ``str(path)``).
-
-    Raises
-    ------
-    InputError
-        naming ``source`` and the problem, for anything that cannot be read as this format.
-    """
+    """``path`` read as a Shimmer Consensys export (the plug-in ``read``, :mod:`imucal.formats`:
+    an InputError naming ``source`` for anything unusable)."""
     source = source or str(path)
     lines = read_text(path, source).splitlines()
     sep, start = _split(lines)

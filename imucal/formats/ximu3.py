@@ -59,20 +59,14 @@ def _empty(path: Path) -> list[Path]:
 
 
 def sniff(path: Path) -> bool:
-    """Whether ``path`` (a file or a folder) holds an x-IMU3 logged session, judged by its content
-    (cheap: the first bytes or lines, a folder's file names)."""
+    """Whether ``path`` holds an x-IMU3 logged session (the plug-in ``sniff``,
+    :mod:`imucal.formats`)."""
     return bool(_devices(path) or _empty(path))
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """Every sensor's raw samples of ``path``, in the units the file declares; ``source``
-    names it in messages (default ``str(path)``).
-
-    Raises
-    ------
-    InputError
-        naming ``source`` and the problem, for anything that cannot be read as this format.
-    """
+    """``path`` read as an x-IMU3 logged session (the plug-in ``read``, :mod:`imucal.formats`:
+    an InputError naming ``source`` for anything unusable)."""
     source = source or str(path)
     files, empty = _devices(path), _empty(path)
     if not files and path.is_file():

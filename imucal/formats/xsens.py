@@ -59,20 +59,14 @@ def _files(path: Path) -> list[Path]:
 
 
 def sniff(path: Path) -> bool:
-    """Whether ``path`` (a file or a folder) holds an Xsens MT Manager export, judged by its content
-    (cheap: the first bytes or lines, a folder's file names)."""
+    """Whether ``path`` holds an Xsens MT Manager export (the plug-in ``sniff``,
+    :mod:`imucal.formats`)."""
     return bool(_files(path))
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """Every sensor's raw samples of ``path``, in the units the file declares; ``source``
-    names it in messages (default ``str(path)``).
-
-    Raises
-    ------
-    InputError
-        naming ``source`` and the problem, for anything that cannot be read as this format.
-    """
+    """``path`` read as an Xsens MT Manager export (the plug-in ``read``, :mod:`imucal.formats`:
+    an InputError naming ``source`` for anything unusable)."""
     source = source or str(path)
     return read_export(path, source, _files(path), _read_file, NAME, "Xsens MT Manager export")
 
