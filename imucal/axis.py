@@ -140,6 +140,14 @@ MAX_INFORMATIVE_SIGMA_DEG = 90.0
 #: Below this RMS flexion rate (j2.g2 - j1.g1 at the estimate) the joint did not bend,
 #: deg/s: a rigid joint fits every pair j1 = R j2. Voluntary knee motion is 50-400 deg/s.
 MIN_FLEXION_RATE_DEG_S = 5.0
+#: A joint that bent at less than this RMS rate, deg/s, and at less than
+#: ``MIN_FLEXION_SHARE`` of the rate its segments turned across the axis, did not bend
+#: clearly more than the sensors wobble on the skin: a rigid knee swung with soft tissue
+#: of 2-5 deg / 3-8 mm (simulated, seeds 1-8) bent at 9-48 deg/s about axes 40-87 deg
+#: from the truth, and was "use with care" at a 1-sigma of 11-20 deg (3-5 sigma off).
+#: Knee motion bends at 68-265 deg/s, 0.8-10 times its segments' rate across the axis.
+MIN_BENT_FLEXION_RATE_DEG_S = 30.0
+MIN_FLEXION_SHARE = 0.5
 #: Below this smallest/largest singular value of the Jacobian one direction of (j1, j2)
 #: is not determined (a rigid knee gives about 0.02, knee motion 0.1-0.9).
 MIN_SINGULAR_RATIO = 0.04
@@ -669,6 +677,14 @@ def _blocking(p: Prepared, q: dict, decision, doubts: list[str]) -> list[str]:
         return [f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
                 f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this "
                 "recording; record the joint flexing and extending"]
+    across = max(q["excitation"]["joint_plane_rate_rms_deg_s"])
+    if flex < MIN_BENT_FLEXION_RATE_DEG_S and flex < MIN_FLEXION_SHARE * across:
+        return [f"the joint barely bent while its segments turned (RMS flexion rate "
+                f"{flex:.1f} deg/s, {flex / across:.2f} of the {across:.0f} deg/s they turned "
+                f"across the axis; below {MIN_BENT_FLEXION_RATE_DEG_S:g} deg/s and "
+                f"{MIN_FLEXION_SHARE:g}): what bent may be the sensors moving on the skin, so "
+                "the axis is not identifiable from this recording; record the joint "
+                "flexing and extending"]
     if ratio < MIN_SINGULAR_RATIO:
         return [f"the data leave one direction of the axes undetermined (singular ratio "
                 f"{ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not identifiable "

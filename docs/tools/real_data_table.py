@@ -53,6 +53,7 @@ ROUGH_LATERAL = {
 #: an unknown warning shows as its first 30 characters.
 SHORT = {
     "the sensors barely rotate": "no motion",
+    "the joint barely bent while": "wobble, not flexion",
     "the joint barely bent": "rigid",
     "the joint barely moved": "rigid",
     "the data leave one direction": "undetermined",
