@@ -37,7 +37,7 @@ def scheduler():
     from distributed import LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None) as cluster:
+                      dashboard_address=":0") as cluster:
         yield cluster.scheduler_address
 
 
@@ -188,7 +188,7 @@ def test_a_cluster_lost_mid_study_stops_it_with_one_message(files, monkeypatch, 
     folder, _ = files
     job, names = _slow_study(folder, restarts=30 if loss == "results" else 300)
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None) as local:
+                      dashboard_address=":0") as local:
         client = cluster.connect(local.scheduler_address)
         try:
             entries = client.process(job, names)
