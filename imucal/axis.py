@@ -387,7 +387,7 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
 
     def again(seconds):
         return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
-                             settings=replace(s, time_offset=seconds))
+                             settings=s.at_offset(seconds))
     return _refuse_if_uninformative(fit_with_offset(
         again, _offset_profile(g1, g2, rate, s.offset_search), rate, s.offset_search,
         _offset_moved, "deg", MAX_UNCERTAINTY_DEG, lambda r: np.concatenate([r.j1, r.j2])))

@@ -154,9 +154,9 @@ TimeOffset = Annotated[str, typer.Option(
     "time_offset), 0 (clocks in sync) or a number of seconds to apply.")]
 OffsetSearch = Annotated[float, typer.Option(
     "--offset-search", metavar="SECONDS", help="How far --time-offset auto searches, +- s "
-    "(at most 10). Widen it when the sensors' clocks may differ by more than 0.2 s; a "
-    "motion that repeats (gait, circling) can then show minima that are not the clock's "
-    "(docs/method.md).")]
+    "(at most 10; with --time-offset auto only). Widen it when the sensors' clocks may "
+    "differ by more than 0.2 s; a motion that repeats (gait, circling) can then show "
+    "minima that are not the clock's (docs/method.md).")]
 AccError = Annotated[float, typer.Option(
     "--acc-error", metavar="M/S^2", help="1-sigma of each accelerometer's error at 1 g, "
     "m/s^2: an offset of this size and a scale error of this / 1 g per axis, carried "

@@ -372,7 +372,7 @@ def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> Positi
 
     def again(seconds):
         return estimate_position(g1, a1, g2, a2, rate=rate, axis=axis,
-                                 settings=replace(s, time_offset=seconds))
+                                 settings=s.at_offset(seconds))
     # No offset's choice in the 1-sigma (``state``), unlike the axis: 20 ms move a joint
     # centre by hundreds of mm, so a choice capped at 3 x the model term would always add
     # all of that to every clean fit with a real offset (simulated, 20 ms late: 8 of 10

@@ -16,7 +16,7 @@ from __future__ import annotations
 import decimal
 import math
 import numbers
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -81,7 +81,8 @@ class AxisSettings:
         The second sensor's clock lateness, s, or "auto".
     offset_search : float
         Search range of the automatic time offset, +- s, > 0; at least one sample (an
-        estimate refuses a shorter one).
+        estimate refuses a shorter one). Only with ``time_offset="auto"``: a range other
+        than the default with a given offset is an InputError (no search would run).
     time_origin : float
         Time of the first sample given, s on the recording's clock: the still periods
         of the gravity check (and their warning) are reported on that clock.
@@ -135,10 +136,17 @@ class AxisSettings:
             raise InputError(f"select must be True or False, got {self.select!r}")
         object.__setattr__(self, "select", bool(self.select))
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
+        _check_search_used(self)
 
     def as_kwargs(self) -> dict:
         """The settings as keyword arguments of the estimator."""
         return asdict(self)
+
+    def at_offset(self, seconds: float) -> AxisSettings:
+        """These settings with the offset the automatic search chose, s: the refit's (no
+        search runs in it; the range searched is recorded by the search,
+        ``time_offset.search_s``)."""
+        return replace(self, time_offset=seconds, offset_search=OFFSET_SEARCH_S)
 
 
 @dataclass(frozen=True)
@@ -204,6 +212,7 @@ class CalibrateSettings:
             _check_int(self, "seed", 0)
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
         _check_number(self, "offset_search", low=0.0, open_low=True, high=MAX_TIME_OFFSET_S)
+        _check_search_used(self)
         _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
 
 
@@ -226,6 +235,14 @@ def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) ->
     if both:
         raise InputError(f"give settings or keyword arguments, not both ({', '.join(both)})")
     return settings
+
+
+def _check_search_used(settings) -> None:
+    """A search range set with a given time offset would be ignored: no search runs."""
+    if settings.time_offset != "auto" and settings.offset_search != OFFSET_SEARCH_S:
+        raise InputError(f"offset_search applies to time offset auto only (no search runs "
+                         f"with a given offset), got {settings.offset_search:g} s with a "
+                         f"time offset of {settings.time_offset:g} s")
 
 
 def check_time_offset(value) -> float | str:
