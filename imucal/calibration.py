@@ -275,7 +275,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
         As in :func:`imucal.estimate_axis` / :func:`imucal.estimate_position` (window in s
         on the recording's time axis); every joint uses the same.
     smoothing_s
-        The angle fusion's kernel (:data:`imucal.angles.SMOOTHING_S`), stored for
+        The angle fusion's kernel (:data:`imucal.fusion.SMOOTHING_S`), stored for
         :func:`imucal.joint_angles`.
     acc_error
         1-sigma of each accelerometer's error at 1 g, m/s^2, for the joint centres'
@@ -312,7 +312,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     >>> sorted(cal.joints), cal.joints["knee"].verdict
     (['ankle', 'knee'], 'good')
     """
-    from .angles import SMOOTHING_S, check_smoothing
+    from .fusion import SMOOTHING_S, check_smoothing
     from .settings import AxisSettings, CalibrateSettings
 
     check_recording(recording)
@@ -581,7 +581,7 @@ def _angle_from_doc(name: str, angle: dict | None, identified: bool = True) -> d
                              ("hinge_residual", True), ("acc_gyro_disagreement_deg", True)):
         if not (_finite(angle[key]) or (may_be_null and angle[key] is None)):
             raise bad(key, "a finite number")
-    from .angles import SMOOTHING_RANGE_S, check_smoothing
+    from .fusion import SMOOTHING_RANGE_S, check_smoothing
 
     try:
         check_smoothing(angle["smoothing_s"])

@@ -1,0 +1,279 @@
+"""The flexion angle of a hinge from both sensors (Seel, Raisch, Schauer 2014, Sensors
+14:6891): the numerics :mod:`imucal.angles` applies.
+
+* **gyro angle**: ``theta_g(t) = integral of (j2.g2 - j1.g1) dt``, the rotation of the second
+  segment relative to the first about the axis (rad). Exact up to a constant, but a gyro
+  bias makes it drift linearly (0.02 rad/s is 69 deg per minute).
+* **acc angle**: the joint centre's acceleration seen from either sensor,
+  ``c_i = a_i - Gamma_gi(o_i)`` with ``Gamma_g(o) = g x (g x o) + gdot x o``, is one
+  physical vector; projected into each joint plane (orthogonal to ``j_i``), the angle
+  between the projections is the same rotation plus a constant set by the in-plane
+  reference directions (:func:`plane_basis`). It is noisy but does not drift.
+* **fusion** (offline, the whole recording): the offset ``d(t) = theta_a(t) - theta_g(t)``
+  is a constant plus the slow drift of the integrated bias plus noise. A local-linear
+  Gaussian-kernel regression of ``d`` (zero-phase, weighted by the in-plane acceleration
+  squared, exact for a drift that is linear within the kernel, also at the recording's
+  ends) gives ``d_hat``; the angle is ``theta_g + d_hat``. Everything is a few
+  convolutions (``scipy.ndimage.gaussian_filter1d``), no loop over samples.
+
+Units: rad/s, m/s^2, m in; rad out (sensor frames throughout).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+from scipy.ndimage import gaussian_filter1d
+
+from .errors import InputError, NotIdentifiableError
+from .preprocess import derivative, lowpass
+from .settings import as_real
+
+#: Half-width (1-sigma of the Gaussian kernel) of the fusion, s. The kernel removes the
+#: acc angle's noise and its stride-locked errors (soft tissue, an imperfect o: a stride
+#: lasts about 1 s, and a 3 s kernel passes < 1e-15 of 1 Hz) while following any gyro
+#: bias that changes over tens of seconds; a bias that is constant is followed exactly.
+SMOOTHING_S = 3.0
+#: The kernel's half-width a calibration may carry, s: below a few samples there is no
+#: fusion, and far beyond a recording's length the kernel only costs time and memory
+#: (1e9 s asked for terabytes).
+SMOOTHING_RANGE_S = (0.01, 600.0)
+
+
+def check_smoothing(smoothing_s) -> float:
+    """``smoothing_s`` as a float within :data:`SMOOTHING_RANGE_S`, else InputError."""
+    low, high = SMOOTHING_RANGE_S
+    value = as_real(smoothing_s)
+    if value is None and not isinstance(smoothing_s, float | np.floating):
+        raise InputError(f"smoothing_s must be a number of seconds, got {smoothing_s!r}")
+    if value is None:  # nan, inf
+        value = float(smoothing_s)
+    if not low <= value <= high:
+        raise InputError(f"smoothing_s must be from {low:g} to {high:g} s, got {value:g}")
+    return value
+
+
+#: Ridge of the local-linear fit's slope, as a fraction of the kernel's sigma: a drift
+#: that is linear within the kernel is still followed to within 4 % of its slope.
+RIDGE = 0.2
+#: The offset is fitted where the kernel holds at least this share of the usable weight
+#: it typically holds; across longer stretches without usable acceleration (standing
+#: with the axis along gravity, free fall) it is interpolated between their ends.
+MIN_KERNEL_SHARE = 0.1
+#: Low-pass before the acc angle (4th-order zero-phase Butterworth, Hz): gdot is a
+#: derivative of the gyro and amplifies its noise; human motion lies below it.
+ACC_ANGLE_CUTOFF_HZ = 12.0
+#: The acc angle is not used where the in-plane part of c_i is below this in either
+#: sensor (m/s^2): its direction is then mostly noise (free fall, an axis along gravity).
+MIN_INPLANE_ACC = 2.0
+
+
+# ----------------------------------------------------------------------------- signals
+
+
+def plane_basis(j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """In-plane reference directions ``x``, ``y = j x x`` of the joint plane orthogonal to
+    the unit axis ``j`` (sensor frame): ``x`` is the sensor axis least aligned with ``j``,
+    made orthogonal to it. Fixed by ``j`` alone, so the acc angle's constant is fixed by
+    the calibration (the zero convention then replaces it)."""
+    j = np.asarray(j, dtype=float)
+    e = np.zeros(3)
+    e[int(np.argmin(np.abs(j)))] = 1.0
+    x = e - (e @ j) * j
+    x /= np.linalg.norm(x)
+    return x, np.cross(j, x)
+
+
+def joint_centre_acc(g: np.ndarray, a: np.ndarray, o: np.ndarray, rate: float) -> np.ndarray:
+    """``c = a - (g x (g x o) + gdot x o)`` (N, 3), m/s^2, sensor frame: the joint centre's
+    specific force, with ``o`` the vector from the joint centre to the sensor (m)."""
+    gdot = derivative(g, rate)
+    return a - (np.cross(g, np.cross(g, o)) + np.cross(gdot, o))
+
+
+@dataclass(frozen=True)
+class HingeSignals:
+    """Per-sample ingredients of the flexion angle of one hinge (all (N,) arrays).
+
+    rate : j2.g2 - j1.g1, rad/s. theta_gyro : its integral from 0, rad.
+    theta_acc : the acc angle, rad, wrapped to (-pi, pi]. inplane : the smaller of the two
+    in-plane magnitudes of c_i, m/s^2. weight : fusion weight (inplane^2, 0 where unusable).
+    discrepancy : |g1 x j1| - |g2 x j2|, rad/s: the rates across the axis that a rigid
+    hinge would make equal (soft tissue, a joint that is no hinge, a wrong axis).
+    """
+
+    rate: np.ndarray
+    theta_gyro: np.ndarray
+    theta_acc: np.ndarray
+    inplane: np.ndarray
+    weight: np.ndarray
+    discrepancy: np.ndarray
+
+
+def hinge_signals(g1, a1, g2, a2, *, rate: float, j1, j2, o1, o2) -> HingeSignals:
+    """The gyro and acc angles of a hinge (module docstring); inputs in rad/s, m/s^2, m."""
+    j1, j2 = (np.asarray(v, float) / np.linalg.norm(v) for v in (j1, j2))
+    w = j2 @ np.asarray(g2, float).T - j1 @ np.asarray(g1, float).T
+    dt = 1.0 / rate
+    theta_g = cumulative_trapezoid(w, dx=dt, initial=0.0)
+    cut = min(ACC_ANGLE_CUTOFF_HZ, 0.4 * rate)
+    angles, mags = [], []
+    for g, a, j, o in ((g1, a1, j1, o1), (g2, a2, j2, o2)):
+        gf, af = lowpass(np.asarray(g, float), rate, cut, 4), lowpass(np.asarray(a, float),
+                                                                       rate, cut, 4)
+        c = joint_centre_acc(gf, af, np.asarray(o, float), rate)
+        x, y = plane_basis(j)
+        cx, cy = c @ x, c @ y
+        angles.append(np.arctan2(cy, cx))
+        mags.append(np.hypot(cx, cy))
+    # c2 = Rot(j, phi)^T c1 in aligned plane coordinates: phi = angle(c1) - angle(c2).
+    theta_a = np.angle(np.exp(1j * (angles[0] - angles[1])))
+    inplane = np.minimum(mags[0], mags[1])
+    weight = np.where(inplane >= MIN_INPLANE_ACC, inplane**2, 0.0)
+    g1, g2 = np.asarray(g1, float), np.asarray(g2, float)
+    disc = (np.linalg.norm(np.cross(g1, j1), axis=1) - np.linalg.norm(np.cross(g2, j2), axis=1))
+    return HingeSignals(w, theta_g, theta_a, inplane, weight, disc)
+
+
+# ----------------------------------------------------------------------------- fusion
+
+
+@dataclass(frozen=True)
+class Fusion:
+    """Result of :func:`fuse` (rad, (N,) arrays): ``theta`` the fused angle, ``offset`` the
+    smoothed acc-minus-gyro offset, ``residual`` the acc angle's deviation from ``theta``
+    (NaN where unused), ``sigma`` the 1-sigma of ``theta`` (module docstring and
+    docs/angles.md), ``disagreement`` the weighted RMS of ``residual`` (rad) and
+    ``correlation_samples`` the residual's correlation length used for ``sigma``."""
+
+    theta: np.ndarray
+    offset: np.ndarray
+    residual: np.ndarray
+    sigma: np.ndarray
+    disagreement: float
+    correlation_samples: float
+
+
+def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
+    return gaussian_filter1d(x, sigma, mode="constant", cval=0.0, truncate=4.0)
+
+
+def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fusion:
+    """Gyro angle plus a zero-phase local-linear estimate of the acc-minus-gyro offset.
+
+    Raises
+    ------
+    NotIdentifiableError
+        the joint centre's acceleration never lies in the joint plane: no accelerometer
+        angle corrects the gyro drift.
+    """
+    n = sig.theta_gyro.shape[0]
+    w = sig.weight
+    if not np.any(w > 0):
+        raise NotIdentifiableError(
+            "the joint centre's acceleration never lies in the joint plane (in-plane part "
+            f"below {MIN_INPLANE_ACC:g} m/s^2 throughout): no accelerometer angle to correct "
+            "the gyro drift")
+    s = smoothing_s * rate  # kernel sigma in samples
+    raw = np.angle(np.exp(1j * (sig.theta_acc - sig.theta_gyro)))
+    # The offset drifts through +-pi with a bias: unwrap a smoothed circular mean, then
+    # put every sample within pi of it.
+    # Unwrapped over the usable samples only: between them the smoothed mean is noise.
+    zc = _smooth(w * np.exp(1j * raw).real, s) + 1j * _smooth(w * np.exp(1j * raw).imag, s)
+    use = np.flatnonzero(w > 0)
+    coarse = np.interp(np.arange(n), use, np.unwrap(np.angle(zc[use])))
+    d = coarse + np.angle(np.exp(1j * (raw - coarse)))
+    offset, var_unit = _local_linear(d, w, s)
+    residual = np.where(w > 0, d - offset, np.nan)
+    r0 = np.nan_to_num(residual)
+    # The local mean square, shrunk towards the recording's where the kernel holds few
+    # usable samples (a fit to a handful of samples leaves a residual that is too small).
+    mass = _smooth(w, s)
+    prior = MIN_KERNEL_SHARE * np.median(mass[w > 0])
+    overall = float(np.sum(w * r0**2) / np.sum(w))
+    local_ms = (_smooth(w * r0**2, s) + prior * overall) / (mass + prior)
+    tau = _correlation_samples(r0, w)
+    sigma_offset = np.sqrt(np.maximum(local_ms, 0.0) * var_unit * tau)
+    # What the offset cannot correct: the gyro angle's own error within the kernel. Its
+    # size is estimated from the rates across the axis that a hinge would make equal:
+    # their integral, less its slow part (which the fusion would absorb), local RMS.
+    ones = np.ones(n)
+    walk = cumulative_trapezoid(sig.discrepancy, dx=1.0 / rate, initial=0.0)
+    fast = walk - _local_linear(walk, ones, s)[0]
+    sigma_shape = np.sqrt(_smooth(fast**2, s) / _smooth(ones, s))
+    sigma = np.hypot(sigma_offset, sigma_shape)
+    disagreement = math.sqrt(float(np.sum(w * r0**2) / np.sum(w)))
+    return Fusion(sig.theta_gyro + offset, offset, residual, sigma, disagreement, tau)
+
+
+def _local_linear(d: np.ndarray, w: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Local-linear regression of ``d`` with weights ``w * K`` (Gaussian K, sigma ``s``
+    samples) at every sample, and the sum of squared equivalent weights (the variance of
+    the estimate per unit variance of independent samples). The slope carries a ridge
+    (:data:`RIDGE`); where the kernel holds less than :data:`MIN_KERNEL_SHARE` of its
+    typical usable weight, the estimate is interpolated between the neighbouring fits
+    and its variance grows with the squared distance to them, in kernel sigmas."""
+    n = d.shape[0]
+    t = np.arange(n, dtype=float) - n / 2
+    k2 = s / math.sqrt(2.0)
+    k2_scale = 1.0 / (2.0 * math.sqrt(math.pi) * s)  # sum of K^2 for the normalised K
+
+    def mom(x, sq=False):
+        return _smooth(x, k2) * k2_scale if sq else _smooth(x, s)
+
+    wk = [mom(w * t**p) for p in range(3)]
+    wd = [mom(w * d * t**p) for p in range(2)]
+    s0 = wk[0]
+    s1 = wk[1] - t * wk[0]
+    s2 = wk[2] - 2 * t * wk[1] + t**2 * wk[0]
+    # A small ridge on the slope (as if the usable samples' times spread by RIDGE_S more):
+    # where they bunch up on one side of the kernel (a long stretch without usable
+    # acceleration) the slope is poorly determined, and extrapolating it would run away.
+    s2 = s2 + (RIDGE * s) ** 2 * s0
+    b0 = wd[0]
+    b1 = wd[1] - t * wd[0]
+    det = s0 * s2 - s1**2
+    # Only where the kernel holds a fair share of usable weight: an estimate from a few
+    # samples at the kernel's far end would extrapolate their slope across the gap.
+    typical = np.median(s0[w > 0]) if np.any(w > 0) else 0.0
+    ok = (s0 > MIN_KERNEL_SHARE * typical) & (det > 1e-9 * np.maximum(s0 * s2, 1e-300))
+    if not ok.any():
+        ok = s0 >= s0.max()
+    est = np.full(n, np.nan)
+    est[ok] = (s2[ok] * b0[ok] - s1[ok] * b1[ok]) / det[ok]
+    w2 = w**2
+    q = [mom(w2 * t**p, sq=True) for p in range(3)]
+    q0 = q[0]
+    q1 = q[1] - t * q[0]
+    q2 = q[2] - 2 * t * q[1] + t**2 * q[0]
+    var = np.full(n, np.nan)
+    var[ok] = (s2[ok] ** 2 * q0[ok] - 2 * s2[ok] * s1[ok] * q1[ok] + s1[ok] ** 2 * q2[ok]) / (
+        det[ok] ** 2)
+    if not ok.all():
+        # no usable sample under the kernel: carry the neighbours' estimate over, and let
+        # its variance grow with the distance to them (a drift is then extrapolated)
+        idx = np.arange(n)
+        good = np.flatnonzero(ok)
+        est[~ok] = np.interp(idx[~ok], good, est[ok])
+        pos = np.clip(np.searchsorted(good, idx[~ok]), 1, good.size - 1)
+        gap = np.minimum(np.abs(idx[~ok] - good[pos - 1]), np.abs(good[pos] - idx[~ok]))
+        var[~ok] = np.interp(idx[~ok], good, var[ok]) * (1.0 + (gap / s) ** 2)
+    return est, var
+
+
+def _correlation_samples(r: np.ndarray, w: np.ndarray) -> float:
+    """Correlation length of the weighted residual, samples (>= 1): twice the sum of its
+    autocorrelation up to the first zero crossing, minus one (white noise: 1)."""
+    x = np.sqrt(w) * r
+    n = x.shape[0]
+    if not np.any(x):
+        return 1.0
+    f = np.fft.rfft(x, 2 * n)
+    ac = np.fft.irfft(f * np.conj(f))[:n]
+    ac = ac / ac[0]
+    neg = np.flatnonzero(ac <= 0)
+    stop = int(neg[0]) if neg.size else n
+    return max(1.0, 2.0 * float(np.sum(ac[:stop])) - 1.0)
