@@ -60,7 +60,6 @@ from .quality import (
     uncertainty_totals,
     uncertainty_warning,
 )
-from .recording import check_rate
 from .rest import MAX_MISMATCH_DEG, gravity_check, gravity_warning
 from .restarts import (
     MIN_AGREEING_FRACTION,
@@ -88,6 +87,7 @@ from .time_offset import (
     fit_with_offset,
     profile_samples,
 )
+from .timing import check_rate
 from .vectors import joint_plane_rate, tangent_basis, unit
 
 #: Two axis estimates agree when both j1 and j2 are within this angle (sign-free), deg.

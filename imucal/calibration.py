@@ -22,7 +22,8 @@ import numpy as np
 from . import __version__
 from .errors import ImucalError, InputError
 from .quality import NOT_IDENTIFIABLE
-from .recording import Recording, check_recording, estimator_window, normalised_name, segment_of
+from .recording import Recording, check_recording, estimator_window
+from .sensor_names import normalised_name, segment_of
 from .settings import ACC_ERROR_M_S2, OFFSET_SEARCH_S
 
 FORMAT = "imucal-calibration"
@@ -171,7 +172,7 @@ def _vec(v):
 
 def sensor_segment(name: str) -> tuple[str | None, str | None]:
     """(side, segment) of a sensor name: segments thigh, shank, foot (with their synonyms,
-    :data:`imucal.recording.SEGMENT_SYNONYMS`) and pelvis; side left, right or None."""
+    :data:`imucal.sensor_names.SEGMENT_SYNONYMS`) and pelvis; side left, right or None."""
     side, segment = segment_of(name)
     if segment is None:
         words = [w for w in re.split(r"[\s_\-.]+", str(name).lower()) if w]

@@ -40,10 +40,10 @@ import numpy as np
 
 from .errors import InputError
 from .formats import RawSensor
-from .recording import RATE_WARN, check_plausible_rate
+from .timing import RATE_WARN, check_plausible_rate
 
 #: A header's claimed rate that differs from the time stamps' by more than this share
-#: is refused (one of them is wrong); more than :data:`imucal.recording.RATE_WARN` gives
+#: is refused (one of them is wrong); more than :data:`imucal.timing.RATE_WARN` gives
 #: a warning.
 RATE_REFUSE = 0.10
 #: Grid points this close to a device sample (in sample periods) are taken as that

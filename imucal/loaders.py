@@ -46,7 +46,9 @@ if TYPE_CHECKING:  # pandas is imported where CSV is parsed: it costs ~0.2 s of 
 from .errors import InputError
 from .errors import one_line as _one_line
 from .formats import HDF5_SIGNATURE, HDF5_SUFFIXES
-from .recording import Recording, check_rate, check_units, make_recording
+from .recording import Recording, make_recording
+from .sensor_checks import check_units
+from .timing import check_rate
 
 __all__ = ["load_recording"]
 

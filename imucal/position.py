@@ -63,7 +63,6 @@ from .quality import (
     uncertainty_totals,
     uncertainty_warning,
 )
-from .recording import ACC_UNITS, check_rate
 from .rest import GRAVITY_M_S2, LOCAL_GRAVITY_SPREAD_M_S2, norm_at_rest
 from .restarts import (
     competing_agreement,
@@ -76,6 +75,7 @@ from .restarts import (
 )
 from .result import EstimateResult, shared_fields
 from .selection import MAX_SAMPLES
+from .sensor_checks import ACC_UNITS
 from .settings import (
     ACC_ERROR_M_S2,
     MAX_ITERATIONS,
@@ -90,6 +90,7 @@ from .time_offset import (
     fit_with_offset,
     profile_samples,
 )
+from .timing import check_rate
 from .vectors import gamma_rows, unit
 
 #: Two estimates agree when both o1 and o2 are within this distance, m.

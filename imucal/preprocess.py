@@ -17,17 +17,17 @@ import numpy as np
 from scipy import signal
 
 from .errors import InputError
-from .recording import (
+from .recording import window_slice
+from .selection import Selection
+from .selection import select as select_samples
+from .sensor_checks import (
     ACC_LOOKS_LIKE_G,
     ACC_PLAUSIBLE,
     MAX_LIMB_RATE,
     SENSOR_RANGE,
     acc_scale_doubt,
     corrupt_readings,
-    window_slice,
 )
-from .selection import Selection
-from .selection import select as select_samples
 from .time_offset import shifted
 
 #: Default low-pass cut-off in Hz. Voluntary leg motion (circling, gait) has almost all
@@ -139,7 +139,7 @@ def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
     """Two sensors' (N, 3) arrays of ``kind`` ("gyr", rad/s, or "acc", m/s^2) as finite
     float64 of equal length, else InputError.
 
-    Readings that are no measurement (:func:`imucal.recording.corrupt_readings`) are
+    Readings that are no measurement (:func:`imucal.sensor_checks.corrupt_readings`) are
     refused with their sample: passed straight to an estimator (a recording treats them
     as missing), one corrupt 1e20 reading overflowed the single-precision restarts into
     "no restart produced a finite result", and one of 1e3 rad/s made a good axis "not
@@ -249,10 +249,10 @@ def derivative(x: np.ndarray, rate: float) -> np.ndarray:
 def unit_doubts(gyr: tuple, acc: tuple = ()) -> list[str]:
     """Reasons to believe the rates are not rad/s or the specific forces not m/s^2.
 
-    A limb does not turn at more than :data:`imucal.recording.MAX_LIMB_RATE` rad/s for 1 %
+    A limb does not turn at more than :data:`imucal.sensor_checks.MAX_LIMB_RATE` rad/s for 1 %
     of the time (deg/s read as rad/s: 57 times faster), and at rest or in gait the median
     specific force is about 1 g = 9.81 m/s^2, not 1 (g read as m/s^2), nor below 0.5 or
-    above 50 m/s^2 (:data:`imucal.recording.ACC_PLAUSIBLE`: a unit 100-1000 x off). The
+    above 50 m/s^2 (:data:`imucal.sensor_checks.ACC_PLAUSIBLE`: a unit 100-1000 x off). The
     rates' scale does not change a hinge axis, but both scales enter the joint position.
     """
     doubts = []

@@ -13,81 +13,33 @@ which is what every estimator may assume.
 
 from __future__ import annotations
 
-import difflib
 import os
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .errors import InputError
-from .settings import as_real, is_bool
-
-GYR_UNITS = {"rad/s": 1.0, "deg/s": np.pi / 180.0}
-ACC_UNITS = {"m/s^2": 1.0, "g": 9.80665}
-
-#: A human limb segment does not turn faster than this (rad/s, about 2000 deg/s); a
-#: gyroscope peaking above it is most likely in deg/s.
-MAX_LIMB_RATE = 35.0
-#: A median accelerometer norm in this range (m/s^2 after conversion) is ~1 g expressed
-#: in g: the data are most likely in g, not m/s^2.
-ACC_LOOKS_LIKE_G = (0.5, 2.0)
-#: A median accelerometer norm below the first or above the second (m/s^2 after
-#: conversion) is far from the 1 g that gait and rest give: a unit 1000 or ~100 times off
-#: (m/s^2 or g declared as mg; m/s^2 or mg declared as g), or gravity removed.
-ACC_PLAUSIBLE = (0.5, 50.0)
-
-#: Plausible sample rates of body-worn IMUs, Hz.
-MIN_RATE_HZ = 1.0
-MAX_RATE_HZ = 10_000.0
-#: Largest relative deviation of one sampling interval from the median interval that is
-#: still treated as regular sampling (timestamps of wireless sensors jitter a little).
-#: Beyond it loading stops: imucal never resamples, because a resampled gap would be
-#: invented data that the estimate then fits.
-TIME_JITTER_TOLERANCE = 0.1
-#: A given rate that differs from the time stamps' by more than this share gets a
-#: warning (a clock's ordinary drift stays below it); within it, a time column is rebuilt
-#: from the rate silently. Vendor exports' header rates use it too (:mod:`imucal.clock`).
-RATE_WARN = 0.01
-
-#: Longest run of non-finite samples (NaN or Inf: a dropped packet) inside a recording that
-#: is filled by linear interpolation, s. Human limb motion has almost no energy above
-#: 6 Hz; over 0.05 s (under a third of such a period) a straight line stays close to it.
-#: A longer gap in the data an estimate uses stops it.
-MAX_INTERPOLATED_GAP_S = 0.05
-#: Largest share of one signal's samples in the window used that may be interpolated;
-#: beyond it the signal is more repair than measurement and the estimate stops.
-MAX_INTERPOLATED_FRACTION = 0.05
-#: Readings beyond these, in SI units, are no measurement but a corrupt packet (a value
-#: of 1e30): they are treated as missing, like NaN. Far above any body-worn sensor's range
-#: (4000 deg/s = 70 rad/s; 400 g = 3900 m/s^2) and above what a unit mistake gives
-#: (deg/s or mrad/s read as rad/s: some ten thousands; mG read as m/s^2 or as g: some
-#: ten thousands, up to 1e5 for 10 g read as g), which the unit checks name instead.
-NONPHYSICAL = {"gyr": 1e5, "acc": 1e6}
-#: No body-worn sensor reads beyond these (SI units: 4000 deg/s, 400 g). A reading beyond
-#: them far above the readings around it is no measurement but a corrupt packet: one
-#: such gyroscope reading of 1e3 rad/s made a good knee axis "not identifiable", blamed
-#: on disagreeing stretches of the data, with a warning that the file was in deg/s. A
-#: unit mistake (deg/s read as rad/s) is no such spike: the readings around it are about
-#: as large, and the unit checks name it.
-SENSOR_RANGE = {"gyr": 70.0, "acc": 3924.0}
-#: Longest run of readings beyond :data:`SENSOR_RANGE` still taken for a corrupt packet.
-MAX_SPIKE_SAMPLES = 5
-#: A corrupt packet stands this many times above the readings on either side. A fast
-#: moment of a signal in another unit does not: on the shared recording read in deg/s or
-#: mg, every sensor's readings beyond the range stand at most 3.4 (deg/s) and 3.9 (mg)
-#: times above their neighbours (quiet stretches' 80 "rad/s", heel strikes of 4-7 g),
-#: and were taken for spikes by a rule without it.
-SPIKE_RATIO = 10.0
-
-#: Common spellings of the accepted units, used only to suggest the right name.
-_UNIT_ALIASES = {
-    "dps": "deg/s", "deg/sec": "deg/s", "degrees/s": "deg/s", "°/s": "deg/s",
-    "rad/sec": "rad/s", "rps": "rad/s", "radians/s": "rad/s",
-    "m/s2": "m/s^2", "m/s²": "m/s^2", "m/s**2": "m/s^2", "mps2": "m/s^2", "m s^-2": "m/s^2",
-    "G": "g", "gn": "g", "g0": "g",
-}
+from .sensor_checks import (
+    ACC_UNITS,
+    GYR_UNITS,
+    MAX_INTERPOLATED_FRACTION,
+    MAX_INTERPOLATED_GAP_S,
+    Gap,
+    check_units,
+    find_gaps,
+    finite_rows,
+    gap_warnings,
+    interpolate_gap,
+    max_gap_samples,
+    nonphysical,
+    nonphysical_notes,
+    stuck_warnings,
+    unit_warnings,
+)
+from .sensor_names import match_sensor
+from .settings import as_real
+from .timing import check_timing
 
 
 @dataclass(frozen=True)
@@ -103,21 +55,6 @@ class SensorData:
             value = getattr(self, name)
             if not isinstance(value, np.ndarray):
                 object.__setattr__(self, name, np.asarray(value, dtype=np.float64))
-
-
-@dataclass(frozen=True)
-class Gap:
-    """One run of non-finite samples (NaN or Inf in any axis) in one signal.
-
-    ``start`` and ``length`` count samples; ``time`` is the first bad sample's time, s on
-    the recording's time axis.
-    """
-
-    sensor: str
-    kind: str
-    start: int
-    length: int
-    time: float
 
 
 @dataclass(frozen=True)
@@ -304,7 +241,7 @@ class Recording:
         return Recording(
             rate=self.rate, sensors=sensors, time=self.time[c0:c1].copy(), source=source,
             units=units,
-            warnings=notes + _unit_warnings(checked, units) + _stuck_warnings(checked),
+            warnings=notes + unit_warnings(checked, units) + stuck_warnings(checked),
             notes=self.notes, window=(a0 - c0, a1 - c0),
             sensor_info={n: self.sensor_info[n] for n in names if n in self.sensor_info},
             provenance=self.provenance, rate_from=self.rate_from,
@@ -371,7 +308,7 @@ class Recording:
         for key, runs in gaps.items():
             for g in runs:
                 if g in inner[key]:
-                    _interpolate(repaired[key], g.start, g.length)
+                    interpolate_gap(repaired[key], g.start, g.length)
                 else:
                     bad[g.start:g.start + g.length] = True
             if inner[key]:
@@ -443,78 +380,6 @@ class Recording:
                 )))
         if offences:
             raise InputError(min(offences, key=lambda o: o[:2])[2])
-
-
-#: Segment synonyms, so that ``--sensors thigh,shank`` finds sensors labelled "Upper Leg"
-#: or "tibia". Keys and values are normalised (:func:`normalised_name`).
-SEGMENT_SYNONYMS = {
-    "thigh": "thigh", "upperleg": "thigh", "femur": "thigh",
-    "shank": "shank", "lowerleg": "shank", "tibia": "shank", "shin": "shank",
-    "foot": "foot", "calcaneus": "foot",
-}
-_SIDES = {"left": "left", "l": "left", "right": "right", "r": "right"}
-
-
-def normalised_name(text: str) -> str:
-    """Lower case without spaces, underscores, hyphens or dots: "Left Upper_Leg" ->
-    "leftupperleg"."""
-    return "".join(ch for ch in str(text).lower() if ch not in " _-.\t")
-
-
-def segment_of(text: str) -> tuple[str | None, str | None]:
-    """(side, segment) a sensor name denotes, e.g. ("left", "thigh") for "L Upper Leg";
-    (None, None) when it names no known segment."""
-    words = [w for w in re.split(r"[\s_\-.]+", str(text).lower()) if w]
-    side = next((_SIDES[w] for w in words if w in _SIDES), None)
-    rest = "".join(w for w in words if w not in _SIDES)
-    for prefix in ("left", "right"):  # "leftthigh" written as one word
-        if side is None and rest.startswith(prefix) and rest[len(prefix):] in SEGMENT_SYNONYMS:
-            side, rest = prefix, rest[len(prefix):]
-    return side, SEGMENT_SYNONYMS.get(rest)
-
-
-def match_sensor(name: str, names: list[str], info: Mapping[str, Mapping] | None = None,
-                 source: str = "<memory>") -> str:
-    """The one sensor in ``names`` that ``name`` addresses.
-
-    Tried in turn: the exact name; the name or the serial (``info[n]["serial"]``)
-    ignoring case, spaces, underscores and hyphens; the body segment (thigh = upper leg =
-    femur, shank = lower leg = tibia, foot = calcaneus) with the side when one is given.
-    Raises an :class:`InputError` with the sensors there are and a "did you mean" hint
-    when none or several match.
-    """
-    info = info or {}
-    if name in names:
-        return name
-    key = normalised_name(name)
-    for how in ("name", "serial"):
-        hits = [n for n in names if key and normalised_name(n if how == "name" else
-                                                info.get(n, {}).get("serial") or "") == key]
-        if len(hits) == 1:
-            return hits[0]
-    side, segment = segment_of(name)
-    if segment is not None:
-        hits = [n for n in names if segment_of(n)[1] == segment
-                and (side is None or segment_of(n)[0] in (side, None))]
-        if side is not None and len(hits) > 1:
-            hits = [n for n in hits if segment_of(n)[0] == side]
-        if len(hits) == 1:
-            return hits[0]
-        if len(hits) > 1:
-            raise InputError(
-                f"{source}: sensor '{name}' is ambiguous: {', '.join(map(repr, hits))} are all "
-                f"a {segment}; name one of them (or give the side, e.g. left_{segment})"
-            )
-    keys = {normalised_name(n): n for n in names}
-    keys.update({normalised_name(v["serial"]): n for n, v in info.items() if v.get("serial")})
-    close = difflib.get_close_matches(key, list(keys), n=1, cutoff=0.6)
-    hint = f" (did you mean '{keys[close[0]]}'?)" if close else ""
-    serials = [f"{n} ({info[n]['serial']})" if info.get(n, {}).get("serial")
-               and info[n]["serial"] != n else n for n in names]
-    raise InputError(
-        f"{source}: no sensor '{name}'{hint}; sensors in this file: "
-        f"{', '.join(serials) or 'none'}"
-    )
 
 
 def make_recording(
@@ -592,7 +457,7 @@ def make_recording(
 
     raw: dict[str, dict[str, np.ndarray]] = {}
     lengths = {}
-    corrupt: list[tuple] = []  # (sensor, kind, count, first index, value): see _nonphysical
+    corrupt: list[tuple] = []  # (sensor, kind, count, first index, value): see nonphysical
     for name, data in sensors.items():
         name = _sensor_name(name)
         arrays = {}
@@ -608,7 +473,7 @@ def make_recording(
             arr = _as_n_by_3(data[kind], f"{source}: sensor '{name}' {kind}")
             with np.errstate(over="ignore"):  # overflow to Inf is reported as non-finite
                 arrays[kind] = arr * table[unit]
-            corrupt += _nonphysical(arrays[kind], name, kind)
+            corrupt += nonphysical(arrays[kind], name, kind)
         if arrays["gyr"].shape[0] != arrays["acc"].shape[0]:
             raise InputError(
                 f"{source}: sensor '{name}' has {arrays['gyr'].shape[0]} gyr samples but "
@@ -630,22 +495,22 @@ def make_recording(
             "a few seconds of motion"
         )
 
-    rate_out, time_out, timing = _check_timing(rate, time, n, source)
+    rate_out, time_out, timing = check_timing(rate, time, n, source)
     if time is None:
         rate_from = rate_name
     elif rate is None:
         rate_from = "the median step of 'time'"
     else:
         rate_from = f"{rate_name}, checked against 'time'"
-    notes = list(notes) + _nonphysical_notes(corrupt, time_out) + timing
-    gaps = _find_gaps(raw, time_out)
+    notes = list(notes) + nonphysical_notes(corrupt, time_out) + timing
+    gaps = find_gaps(raw, time_out)
     converted = {name: SensorData(gyr=a["gyr"], acc=a["acc"]) for name, a in raw.items()}
-    finite = {name: SensorData(gyr=s.gyr[_finite_rows(s)], acc=s.acc[_finite_rows(s)])
+    finite = {name: SensorData(gyr=s.gyr[finite_rows(s)], acc=s.acc[finite_rows(s)])
               for name, s in converted.items()}
     return Recording(
         rate=rate_out, sensors=converted, time=time_out, source=source, units=units,
-        warnings=(list(notes) + _gap_warnings(gaps, raw, rate_out, n)
-                  + _unit_warnings(finite, units) + _stuck_warnings(finite)),
+        warnings=(list(notes) + gap_warnings(gaps, raw, rate_out, n)
+                  + unit_warnings(finite, units) + stuck_warnings(finite)),
         gaps=gaps, notes=tuple(notes), rate_from=rate_from,
     )
 
@@ -684,190 +549,10 @@ def _check_units_map(units, names: list[str], source) -> dict[str, dict[str, str
     return out
 
 
-def corrupt_readings(arr: np.ndarray, kind: str) -> np.ndarray:
-    """(N,) readings of ``arr`` (N, 3, SI units) that are no measurement: beyond
-    :data:`NONPHYSICAL`, or spikes beyond :data:`SENSOR_RANGE`: runs of at most
-    :data:`MAX_SPIKE_SAMPLES` at least :data:`SPIKE_RATIO` times the readings on either
-    side (a missing reading or the signal's end counts as 0)."""
-    with np.errstate(invalid="ignore"):
-        size = np.abs(arr).max(axis=1)
-        finite = np.isfinite(size)
-        bad = finite & (size > NONPHYSICAL[kind])
-        over = finite & (size > SENSOR_RANGE[kind])
-    if not over.any():
-        return bad
-    around = np.concatenate([[0.0], np.where(finite, size, 0.0), [0.0]])
-    edges = np.diff(np.concatenate([[0], over.view(np.int8), [0]]))
-    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1),
-                           strict=True):  # (runs beyond the range: few, if any)
-        sides = max(around[start], around[stop + 1])
-        if stop - start <= MAX_SPIKE_SAMPLES and size[start:stop].min() >= SPIKE_RATIO * sides:
-            bad[start:stop] = True
-    return bad
-
-
-def _nonphysical(arr: np.ndarray, name: str, kind: str) -> list[tuple]:
-    """Readings of ``arr`` (N, 3, SI units) that are no measurement
-    (:func:`corrupt_readings`) set to NaN in place, so they become gaps: [(name, kind,
-    count, first index, its largest value)] or []. Before, one 1e30 sample stopped every
-    estimate with "no restart produced a finite result", naming neither the sample nor
-    the cause (a new-user review)."""
-    bad = corrupt_readings(arr, kind)
-    if not bad.any():
-        return []
-    i = int(np.flatnonzero(bad)[0])
-    value = float(np.abs(arr[i]).max())
-    arr[bad] = np.nan
-    return [(name, kind, int(bad.sum()), i, value)]
-
-
-def _nonphysical_notes(corrupt: list[tuple], time: np.ndarray) -> list[str]:
-    return [f"sensor '{name}' {kind}: {count} reading(s) beyond any body-worn sensor's "
-            f"range ({SENSOR_RANGE[kind]:g} {'rad/s' if kind == 'gyr' else 'm/s^2'}), the "
-            f"first {value:.6g} at t="
-            f"{time[i]:g} s (sample {i}): not a physical reading (a corrupt packet?), "
-            "treated as missing"
-            for name, kind, count, i, value in corrupt]
-
-
 def _sensor_name(name) -> str:
     """Sensor names are text: h5py gives bytes for a group name that is not UTF-8, most
     likely Latin-1 from an old Windows tool, and Latin-1 decodes any bytes."""
     return name.decode("latin-1") if isinstance(name, bytes) else str(name)
-
-
-def check_units(kind: str, unit, what: str) -> None:
-    """Raise an :class:`InputError` naming ``what`` unless ``unit`` is known for ``kind``.
-
-    ``kind`` is ``"gyr"`` or ``"acc"``; the message suggests the accepted spelling of a
-    common alias (``dps`` -> ``deg/s``).
-    """
-    table = GYR_UNITS if kind == "gyr" else ACC_UNITS
-    if isinstance(unit, str) and unit in table:
-        return
-    text = str(unit)
-    guess = _UNIT_ALIASES.get(text.strip()) or _UNIT_ALIASES.get(text.strip().lower())
-    if guess not in table:
-        close = difflib.get_close_matches(text.strip(), list(table), n=1, cutoff=0.6)
-        guess = close[0] if close else None
-    hint = f" (did you mean '{guess}'?)" if guess else ""
-    raise InputError(f"{what}: unknown units {text[:40]!r}{hint}; use one of {', '.join(table)}")
-
-
-def max_gap_samples(rate: float) -> int:
-    """Longest gap, in samples at ``rate`` Hz, that is filled by interpolation."""
-    return int(np.floor(MAX_INTERPOLATED_GAP_S * rate + 1e-9))
-
-
-def _find_gaps(raw, time: np.ndarray) -> tuple[Gap, ...]:
-    gaps = []
-    for name, arrays in raw.items():
-        for kind, arr in arrays.items():
-            starts, lengths = _runs(~np.isfinite(arr).all(axis=1))
-            gaps += [Gap(name, kind, int(i), int(k), float(time[i]))
-                     for i, k in zip(starts, lengths, strict=True)]
-    return tuple(gaps)
-
-
-def _finite_rows(sd: SensorData) -> np.ndarray:
-    return np.isfinite(sd.gyr).all(axis=1) & np.isfinite(sd.acc).all(axis=1)
-
-
-def _gap_warnings(gaps, raw, rate: float, n: int) -> list[str]:
-    """One line per signal with gaps: where they are and what an estimate using it will do."""
-    notes = []
-    max_gap = max_gap_samples(rate)
-    for name, arrays in raw.items():
-        for kind in arrays:
-            runs = [g for g in gaps if (g.sensor, g.kind) == (name, kind)]
-            if not runs:
-                continue
-            count = sum(g.length for g in runs)
-            if count == n:
-                notes.append(f"sensor '{name}' {kind} has no finite sample (all NaN or Inf): "
-                             "estimates that use it cannot run")
-                continue
-            longest = max(runs, key=lambda g: g.length)
-            long = sum(g.length > max_gap for g in runs)
-            fate = (f"{long} longer than {MAX_INTERPOLATED_GAP_S:g} s stop estimates whose "
-                    "window they touch, shorter ones are interpolated" if long else
-                    "estimates that use them interpolate them")
-            notes.append(
-                f"sensor '{name}' {kind}: {count} non-finite sample(s) (NaN or Inf) in "
-                f"{len(runs)} gap(s), the first at t={runs[0].time:g} s, the longest "
-                f"{longest.length} sample(s) ({longest.length / rate:g} s) at "
-                f"t={longest.time:g} s; {fate}"
-            )
-    return notes
-
-
-def _interpolate(arr: np.ndarray, start: int, length: int) -> None:
-    """Fill ``arr[start:start + length]`` in place on the line between its finite neighbours."""
-    before, after = arr[start - 1], arr[start + length]
-    weight = (np.arange(1, length + 1) / (length + 1))[:, None]
-    arr[start:start + length] = before + weight * (after - before)
-
-
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Start indices and lengths of the runs of True in a 1-D boolean ``mask``."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    starts = np.flatnonzero(edges == 1)
-    return starts, np.flatnonzero(edges == -1) - starts
-
-
-def _unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
-    """Plain-language doubts about the declared units, with the evidence."""
-    notes = []
-    for name, sd in sensors.items():
-        if sd.gyr.shape[0] == 0:
-            continue
-        with np.errstate(over="ignore"):  # absurd values overflow to Inf, still evidence
-            peak = float(np.linalg.norm(sd.gyr, axis=1).max())
-            median = float(np.median(np.linalg.norm(sd.acc, axis=1)))
-        if peak > MAX_LIMB_RATE:
-            notes.append(
-                f"sensor '{name}' gyr peaks at {peak:.0f} rad/s ({units[name]['gyr']}), faster "
-                f"than a limb turns (< {MAX_LIMB_RATE:g} rad/s): is it in deg/s? "
-                "(--gyr-units deg/s or a 'units' attribute)"
-            )
-        if ACC_LOOKS_LIKE_G[0] <= median <= ACC_LOOKS_LIKE_G[1]:
-            notes.append(
-                f"sensor '{name}' acc has a median norm of {median:.2f} m/s^2, about 1 g in g "
-                "units: is it in g? (--acc-units g or a 'units' attribute)"
-            )
-        elif not ACC_PLAUSIBLE[0] <= median <= ACC_PLAUSIBLE[1]:
-            notes.append(f"sensor '{name}' acc "
-                         f"{acc_scale_doubt(median)} (--acc-units or a 'units' attribute)")
-    return notes
-
-
-def acc_scale_doubt(median: float) -> str:
-    """Why a median specific force (m/s^2) outside :data:`ACC_PLAUSIBLE` points to wrong
-    accelerometer units, naming the likely mistake."""
-    if median < ACC_PLAUSIBLE[0]:
-        return (f"has a median norm of {median:.3g} m/s^2, far below 1 g = 9.81 m/s^2: the "
-                "declared units look wrong (m/s^2 or g data declared as mg?), or gravity "
-                "was removed (free acceleration)")
-    return (f"has a median norm of {median:.4g} m/s^2 = {median / ACC_UNITS['g']:.3g} g, far above "
-            "1 g: the declared units look wrong (m/s^2 data declared as g, or mg data as g "
-            "or m/s^2?)")
-
-
-def _stuck_warnings(sensors: Mapping[str, SensorData]) -> list[str]:
-    """Signals that never change: real sensors always show some noise, so such a signal
-    comes from a dead, disconnected or saturated sensor (or a filler value)."""
-    notes = []
-    for name, sd in sensors.items():
-        for kind, unit in (("gyr", "rad/s"), ("acc", "m/s^2")):
-            arr = getattr(sd, kind)
-            if arr.shape[0] and (arr == arr[0]).all():
-                value = ", ".join(f"{v:g}" for v in arr[0])
-                notes.append(
-                    f"sensor '{name}' {kind} never changes (all {arr.shape[0]} samples are "
-                    f"[{value}] {unit}): a dead or disconnected sensor? estimates that use "
-                    "it have nothing to go on"
-                )
-    return notes
 
 
 def _as_n_by_3(value, what: str) -> np.ndarray:
@@ -925,148 +610,6 @@ def check_recording(recording) -> None:
         hint = (" (load it first: imucal.load_recording(path))"
                 if isinstance(recording, str | os.PathLike) else "")
         raise InputError(f"expected a Recording, got {type(recording).__name__}{hint}")
-
-
-def check_plausible_rate(rate: float, source: str = "", origin: str = "",
-                         fix: str = "check the rate's units") -> None:
-    """InputError unless ``rate`` (Hz) lies within MIN/MAX_RATE_HZ: body-worn IMUs sample
-    at a few Hz to a few kHz, and outside that the number is a unit mistake (ms for s,
-    kHz for Hz), not a sample rate. The one check of every rate imucal meets (given,
-    stored, from a file's time steps or a device's stamps); ``source`` and ``origin``
-    say whose and where from, ``fix`` what to check."""
-    if MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
-        return
-    # "below"/"above" and enough digits: 0.99999 Hz printed as 1 Hz would seem to lie
-    # inside the range
-    side = f"below {MIN_RATE_HZ:g}" if rate < MIN_RATE_HZ else f"above {MAX_RATE_HZ:g}"
-    prefix = f"{source}: " if source else ""
-    raise InputError(
-        f"{prefix}sample rate {rate:.6g} Hz{origin} is {side} Hz, outside the "
-        f"{MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz of body-worn IMUs; {fix}"
-    )
-
-
-def check_rate(rate) -> float:
-    """A sample rate in Hz as a float, checked (:func:`check_plausible_rate`).
-
-    Raises
-    ------
-    InputError
-        ``rate`` is not a positive real number, or outside the range of body-worn IMUs.
-    """
-    number = as_real(rate)
-    if number is None or number <= 0:
-        shown = number if number is not None else repr(rate)
-        raise InputError(f"sample rate must be a positive number of Hz, got {shown}")
-    check_plausible_rate(number, fix="check its units")
-    return number
-
-
-def _check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, list[str]]:
-    """The rate and time axis of a recording, and notes on how they were reconciled."""
-    if rate is not None:
-        try:
-            if is_bool(rate):  # (True read as 1 Hz)
-                raise TypeError
-            rate = float(rate)
-        except (TypeError, ValueError, OverflowError):
-            raise InputError(
-                f"{source}: sample rate {str(rate)[:40]!r} is not a number of Hz"
-            ) from None
-        if not np.isfinite(rate) or rate <= 0:
-            raise InputError(
-                f"{source}: sample rate must be a positive number of Hz, got {rate:g}; fix "
-                "the 'sample_rate' attribute or give --rate"
-            )
-        check_plausible_rate(rate, source)
-    if time is None:
-        if rate is None:
-            raise InputError(
-                f"{source}: no sample rate and no time stamps; "
-                "give a 'sample_rate' attribute, a 'time' column/dataset, or --rate"
-            )
-        with np.errstate(over="ignore"):
-            time_out = np.arange(n) / rate
-        if not np.isfinite(time_out).all():
-            raise InputError(f"{source}: sample rate {rate:g} Hz is too small to be real")
-        return rate, time_out, []
-
-    if np.iscomplexobj(time):
-        raise InputError(f"{source}: 'time' holds complex numbers; expected seconds")
-    try:
-        # a copy: the recording must not change when the caller's array does later
-        time = np.array(time, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError, OverflowError):
-        raise InputError(f"{source}: 'time' is not numeric") from None
-    if time.shape[0] != n:
-        raise InputError(f"{source}: 'time' has {time.shape[0]} entries but sensors have {n}")
-    if not np.isfinite(time).all():
-        i = int(np.flatnonzero(~np.isfinite(time))[0])
-        raise InputError(f"{source}: 'time' contains NaN or Inf (first at index {i})")
-    with np.errstate(over="ignore", invalid="ignore"):
-        dt = np.diff(time)
-    if not (dt > 0).all():
-        i = int(np.flatnonzero(~(dt > 0))[0])
-        what = "repeats a value" if dt[i] == 0 else "goes backwards"
-        raise InputError(
-            f"{source}: 'time' is not strictly increasing: it {what} at index {i + 1} "
-            f"(t[{i}]={float(time[i])!r} s, t[{i + 1}]={float(time[i + 1])!r} s); remove "
-            "duplicated or out-of-order rows"
-        )
-    step = float(np.median(dt))
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        jitter = np.abs(dt - step) / step
-        time_rate = 1.0 / step
-    if not (jitter <= TIME_JITTER_TOLERANCE).all():
-        i = int(np.argmax(np.where(np.isnan(jitter), np.inf, jitter)))
-        raise InputError(
-            f"{source}: irregular sampling: the interval of {dt[i]:g} s after t={time[i]:g} s "
-            f"differs from the median {step:g} s by more than {TIME_JITTER_TOLERANCE:.0%}; "
-            "imucal does not resample (that would invent data), so resample the recording "
-            "to a constant rate or cut it at the gap first"
-        )
-    if not (np.isfinite(time_rate) and time_rate > 0):
-        raise InputError(f"{source}: 'time' steps of {step:g} s give no usable sample rate")
-    check_plausible_rate(time_rate, source, " from the 'time' steps (are they in seconds?)")
-    if rate is not None and abs(time_rate - rate) > TIME_JITTER_TOLERANCE * rate:
-        raise InputError(
-            f"{source}: the rate given ('sample_rate' or --rate) says {rate:g} Hz but 'time' "
-            f"says {time_rate:g} Hz; "
-            "fix one of them (or drop --rate)"
-        )
-    if rate is None:
-        return time_rate, time, _drift_notes(time, time_rate)
-    # The estimators space the samples by the rate; a time axis that drifts from it by
-    # over half a sample would put --start/--end and the reported span somewhere else.
-    if abs((time[-1] - time[0]) - (n - 1) / rate) <= 0.5 / rate:
-        return rate, time, []
-    rebuilt = time[0] + np.arange(n) / rate
-    # a clock a little off (a crystal's 100 ppm) is no problem worth a warning, and a
-    # warning costs the result its "good"; past 1 % one of the two is wrong
-    if abs(time_rate - rate) <= RATE_WARN * rate:
-        return rate, rebuilt, []
-    note = (f"the sample rate {rate:g} Hz ('sample_rate' or --rate) and the 'time' steps "
-            f"({time_rate:.6g} Hz) differ by {abs(time_rate - rate) / rate:.2%}; the rate "
-            f"is used, and the time axis is rebuilt from it (from t={time[0]:g} s)")
-    return rate, rebuilt, [note]
-
-
-def _drift_notes(time: np.ndarray, rate: float) -> list[str]:
-    """A warning when a time column's span says another rate than its median step.
-
-    Every step may be within the jitter tolerance while the steps drift (or a run of them
-    is longer): the estimators space the samples by the median step, so past
-    :data:`RATE_WARN` the span's rate is not what they assume.
-    """
-    n, span = time.shape[0], float(time[-1] - time[0])
-    span_rate = (n - 1) / span
-    if abs(span_rate - rate) <= RATE_WARN * rate:
-        return []
-    return [f"the 'time' steps drift: their median gives {rate:.6g} Hz, their span "
-            f"({span:g} s for {n} samples) {span_rate:.6g} Hz, {abs(span_rate - rate) / rate:.2%}"
-            f" apart; the estimators use {rate:.6g} Hz. If the samples are evenly spaced "
-            "and only their stamps rounded (a 64 Hz sensor stamped in whole ms), pass the "
-            "true rate with --rate; otherwise resample the recording to a constant rate"]
 
 
 def estimator_window(recording: Recording, names, start, end) -> tuple[Recording, dict]:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .preprocess import lowpass
-from .recording import ACC_UNITS
+from .sensor_checks import ACC_UNITS
 
 #: Both sensors turn slower than this (after a 2 Hz low-pass) in a still period, rad/s.
 STILL_RATE = 0.1

@@ -32,7 +32,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from .errors import InputError, one_line
-from .recording import Recording, normalised_name
+from .recording import Recording
+from .sensor_names import normalised_name
 
 __all__ = ["read_sensor_map", "apply_sensor_map"]
 

@@ -37,7 +37,8 @@ from functools import cache
 import numpy as np
 
 from .errors import InputError
-from .recording import Recording, check_plausible_rate, make_recording
+from .recording import Recording, make_recording
+from .timing import check_plausible_rate
 
 MOTIONS = ("circling", "walking", "rigid-knee", "static", "gait", "protocol")
 SENSORS = ("thigh", "shank", "foot")

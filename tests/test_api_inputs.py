@@ -231,7 +231,7 @@ def test_a_signal_in_another_unit_has_no_corrupt_readings(real_recording, pair):
     # the fast moments of quiet stretches in deg/s or mg (80 "rad/s", heel strikes of
     # 4-7 g as "m/s^2") were refused as corrupt packets; they stand at most 3.4 / 3.9
     # times above their neighbours
-    from imucal.recording import corrupt_readings
+    from imucal.sensor_checks import corrupt_readings
 
     for name in real_recording.sensors:
         s = real_recording.sensor(name)

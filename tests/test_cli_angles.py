@@ -248,7 +248,7 @@ def test_a_sided_name_finds_an_unsided_sensor_and_results_name_the_file_s_sensor
     # "left_thigh" finds a one-leg file's "thigh" (a calibration made with sided names
     # applies to such a file); the result names what was used, as the file does (it
     # named what was asked for, and found no units for it); one sensor twice is refused
-    from imucal.recording import match_sensor
+    from imucal.sensor_names import match_sensor
 
     assert match_sensor("left_thigh", ["thigh", "shank", "foot"]) == "thigh"
     run = cli("axis", SAMPLE / "circling.h5", *FAST, "--sensors", "right_thigh,left_shank")

@@ -723,7 +723,7 @@ def test_csv_with_duplicated_row(tmp_path):
 
 
 def test_jitter_within_the_documented_tolerance_is_accepted(tmp_path):
-    from imucal.recording import TIME_JITTER_TOLERANCE
+    from imucal.timing import TIME_JITTER_TOLERANCE
 
     rng = np.random.default_rng(2)
     step = 1.0 / RATE
@@ -1119,13 +1119,13 @@ def test_cli_in_a_real_process_no_traceback_unless_debug(tmp_path):
 
 
 def test_errors_page_states_the_tolerances_the_code_uses():
-    from imucal import recording
+    from imucal import sensor_checks, timing
 
     page = (Path(__file__).resolve().parents[1] / "docs" / "errors.md").read_text()
-    assert f"| {recording.TIME_JITTER_TOLERANCE * 100:g} % (beyond: refused" in page
-    assert f"| {recording.MAX_INTERPOLATED_GAP_S:g} s (5 samples at 100 Hz" in page
-    assert f"| {recording.MAX_INTERPOLATED_FRACTION * 100:g} % |" in page
-    assert f"above {recording.MAX_LIMB_RATE:g} rad/s" in page
+    assert f"| {timing.TIME_JITTER_TOLERANCE * 100:g} % (beyond: refused" in page
+    assert f"| {sensor_checks.MAX_INTERPOLATED_GAP_S:g} s (5 samples at 100 Hz" in page
+    assert f"| {sensor_checks.MAX_INTERPOLATED_FRACTION * 100:g} % |" in page
+    assert f"above {sensor_checks.MAX_LIMB_RATE:g} rad/s" in page
 
 
 def test_rate_within_tolerance_wins_and_rebuilds_the_time_axis():

@@ -33,7 +33,8 @@ from test_loaders import write_h5
 from imucal.errors import InputError
 from imucal.formats import HDF5_SIGNATURE
 from imucal.loaders import load_recording
-from imucal.recording import NONPHYSICAL, SENSOR_RANGE, Recording, make_recording
+from imucal.recording import Recording, make_recording
+from imucal.sensor_checks import NONPHYSICAL, SENSOR_RANGE
 
 # Modest example counts keep the whole file to a few seconds (the same tests ran clean on
 # 20 times as many examples); derandomized, every run tries the same examples, so a

@@ -1,0 +1,82 @@
+"""How commands find a recording's sensors: ``--sensors thigh,shank`` addresses sensors by
+name, serial or body segment ("Upper Leg", "tibia"), with the side when one is given;
+:func:`match_sensor` returns the one meant or says which there are."""
+
+from __future__ import annotations
+
+import difflib
+import re
+from collections.abc import Mapping
+
+from .errors import InputError
+
+#: Segment synonyms, so that ``--sensors thigh,shank`` finds sensors labelled "Upper Leg"
+#: or "tibia". Keys and values are normalised (:func:`normalised_name`).
+SEGMENT_SYNONYMS = {
+    "thigh": "thigh", "upperleg": "thigh", "femur": "thigh",
+    "shank": "shank", "lowerleg": "shank", "tibia": "shank", "shin": "shank",
+    "foot": "foot", "calcaneus": "foot",
+}
+_SIDES = {"left": "left", "l": "left", "right": "right", "r": "right"}
+
+
+def normalised_name(text: str) -> str:
+    """Lower case without spaces, underscores, hyphens or dots: "Left Upper_Leg" ->
+    "leftupperleg"."""
+    return "".join(ch for ch in str(text).lower() if ch not in " _-.\t")
+
+
+def segment_of(text: str) -> tuple[str | None, str | None]:
+    """(side, segment) a sensor name denotes, e.g. ("left", "thigh") for "L Upper Leg";
+    (None, None) when it names no known segment."""
+    words = [w for w in re.split(r"[\s_\-.]+", str(text).lower()) if w]
+    side = next((_SIDES[w] for w in words if w in _SIDES), None)
+    rest = "".join(w for w in words if w not in _SIDES)
+    for prefix in ("left", "right"):  # "leftthigh" written as one word
+        if side is None and rest.startswith(prefix) and rest[len(prefix):] in SEGMENT_SYNONYMS:
+            side, rest = prefix, rest[len(prefix):]
+    return side, SEGMENT_SYNONYMS.get(rest)
+
+
+def match_sensor(name: str, names: list[str], info: Mapping[str, Mapping] | None = None,
+                 source: str = "<memory>") -> str:
+    """The one sensor in ``names`` that ``name`` addresses.
+
+    Tried in turn: the exact name; the name or the serial (``info[n]["serial"]``)
+    ignoring case, spaces, underscores and hyphens; the body segment (thigh = upper leg =
+    femur, shank = lower leg = tibia, foot = calcaneus) with the side when one is given.
+    Raises an :class:`InputError` with the sensors there are and a "did you mean" hint
+    when none or several match.
+    """
+    info = info or {}
+    if name in names:
+        return name
+    key = normalised_name(name)
+    for how in ("name", "serial"):
+        hits = [n for n in names if key and normalised_name(n if how == "name" else
+                                                info.get(n, {}).get("serial") or "") == key]
+        if len(hits) == 1:
+            return hits[0]
+    side, segment = segment_of(name)
+    if segment is not None:
+        hits = [n for n in names if segment_of(n)[1] == segment
+                and (side is None or segment_of(n)[0] in (side, None))]
+        if side is not None and len(hits) > 1:
+            hits = [n for n in hits if segment_of(n)[0] == side]
+        if len(hits) == 1:
+            return hits[0]
+        if len(hits) > 1:
+            raise InputError(
+                f"{source}: sensor '{name}' is ambiguous: {', '.join(map(repr, hits))} are all "
+                f"a {segment}; name one of them (or give the side, e.g. left_{segment})"
+            )
+    keys = {normalised_name(n): n for n in names}
+    keys.update({normalised_name(v["serial"]): n for n, v in info.items() if v.get("serial")})
+    close = difflib.get_close_matches(key, list(keys), n=1, cutoff=0.6)
+    hint = f" (did you mean '{keys[close[0]]}'?)" if close else ""
+    serials = [f"{n} ({info[n]['serial']})" if info.get(n, {}).get("serial")
+               and info[n]["serial"] != n else n for n in names]
+    raise InputError(
+        f"{source}: no sensor '{name}'{hint}; sensors in this file: "
+        f"{', '.join(serials) or 'none'}"
+    )
