@@ -42,6 +42,11 @@ MIN_SAMPLES = 10
 #: calibration, 0.3-0.5 s windows of a walk took the wrong direction unwarned in 93 of 259
 #: windows (about 70 deg off), windows of 0.75 s and more in none of 619.
 SIGN_MIN_S = 4.0
+#: ... and only where the angle spans (5th to 95th percentile) at least this, deg: the
+#: skew of a knee that hardly moves is the skew of noise. Simulated still recordings
+#: (0.05 deg of spread) gave evidence of -0.19 and -0.48 and read 55 deg of flexion
+#: for a knee bent 10 deg, with no warning; walking spans 50-70 deg.
+SIGN_MIN_SPAN_DEG = 10.0
 #: Samples turning slower than this (rad/s, RMS of both sensors' angular rates) are left
 #: out of the hinge residual: at rest it would be noise over noise.
 MOVING_RATE = 0.5
@@ -643,15 +648,18 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
     elif abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN:
         sign, source = int(ref["flexion_sign"]), "calibration"
     else:
-        sign, source = (1 if evidence >= 0 else -1), "recording"
-        seconds = raw.shape[0] / rec.rate
-        if abs(evidence) < SIGN_EVIDENCE_MIN or seconds < SIGN_MIN_S:
-            here = (f"{evidence:+.2f}" if seconds >= SIGN_MIN_S else
-                    f"{evidence:+.2f} over {seconds:.2g} s, less than the {SIGN_MIN_S:g} s it "
-                    "needs")
+        doubt = _sign_doubt(raw, evidence, rec.rate)
+        if doubt is None:
+            sign, source = (1 if evidence >= 0 else -1), "recording"
+        else:
+            # Neither decides. The calibration's guess keeps its zero (chosen under that
+            # guess) and gives every recording of a study the same direction, where the
+            # recordings' own coin flips would not.
+            sign, source = int(ref["flexion_sign"]), "calibration"
             warnings.append(f"{jc.name}: the flexion direction is ambiguous in the calibration "
-                            f"trial and here (evidence {ref['sign_evidence']:+.2f}, {here}); "
-                            "pin it (flexion_sign '+' or '-') if the angles look inverted")
+                            f"trial (evidence {ref['sign_evidence']:+.2f}) and here ({doubt}); "
+                            "the calibration's guess is kept: pin it (flexion_sign '+' or "
+                            "'-') if the angles look inverted")
     if reference is None:
         zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
                 "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
@@ -714,6 +722,23 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
         warnings.append(extrapolated)
     return JointAngle(jc.name, jc.sensors, flex, sigma, gyro_only, sign,
                       source, evidence, zero, check, detect_gait(flex, rec.rate), warnings)
+
+
+def _sign_doubt(raw: np.ndarray, evidence: float, rate: float) -> str | None:
+    """Why this recording's own sign evidence decides nothing, or None when it decides:
+    too weak, too short (:data:`SIGN_MIN_S`), or an angle that hardly moves
+    (:data:`SIGN_MIN_SPAN_DEG`)."""
+    seconds = raw.shape[0] / rate
+    if seconds < SIGN_MIN_S:
+        return (f"evidence {evidence:+.2f} over {seconds:.2g} s, less than the "
+                f"{SIGN_MIN_S:g} s it needs")
+    p5, p95 = np.percentile(raw, [5, 95])
+    if p95 - p5 < SIGN_MIN_SPAN_DEG:
+        return (f"evidence {evidence:+.2f} over an angle spanning {p95 - p5:.2g} deg, less "
+                f"than the {SIGN_MIN_SPAN_DEG:g} deg it needs")
+    if abs(evidence) < SIGN_EVIDENCE_MIN:
+        return f"evidence {evidence:+.2f}"
+    return None
 
 
 def _extrapolated(jc, sigma_deg: np.ndarray, flex: np.ndarray, beyond: np.ndarray,

@@ -460,8 +460,8 @@ def angles(
         for w in result.warnings:
             say(f"imucal: warning: {recording.source}: {w}")
         for j in result.joints.values():
-            for w in j.warnings:
-                say(f"imucal: warning: {w}")
+            for w in j.warnings:  # (in a loop over trials, which trial it is)
+                say(f"imucal: warning: {recording.source}: {w}")
         problems = result.problems()
         if problems and not force:
             raise NotIdentifiableError(

@@ -287,7 +287,8 @@ def test_the_extrapolated_end_does_not_steer_the_drift_correction():
 def test_a_short_recording_cannot_decide_the_flexion_direction(session):
     # a calibration trial without sign evidence (pure circling) leaves the direction to
     # the recording: 0.4 s of a walk (5.2 s in) is skewed the wrong way (evidence -0.37,
-    # a clear decision before), and read flexion negative without a word
+    # a clear decision before), and read flexion negative without a word; now its
+    # evidence does not count, and the calibration's guess stands, with a warning
     from dataclasses import replace
 
     from imucal.angles import SIGN_EVIDENCE_MIN, joint_angles
@@ -297,12 +298,39 @@ def test_a_short_recording_cannot_decide_the_flexion_direction(session):
     weak = replace(calibration, joints={"knee": replace(
         knee, angle=dict(knee.angle, sign_evidence=0.0))})
     short = joint_angles(walk, weak, start=5.2, end=5.6).joints["knee"]
-    assert short.sign != knee.angle["flexion_sign"]
-    assert abs(short.sign_evidence) > 2 * SIGN_EVIDENCE_MIN
+    assert short.sign == knee.angle["flexion_sign"] and short.sign_source == "calibration"
+    assert abs(short.sign_evidence) > 2 * SIGN_EVIDENCE_MIN and short.sign_evidence < 0
     assert "ambiguous" in short.warnings[0] and "less than the 4 s it needs" in short.warnings[0]
+    assert "the calibration's guess is kept" in short.warnings[0]
     long = joint_angles(walk, weak, start=5.2, end=15.2).joints["knee"]
     assert long.sign == knee.angle["flexion_sign"] and long.sign_source == "recording"
     assert not any("ambiguous" in w for w in long.warnings)
+
+
+def test_a_knee_that_hardly_moves_cannot_decide_the_flexion_direction(session):
+    # The skew of an angle that spans 0.05 deg is the skew of noise: still recordings
+    # took the direction from it (evidence -0.19, -0.48: "clear") and read 53-56 deg of
+    # flexion for a knee bent 10 deg, without a warning.
+    from dataclasses import replace
+
+    from imucal.angles import SIGN_EVIDENCE_MIN, SIGN_MIN_SPAN_DEG, joint_angles
+
+    calibration, _, _ = session
+    knee = calibration.joints["knee"]
+    weak = replace(calibration, joints={"knee": replace(
+        knee, angle=dict(knee.angle, sign_evidence=0.0))})
+    decided = 0
+    for seed in (11, 12):
+        still, _ = simulate(seed=seed, mounting_seed=MOUNTING, motion="static", duration=8.0,
+                            **NOISE)
+        k = joint_angles(still, weak).joints["knee"]
+        p5, p95 = np.percentile(k.flexion_deg, [5, 95])
+        assert p95 - p5 < 0.1 * SIGN_MIN_SPAN_DEG
+        decided += abs(k.sign_evidence) >= SIGN_EVIDENCE_MIN  # would have decided before
+        assert k.sign_source == "calibration" and k.sign == knee.angle["flexion_sign"]
+        assert any("ambiguous" in w and f"less than the {SIGN_MIN_SPAN_DEG:g} deg it needs"
+                   in w for w in k.warnings)
+    assert decided >= 1
 
 
 def test_a_joint_the_calibration_could_not_identify_does_not_fit(session):

@@ -148,6 +148,12 @@ def test_another_mounting_exits_1_with_the_evidence_unless_force(cal_file, tmp_p
     run = cli("angles", rec, "-c", path, "--out", out, "--force")
     assert run.returncode == 0 and "does not fit" in run.stderr
     assert list(pd.read_csv(out).columns)[1] == "knee_flexion_deg"
+    # with --force the warnings are all there is: each names its recording (in a loop
+    # over trials, "imucal: warning: knee: ..." did not say which)
+    warned = [x for x in run.stderr.splitlines() if x.startswith("imucal: warning:")]
+    assert warned and all(x.startswith(f"imucal: warning: {rec}: ") for x in warned)
+    assert any(x.startswith(f"imucal: warning: {rec}: knee: the calibration does not fit")
+               for x in warned)
 
 
 @pytest.mark.parametrize(("content", "phrase"), [
