@@ -27,6 +27,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -240,9 +241,17 @@ def _rename(recording: Recording, renamed: dict[str, str], source: str,
                   for k, v in recording.provenance.items()}
     provenance["sensor_map"] = {"file": source, "renamed": dict(renamed),
                                 "keys": {new(n): k for n, k in claimed_by.items()}}
+    def renamed_in(note: str) -> str:
+        # the loader's notes name sensors as "sensor 'NAME'" (one form everywhere); they
+        # were written before the map, and a warning about 'Shank' beside a table of
+        # 'left_shank' left the reader to pair them
+        return re.sub(r"sensor '([^']*)'", lambda m: f"sensor '{renamed[m[1]]}' ('{m[1]}' in "
+                      "the file)" if m[1] in renamed else m[0], note)
+
     return replace(
         recording,
         sensors={new(n): s for n, s in recording.sensors.items()},
+        warnings=[renamed_in(w) for w in recording.warnings],
         units={new(n): u for n, u in recording.units.items()},
         gaps=tuple(replace(g, sensor=new(g.sensor)) for g in recording.gaps),
         sensor_info=sensor_info,

@@ -104,6 +104,9 @@ def test_own_layout_and_gaps_follow_the_new_names(tmp_path):
     dropped = load_recording(vw.dot(short(), tmp_path / "d", drops={"shank": [40]}),
                              names={"shank": "s", "thigh": "t"})
     assert {g.sensor for g in dropped.gaps} == {"s"}
+    # the loader's warnings too: they said 'Shank' beside a table of 's'
+    assert len(dropped.warnings) == 3 and all(
+        w.startswith("sensor 's' ('Shank' in the file)") for w in dropped.warnings)
     used = dropped.select(["t", "s"])  # the one dropped sample is bridged
     assert np.isfinite(used.sensors["s"].gyr).all()
 
