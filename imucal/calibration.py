@@ -439,6 +439,16 @@ def _worst(verdicts: list[str]) -> str:
 MAX_FILE_BYTES = 10_000_000
 
 
+def _json_problem(err: Exception) -> str:
+    """What was wrong with a file read as JSON, short and without nested parentheses (its
+    first 80 characters cut "(char 40" off in the middle)."""
+    if isinstance(err, json.JSONDecodeError):
+        return f"{err.msg} at line {err.lineno}, column {err.colno}"
+    text = str(err).splitlines()[0] if str(err) else type(err).__name__
+    text = text.replace("(", "").replace(")", "")
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def load_calibration(path: str | Path) -> Calibration:
     """Read a calibration file written by :meth:`Calibration.write` (or ``imucal
     calibrate``).
@@ -503,7 +513,7 @@ def load_calibration(path: str | Path) -> Calibration:
     # arrays nested a hundred thousand deep
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as err:
         raise InputError(f"{path}: not a calibration file (not readable as JSON: "
-                         f"{str(err).splitlines()[0][:80]})") from None
+                         f"{_json_problem(err)})") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         hint = (f" (an imucal '{doc['command']}' result; make one with imucal calibrate)"
                 if isinstance(doc, dict) and isinstance(doc.get("command"), str) else "")

@@ -710,7 +710,7 @@ def convert(
         from .provenance import hdf5_attrs
         from .writers import save_recording
 
-        _check_outputs(out, None, rec, sensor_map)
+        _check_outputs(out, None, rec, sensor_map, out_name="OUT")
         recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
                                    names=sensor_map)
         save_recording(recording, out, extra_attrs=hdf5_attrs(recording))
@@ -850,7 +850,9 @@ class _errors:
         raise typer.Exit(3)
 
 
-def _check_outputs(out, plot, rec, sensor_map=None) -> None:
+def _check_outputs(out, plot, rec, sensor_map=None, out_name: str = "--out") -> None:
+    """Usage errors of the output paths, before any file is read; ``out_name`` names the
+    output as the command takes it (``convert``'s is its argument OUT)."""
     if plot is not None:
         from .plots import FORMATS
 
@@ -861,7 +863,7 @@ def _check_outputs(out, plot, rec, sensor_map=None) -> None:
             raise InputError(f"{plot}: unknown figure format '{plot.suffix or plot.name}'; "
                              f"--plot writes PNG, PDF or SVG by the file name's extension "
                              f"({', '.join(FORMATS)})")
-    check_not_inputs([("--out", out), ("--plot", plot)],
+    check_not_inputs([(out_name, out), ("--plot", plot)],
                      [rec] + ([sensor_map] if sensor_map is not None else []))
     for path in (out, plot):
         if path is not None:

@@ -256,20 +256,21 @@ def unit_doubts(gyr: tuple, acc: tuple = ()) -> list[str]:
     rates' scale does not change a hinge axis, but both scales enter the joint position.
     """
     doubts = []
-    for k, g in enumerate(gyr, start=1):
+    which = ("the first sensor", "the second sensor")  # as --sensors names them
+    for k, g in zip(which, gyr, strict=False):
         fast = float(np.percentile(np.sqrt(np.sum(g * g, axis=1)), 99))
         if fast > MAX_LIMB_RATE:
-            doubts.append(f"sensor {k}'s angular rate exceeds {fast:.0f} rad/s 1 % of the "
+            doubts.append(f"{k}'s angular rate exceeds {fast:.0f} rad/s 1 % of the "
                           f"time, faster than a limb turns (< {MAX_LIMB_RATE:g} rad/s): the "
                           "gyroscope data look like deg/s read as rad/s")
-    for k, a in enumerate(acc, start=1):
+    for k, a in zip(which, acc, strict=False):
         median = float(np.median(np.sqrt(np.sum(a * a, axis=1))))
         if ACC_LOOKS_LIKE_G[0] <= median <= ACC_LOOKS_LIKE_G[1]:
-            doubts.append(f"sensor {k}'s specific force has a median norm of {median:.2f} "
+            doubts.append(f"{k}'s specific force has a median norm of {median:.2f} "
                           "m/s^2, about 1 g in g units: the accelerometer data look like g "
                           "read as m/s^2")
         elif not ACC_PLAUSIBLE[0] <= median <= ACC_PLAUSIBLE[1]:
-            doubts.append(f"sensor {k}'s specific force {acc_scale_doubt(median)}")
+            doubts.append(f"{k}'s specific force {acc_scale_doubt(median)}")
     return doubts
 
 

@@ -152,7 +152,8 @@ class AxisSettings:
 @dataclass(frozen=True)
 class PositionSettings(AxisSettings):
     """Settings of :func:`imucal.estimate_position`: those of :class:`AxisSettings`
-    (``sign`` and ``j2_sign`` act on the axis a hinge estimates) and
+    (``sign`` and ``j2_sign`` act on the axis a hinge estimates; with a spheroidal joint
+    anything but "auto" is an InputError) and
 
     Attributes
     ----------
@@ -172,6 +173,10 @@ class PositionSettings(AxisSettings):
         super().__post_init__()
         if not isinstance(self.joint, str) or self.joint not in JOINTS:
             raise InputError(f"joint must be one of {', '.join(JOINTS)}, got '{self.joint}'")
+        for name in ("sign", "j2_sign"):  # (a spheroidal joint has no axis: ignored before)
+            if self.joint != "hinge" and getattr(self, name) != "auto":
+                raise InputError(f"{name} applies to the axis of joint hinge only, got "
+                                 f"'{getattr(self, name)}' for joint '{self.joint}'")
         _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
 
 

@@ -193,6 +193,9 @@ def test_outputs_never_overwrite_the_input_or_each_other(tmp_path):
     assert run.returncode == 2 and b"name the same file" in run.stderr
     run = imucal("axis", rec, ROOT / "sample_data" / "circling.h5", "--out", rec)
     assert run.returncode == 2 and b"names an input recording" in run.stderr
+    # convert has no --out: its output is the argument OUT
+    run = imucal("convert", rec, rec)
+    assert run.returncode == 2 and b": OUT names an input recording" in run.stderr
     assert rec.read_bytes() == before
 
 

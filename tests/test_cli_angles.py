@@ -159,6 +159,9 @@ def test_another_mounting_exits_1_with_the_evidence_unless_force(cal_file, tmp_p
 @pytest.mark.parametrize(("content", "phrase"), [
     (None, "calibration file not found"),
     ("{", "not a calibration file (not readable as JSON"),
+    # cut off mid-file: json's "(char 44)" was cut at 80 characters, "(char 4"
+    ('{"format": "imucal-calibration", "joints": {', "(not readable as JSON: Expecting "
+     "property name enclosed in double quotes at line 1, column 45)"),
     ('{"command": "axis"}', "an imucal 'axis' result"),
     # a RecursionError and a ValueError of json: exit 3 before (fuzz audit)
     ("[" * 100_000, "not a calibration file (not readable as JSON: maximum recursion"),
@@ -172,6 +175,7 @@ def test_a_missing_or_broken_calibration_exits_2_naming_it(tmp_path, content, ph
     assert run.returncode == 2
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and str(cal) in lines[0] and phrase in lines[0]
+    assert lines[0].count("(") == lines[0].count(")")
     assert run.stdout == "" and sorted(p.name for p in tmp_path.iterdir()) == (
         [] if content is None else ["cal.json"])
 

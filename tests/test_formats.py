@@ -521,7 +521,7 @@ def test_acc_declared_mg_for_m_s2_data_is_doubted_and_refused_for_a_position(tmp
     assert run.returncode == 1
     assert run.stdout == ""
     assert "the data cannot identify the position" in run.stderr
-    assert "sensor 1's specific force has a median norm of 0.0998 m/s^2, far below 1 g" \
+    assert "the first sensor's specific force has a median norm of 0.0998 m/s^2, far below 1 g" \
         in run.stderr
 
 
@@ -541,7 +541,7 @@ def test_acc_m_s2_declared_as_g_is_doubted(tmp_path):
     assert median > 50 and "far above 1 g" in doubt[0] and "declared as g" in doubt[0]
     a, g = rec.sensors["thigh"].acc, rec.sensors["thigh"].gyr
     assert [d for d in unit_doubts((g, g), (a * 9.80665, a)) if "far above" in d] == [
-        f"sensor 1's specific force has a median norm of {median:.4g} m/s^2 = "
+        f"the first sensor's specific force has a median norm of {median:.4g} m/s^2 = "
         f"{median / 9.80665:.3g} g, far above 1 g: the declared units look wrong (m/s^2 "
         "data declared as g, or mg data as g or m/s^2?)"]
     assert unit_doubts((g, g), (a, a)) == []

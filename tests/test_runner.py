@@ -94,6 +94,11 @@ def test_no_module_imports_the_command_line():
         (["axis", "--time-offset", "soon"],
          "Invalid value for '--time-offset': time offset must be auto or a number"),
         (["position", "--joint", "knee"], "Invalid value for '--joint': joint must be one of"),
+        # a spheroidal joint has no axis to sign: the options were ignored silently
+        (["position", "--sign", "+x"],
+         "Invalid value for '--sign': sign applies to the axis of joint hinge only"),
+        (["position", "--j2-sign", "-z"],
+         "Invalid value for '--j2-sign': j2_sign applies to the axis of joint hinge only"),
         (["position", "--acc-error", "-0.1"],
          "Invalid value for '--acc-error': acc_error must be in [0, 5], got -0.1"),
         (["axis", "--offset-search", "0"],
