@@ -117,9 +117,13 @@ def _check_pairs(pairs, where, source: str) -> dict[str, str]:
             raise InputError(f"{source}: {at}: the device name or serial is empty")
         if not value:
             raise InputError(f"{source}: {at}: no name given for {key!r}")
-        if any(ch in value for ch in ",\n\r\t"):
-            raise InputError(f"{source}: {at}: the name {value!r} contains a comma or a "
-                             "tab; --sensors could not address it")
+        if "," in value:
+            raise InputError(f"{source}: {at}: the name {value!r} contains a comma; "
+                             "--sensors could not address it")
+        if any(not ch.isprintable() for ch in value):
+            # (a NUL cut the name short in HDF5 and made a CSV unreadable as text)
+            raise InputError(f"{source}: {at}: the name {value!r} contains a control "
+                             "character (a tab, a line break, NUL); names are printable text")
         previous = seen.get(normalised_name(key))
         if previous is not None and previous[1] != value:
             raise InputError(f"{source}: {at}: {key!r} is mapped twice, to {previous[1]!r} "

@@ -776,3 +776,109 @@ def test_apdm_two_samples_and_no_sensors_are_named(tmp_path):
             del h5["Sensors"][serial]
     with pytest.raises(InputError, match=r"APDM file \(v5 layout\) holds no sensor$"):
         load_recording(path)
+
+
+def _edit(path, old, new, count=1):
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, count))
+
+
+@pytest.mark.parametrize("case", ["row missing", "row extra", "twice"])
+def test_bids_channel_list_must_match_the_columns(case, tmp_path):
+    # matched by position: with a row missing, every later channel read its neighbour's
+    # column (a shank's gyro RMS 93 instead of 124 deg/s) and loading went on (exit 0)
+    folder = vw.bids(short(), tmp_path / "b")
+    channels = next(folder.glob("*_channels.tsv"))
+    lines = channels.read_text().splitlines(keepends=True)
+    if case == "row missing":
+        channels.write_text("".join(ln for ln in lines if not ln.startswith("RightThigh_ACCEL_z")))
+        phrase = "lists 17 channels, but sub-01_task-walk_tracksys-imu_motion.tsv has 18 columns"
+    elif case == "row extra":
+        channels.write_text("".join(lines) + "Extra_x\tx\tMISC\tnone\tn/a\n")
+        phrase = "lists 19 channels, but sub-01_task-walk_tracksys-imu_motion.tsv has 18 columns"
+    else:  # two rows claim one point's channel: either could be its data
+        _edit(channels, "RightShank\t", "RightThigh\t")
+        phrase = "appears twice"
+    run = run_cli("info", folder)
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.startswith(f"imucal: error: {channels}: ") and phrase in run.stderr
+
+
+@pytest.mark.parametrize("text", [
+    "", "name\tcomponent\ttype\ttracked_point\nRightThigh_ACCEL_x\tx\n"])
+def test_bids_broken_channels_file_is_named(text, tmp_path):
+    # an empty file said "list index out of range"; a short row "'tracked_point'"
+    folder = vw.bids(short(), tmp_path / "b")
+    channels = next(folder.glob("*_channels.tsv"))
+    channels.write_text(text)
+    run = run_cli("info", folder)
+    assert run.returncode == 2
+    assert run.stderr.strip() == (f"imucal: error: {channels}: " + (
+        "empty; a BIDS channels file lists one row per column" if not text
+        else "row 2 has 2 of the header's 4 fields"))
+
+
+def test_bids_sampling_frequency_true_is_no_rate(tmp_path):
+    folder = vw.bids(short(), tmp_path / "b")
+    sidecar = next(folder.glob("*_motion.json"))
+    sidecar.write_text('{"SamplingFrequency": true}\n')  # was read as 1 Hz
+    run = run_cli("info", folder)
+    assert run.returncode == 2 and "no usable 'SamplingFrequency'" in run.stderr
+
+
+@pytest.mark.parametrize("fmt", ["xsens", "dot", "ximu3", "shimmer"])
+def test_a_column_named_twice_is_refused(fmt, tmp_path):
+    # Xsens / DOT took the later of two 'Acc_X' (a magnetometer renamed), Shimmer merged
+    # two devices of one name (the second's gyro with the first's accelerometer)
+    path = write(fmt, short(), tmp_path)
+    if fmt == "xsens":
+        target = sorted(path.glob("*.txt"))[0]
+        _edit(target, "Mag_X", "Acc_X")
+    elif fmt == "dot":
+        target = sorted(path.glob("*.csv"))[0]
+        _edit(target, "Gyr_Z", "Gyr_Z,Gyr_X")
+        lines = target.read_text().splitlines()
+        head = next(i for i, ln in enumerate(lines) if ln.startswith("PacketCounter"))
+        target.write_text("\n".join(lines[:head + 1] + [ln + ",0" for ln in lines[head + 1:]])
+                          + "\n")
+    elif fmt == "ximu3":
+        target = sorted(path.glob("*/Inertial.csv"))[0]
+        _edit(target, "Gyroscope Z (deg/s)", "Gyroscope X (deg/s)")
+    else:
+        target = path
+        path.write_text(path.read_text().replace("D0A8", "D0A7"))
+    run = run_cli("info", path)
+    assert run.returncode == 2, run.stderr
+    assert "appears twice (columns" in run.stderr and "which one holds the data" in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(("attr", "value", "phrase"), [
+    ("MonitorLabelList", [b"A"], "MonitorLabelList has 1 entries but CaseIdList 3"),
+    ("CaseIdList", None, "CaseIdList names device"),
+])
+def test_apdm_v3_lists_that_do_not_pair_are_refused(attr, value, phrase, tmp_path):
+    # one label for three devices loaded one sensor and said nothing of the other two; a
+    # repeated case ID read the thigh's data as the shank's
+    import h5py
+
+    path = write("apdm3", short(), tmp_path)
+    with h5py.File(path, "r+") as h5:
+        if value is None:
+            cases = list(np.asarray(h5.attrs["CaseIdList"]).reshape(-1))
+            value = [cases[0], cases[0], cases[2]]
+        h5.attrs[attr] = value
+    run = run_cli("info", path)
+    assert run.returncode == 2 and phrase in run.stderr
+
+
+def test_apdm_format_version_that_is_no_number_is_only_noted(tmp_path):
+    # only a note uses it, yet "invalid literal for int()" refused the whole file
+    import h5py
+
+    path = write("apdm", short(), tmp_path)
+    with h5py.File(path, "r+") as h5:
+        h5.attrs["FileFormatVersion"] = "abc"
+    loaded = load_recording(path)
+    assert len(loaded.sensors) == 3

@@ -49,6 +49,9 @@ def test_map_file_json_and_text(tmp_path):
     ("a =\n", r"line 1: no name given for 'a'"),
     ("= x\n", r"line 1: the device name or serial is empty"),
     ("a = x,y\n", r"contains a comma"),
+    # a NUL cut the name short in HDF5 and left convert's CSV unreadable as text
+    ('{"a": "th\\u0000igh"}', r"the name 'th\\x00igh' contains a control character"),
+    ('{"a": "th\\nigh"}', r"contains a control character \(a tab, a line break, NUL\)"),
     ("# nothing\n", r"the sensor map is empty"),
     ("[1, 2]", r"a sensor map in JSON is one object, .* not a list"),  # was "KEY = NAME"
 ])

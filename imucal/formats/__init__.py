@@ -201,6 +201,26 @@ def sep_line(line: str) -> str | None:
     return None
 
 
+def twice(source: str, name: str, first: int, second: int) -> InputError:
+    """The error for a column the reader uses that the header names twice (0-based
+    ``first``, ``second``): which of the two holds the data is not known, and taking
+    either silently read a magnetometer as an accelerometer, or merged two devices."""
+    return InputError(f"{source}: column '{name}' appears twice (columns {first + 1} and "
+                      f"{second + 1}); which one holds the data is not known: rename or "
+                      "remove one")
+
+
+def column_index(names: list[str], source: str, used) -> dict[str, int]:
+    """Each header name's column (0-based); a name in ``used`` given twice raises
+    :func:`twice`'s InputError."""
+    col: dict[str, int] = {}
+    for i, n in enumerate(names):
+        if n in col and n in used:
+            raise twice(source, n, col[n], i)
+        col.setdefault(n, i)
+    return col
+
+
 def parse_table(lines: list[str], sep: str, first_row: int, source: str,
                 names: list[str]) -> tuple[np.ndarray, list[str]]:
     """Numbers of the data ``lines`` as a float (rows, len(names)) array.

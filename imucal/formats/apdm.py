@@ -68,8 +68,7 @@ def read(path: Path, source: str | None = None) -> RawRecording:
     source = source or str(path)
     try:
         with h5py.File(path, "r") as h5:
-            version = h5.attrs.get("FileFormatVersion")
-            version = int(np.asarray(version).reshape(-1)[0]) if version is not None else None
+            version = _version(h5.attrs.get("FileFormatVersion"))
             if "Sensors" in h5:
                 sensors, notes = _read_v5(h5, source)
                 layout = "v5"
@@ -92,6 +91,20 @@ def read(path: Path, source: str | None = None) -> RawRecording:
     info = [f"APDM file format version {version} ({layout} layout); time 0 of the clock = "
             f"{epoch} us since 1970-01-01 UTC"]
     return RawRecording(format=f"{NAME} {layout}", sensors=sensors, notes=notes, info=info)
+
+
+def _version(value) -> int | str | None:
+    """The file's format version for the note ``info`` prints: a number when it is one,
+    else the text (only the note uses it: the layout is read from the groups)."""
+    if value is None:
+        return None
+    first = np.asarray(value).reshape(-1)
+    if first.size == 0:
+        return None
+    try:
+        return int(first[0])
+    except (TypeError, ValueError, OverflowError):
+        return repr(_text(first[0]))[:20]
 
 
 def _read_v5(h5, source: str):
@@ -159,7 +172,15 @@ def _read_v3(h5, source: str):
     sensors, notes = [], []
     labels = [_text(x) for x in np.asarray(h5.attrs["MonitorLabelList"]).reshape(-1)]
     cases = [_text(x) for x in np.asarray(h5.attrs["CaseIdList"]).reshape(-1)]
-    for label, case in zip(labels, cases, strict=False):
+    # paired by position: lists of different lengths left sensors out without a word,
+    # and a repeated case ID read one device's data under two labels
+    if len(labels) != len(cases):
+        raise InputError(f"{source}: MonitorLabelList has {len(labels)} entries but "
+                         f"CaseIdList {len(cases)}; each device needs one of each")
+    repeated = sorted({c for c in cases if cases.count(c) > 1})
+    if repeated:
+        raise InputError(f"{source}: CaseIdList names device '{repeated[0]}' twice")
+    for label, case in zip(labels, cases, strict=True):
         try:
             g = h5[case]
             rate = float(np.asarray(g.attrs["SampleRate"]).reshape(-1)[0])

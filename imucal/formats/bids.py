@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from . import RawRecording, RawSensor, normalise_units, parse_table, read_text
+from . import RawRecording, RawSensor, normalise_units, parse_table, read_text, twice
 
 NAME = "BIDS-motion"
 
@@ -37,6 +37,33 @@ def _sidecar(motion: Path, suffix: str) -> Path:
     return motion.with_name(motion.name[: -len("_motion.tsv")] + suffix)
 
 
+def _channels(path: Path) -> list[dict[str, str]]:
+    """The rows of a ``_channels.tsv`` ({column: value}, header lower case).
+
+    Raises
+    ------
+    InputError
+        an empty file, a header without name, component, type and tracked_point, or a
+        row with fewer fields than the header (with its line).
+    """
+    lines = [(n, ln) for n, ln in enumerate(read_text(path, str(path)).splitlines(), start=1)
+             if ln.strip()]
+    if not lines:
+        raise InputError(f"{path}: empty; a BIDS channels file lists one row per column")
+    header = [h.strip().lower() for h in lines[0][1].split("\t")]
+    missing = [c for c in ("name", "component", "type", "tracked_point") if c not in header]
+    if missing:
+        raise InputError(f"{path}: no column {', '.join(missing)} in the header")
+    rows = []
+    for n, ln in lines[1:]:
+        cells = [c.strip() for c in ln.split("\t")]
+        if len(cells) < len(header):
+            raise InputError(f"{path}: row {n} has {len(cells)} of the header's {len(header)} "
+                             "fields")
+        rows.append(dict(zip(header, cells, strict=False)))
+    return rows
+
+
 def read(path: Path, source: str | None = None) -> RawRecording:
     """``path`` read as a BIDS-motion recording (the plug-in ``read``, :mod:`imucal.formats`:
     an InputError naming ``source`` for anything unusable)."""
@@ -54,21 +81,25 @@ def read(path: Path, source: str | None = None) -> RawRecording:
             raise InputError(f"{source}: BIDS motion file without its {needed.name}")
     try:
         meta = json.loads(read_text(json_path, str(json_path)))
+        if isinstance(meta["SamplingFrequency"], bool):  # (float(True) is 1 Hz)
+            raise TypeError("true or false is no number of Hz")
         rate = float(meta["SamplingFrequency"])
     except (ValueError, KeyError, TypeError) as err:
         raise InputError(f"{json_path}: no usable 'SamplingFrequency' ({err})") from None
     if not (np.isfinite(rate) and rate > 0):
         raise InputError(f"{json_path}: 'SamplingFrequency' must be a positive number (Hz), "
                          f"got {meta['SamplingFrequency']!r}")
-    lines = [ln for ln in read_text(channels_path, str(channels_path)).splitlines() if ln.strip()]
-    header = [h.strip().lower() for h in lines[0].split("\t")]
-    missing = [c for c in ("name", "component", "type", "tracked_point") if c not in header]
-    if missing:
-        raise InputError(f"{channels_path}: no column {', '.join(missing)} in the header")
-    rows = [dict(zip(header, (c.strip() for c in ln.split("\t")), strict=False))
-            for ln in lines[1:]]
+    rows = _channels(channels_path)
     names = [r.get("name", f"column {i + 1}") for i, r in enumerate(rows)]
-    values, notes = parse_table(read_text(motion, source).splitlines(), "\t", 1, source, names)
+    data = read_text(motion, source).splitlines()
+    width = len(data[0].split("\t")) if data else 0
+    if data and width != len(rows):
+        # matched by position, every channel after a missing row read its neighbour's
+        # column (a thigh's data as the shank's), without a word
+        raise InputError(f"{channels_path}: lists {len(rows)} channels, but {motion.name} has "
+                         f"{width} columns; the channels file needs one row per column, in "
+                         "order")
+    values, notes = parse_table(data, "\t", 1, source, names)
     time = None
     by_point: dict[str, dict] = {}
     for i, r in enumerate(rows):
@@ -78,6 +109,9 @@ def read(path: Path, source: str | None = None) -> RawRecording:
         if kind is None or r.get("component", "").lower() not in ("x", "y", "z"):
             continue
         point = by_point.setdefault(r["tracked_point"], {})
+        if (kind, r["component"].lower()) in point:
+            raise twice(str(channels_path), f"{r['tracked_point']} {r['type']} "
+                        f"{r['component']}", point[kind, r["component"].lower()], i)
         point[(kind, r["component"].lower())] = i
         point.setdefault(f"{kind}_units", r.get("units"))
     sensors = []

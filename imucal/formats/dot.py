@@ -20,6 +20,7 @@ from ..errors import InputError
 from . import (
     RawRecording,
     RawSensor,
+    column_index,
     export_files,
     head_text,
     header_rate,
@@ -93,8 +94,8 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
         if len(fields) >= 2 and fields[0].strip().endswith(":"):
             meta[fields[0].strip().rstrip(":").lower()] = fields[1].strip()
     names = [c.strip() for c in lines[start].split(",")]
-    col = {n: i for i, n in enumerate(names)}
     need = ("SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z")
+    col = column_index(names, where, (*need, "PacketCounter"))
     missing = [c for c in need if c not in col]
     if missing:
         raise InputError(

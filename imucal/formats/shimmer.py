@@ -17,7 +17,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from . import RawRecording, RawSensor, head_text, normalise_units, parse_table, read_text, sep_line
+from . import (
+    RawRecording,
+    RawSensor,
+    head_text,
+    normalise_units,
+    parse_table,
+    read_text,
+    sep_line,
+    twice,
+)
 
 NAME = "Shimmer Consensys"
 _COL = re.compile(r"^(?P<dev>Shimmer_[0-9A-Za-z]+)_(?P<what>.+?)(?:_(?P<cal>CAL|RAW|UNCAL))?$")
@@ -70,6 +79,8 @@ def read(path: Path, source: str | None = None) -> RawRecording:
         if not m or (m["cal"] or "CAL") != "CAL":
             continue
         what, d = m["what"], devices.setdefault(m["dev"], {})
+        if c in names[:i]:  # two devices of one name: their columns merged into one
+            raise twice(source, c, names.index(c), i)
         unit = units_row[i] if units_row and i < len(units_row) else None
         if what == "Timestamp_Unix":
             d["time"], d["time_units"] = i, unit

@@ -24,6 +24,7 @@ from . import (
     normalise_units,
     parse_table,
     read_text,
+    twice,
 )
 
 NAME = "x-IMU3"
@@ -100,6 +101,8 @@ def _read(file: Path, source: str) -> RawSensor:
         parts = base.split()
         if len(parts) == 2 and parts[0] in ("Gyroscope", "Accelerometer") and parts[1] in "XYZ":
             kind = "gyr" if parts[0] == "Gyroscope" else "acc"
+            if (kind, parts[1].lower()) in index:
+                raise twice(where, base, index[kind, parts[1].lower()], i)
             index[kind, parts[1].lower()] = i
             units[kind] = u.group(1) if u else None
     missing = [f"{'Gyroscope' if k == 'gyr' else 'Accelerometer'} {a.upper()}"

@@ -21,6 +21,7 @@ from ..errors import InputError
 from . import (
     RawRecording,
     RawSensor,
+    column_index,
     export_files,
     head_text,
     header_rate,
@@ -83,8 +84,9 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
     header_line = lines[start]
     sep = max(("\t", ",", ";"), key=header_line.count)
     names = [c.strip() for c in header_line.split(sep)]
-    col = {n: i for i, n in enumerate(names)}
-    missing = [c for c in ("Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z") if c not in col]
+    need = ("Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z")
+    col = column_index(names, where, (*need, "PacketCounter", "SampleTimeFine"))
+    missing = [c for c in need if c not in col]
     if missing:
         raise InputError(
             f"{where}: no {', '.join(missing)} columns; export calibrated inertial data "
