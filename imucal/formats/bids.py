@@ -81,11 +81,12 @@ def read(path: Path, source: str | None = None) -> RawRecording:
             raise InputError(f"{source}: BIDS motion file without its {needed.name}")
     try:
         meta = json.loads(read_text(json_path, str(json_path)))
-        if isinstance(meta["SamplingFrequency"], bool):  # (float(True) is 1 Hz)
-            raise TypeError("true or false is no number of Hz")
         rate = float(meta["SamplingFrequency"])
     except (ValueError, KeyError, TypeError) as err:
         raise InputError(f"{json_path}: no usable 'SamplingFrequency' ({err})") from None
+    if isinstance(meta["SamplingFrequency"], bool):  # (float(True) is 1 Hz)
+        raise InputError(f"{json_path}: no usable 'SamplingFrequency' (true or false is no "
+                         "number of Hz)")
     if not (np.isfinite(rate) and rate > 0):
         raise InputError(f"{json_path}: 'SamplingFrequency' must be a positive number (Hz), "
                          f"got {meta['SamplingFrequency']!r}")
