@@ -46,6 +46,7 @@ _LAZY = {
     "Recording": ".recording",
     "SensorData": ".recording",
     "make_recording": ".recording",
+    "save_recording": ".writers",
 }
 
 if TYPE_CHECKING:  # static analysers and IDEs see ordinary imports
@@ -55,6 +56,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see ordinary imports
     from .loaders import load_recording
     from .position import PositionResult, estimate_position
     from .recording import Recording, SensorData, make_recording
+    from .writers import save_recording
 
 
 def __getattr__(name: str):
@@ -87,4 +89,5 @@ __all__ = [
     "load_calibration",
     "load_recording",
     "make_recording",
+    "save_recording",
 ]

@@ -508,7 +508,7 @@ def load_calibration(path: str | Path) -> Calibration:
         if len(data) > MAX_FILE_BYTES:
             raise InputError(f"{path}: not a calibration file (more than {MAX_FILE_BYTES} "
                              "bytes; is it a recording?)")
-        doc = json.loads(data.decode("utf-8"))
+        doc = json.loads(data.decode("utf-8-sig"))  # (a BOM: a Notepad edit)
     # ValueError: json's own errors, and integers of thousands of digits; RecursionError:
     # arrays nested a hundred thousand deep
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as err:
@@ -541,6 +541,10 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
         v = e.get(key)
         if v is None:
             return None
+        # (float() took "3" and true as numbers from a hand-edited file)
+        if not isinstance(v, list) or not all(isinstance(x, int | float)
+                                              and not isinstance(x, bool) for x in v):
+            raise ValueError(f"joint '{name}' {key} is {repr(v)[:60]}, not three numbers")
         a = np.asarray(v, dtype=float)
         if a.shape != (3,) or not np.all(np.isfinite(a)):
             raise ValueError(f"joint '{name}' {key} is not a finite 3-vector")
@@ -555,7 +559,7 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
             and all(isinstance(n, str) for n in sensors)):
         raise ValueError(f"joint '{name}' sensors is {repr(sensors)[:80]}, not "
                          "the names of its two sensors")
-    for block in ("axis", "position"):
+    for block in ("axis", "position", "angle"):
         if e.get(block) is not None and not isinstance(e[block], dict):
             raise ValueError(f"joint '{name}' {block} is not a JSON object")
     return JointCalibration(name=name, kind=e["joint"], sensors=tuple(sensors),

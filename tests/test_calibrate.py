@@ -151,6 +151,10 @@ def test_load_calibration_errors(calibration, tmp_path):
     (tmp_path / "v9.json").write_text(json.dumps({**doc, "format_version": 9}))
     with pytest.raises(InputError, match="format version 9.*calibrate again"):
         load_calibration(tmp_path / "v9.json")
+    # a byte-order mark (a Notepad edit) was "not readable as JSON"; recordings and maps
+    # with one load
+    (tmp_path / "bom.json").write_bytes(b"\xef\xbb\xbf" + json.dumps(doc).encode())
+    assert load_calibration(tmp_path / "bom.json").joints.keys() == {"knee", "ankle"}
     doc["joints"]["knee"]["j1"] = [1, 2]
     (tmp_path / "bad.json").write_text(json.dumps(doc))
     with pytest.raises(InputError, match="damaged calibration file.*knee' j1"):
@@ -178,6 +182,10 @@ def test_load_calibration_errors(calibration, tmp_path):
     ("zero_method", None, "angle.zero_method is None, not a text"),
     ("warnings", None, "angle.warnings is None, not a list of texts"),
     ("axis", 0.02, "knee' axis is not a JSON object"),
+    # a TypeError of Python's words before; a string or true read as a number
+    ("angle", [], "knee' angle is not a JSON object"),
+    ("j1", [1, 2, "3"], "knee' j1 is \\[1, 2, '3'\\], not three numbers"),
+    ("j1", [True, False, False], "knee' j1 is \\[True, False, False\\], not three numbers"),
 ])
 def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, key, value,
                                                          match):
@@ -185,7 +193,7 @@ def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, 
     # mirrored without a word, when the file was applied
     doc = calibration[0].to_document()
     knee = doc["joints"]["knee"]
-    (knee if key in ("j1", "axis", "sensors") else knee["angle"])[key] = value
+    (knee if key in ("j1", "axis", "sensors", "angle") else knee["angle"])[key] = value
     (tmp_path / "edited.json").write_text(json.dumps(doc))
     with pytest.raises(InputError, match="edited.json: damaged calibration file.*" + match):
         load_calibration(tmp_path / "edited.json")

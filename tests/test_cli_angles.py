@@ -291,6 +291,12 @@ def test_library_exports():
     assert imucal.load_calibration is calibration.load_calibration
     assert imucal.joint_angles is angles.joint_angles
     assert {"Calibration", "JointAngles", "calibrate", "joint_angles"} <= set(imucal.__all__)
+    # docs/formats.md wrote imucal.writers.save_recording, an AttributeError after
+    # `import imucal` (a submodule is no attribute until imported)
+    from imucal import writers
+
+    assert imucal.save_recording is writers.save_recording
+    assert "save_recording" in imucal.__all__
 
 
 def test_forced_angles_of_a_knee_marked_not_identifiable_say_so_in_the_summary(tmp_path):
