@@ -134,8 +134,18 @@ AccUnits = Annotated[str | None, typer.Option(
     help="Accelerometer units, m/s^2 or g, of every sensor: for a CSV, and in place of what "
          "an HDF5 file or vendor export declares.", show_default=False)]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")]
+def _input_file(value: str | Path) -> Path:
+    """An input file's name as typed: typer turns '' (an unset "$MAP") into '.', which
+    was then called a folder."""
+    if isinstance(value, Path):
+        return value
+    if value == "":
+        raise typer.BadParameter("'': empty file name")
+    return Path(value)
+
+
 SensorMap = Annotated[Path | None, typer.Option(
-    "--map", metavar="FILE", show_default=False,
+    "--map", metavar="FILE", show_default=False, parser=_input_file,
     help="Sensor map for a study: device names or serials as the files give them -> the "
     "names to use, as JSON ({\"00B4D7D3\": \"left_thigh\"}) or KEY = NAME lines; keys "
     "match ignoring case, spaces, underscores and hyphens; keys mapped to one name are "
@@ -391,7 +401,7 @@ def angles(
     ctx: typer.Context,
     rec: Rec,
     calibration: Annotated[Path, typer.Option(
-        "--calibration", "-c", metavar="CAL.json", show_default=False,
+        "--calibration", "-c", metavar="CAL.json", show_default=False, parser=_input_file,
         help="Calibration file written by imucal calibrate (same sensors, same mounting).")],
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", metavar="FILE", show_default=False, parser=_output_file,

@@ -117,6 +117,10 @@ def test_no_module_imports_the_command_line():
         (["axis", "--sensors", "thigh"], "Invalid value for '--sensors': needs two different"),
         (["axis", "--start", "8", "--end", "2"],
          "Invalid value for '--end': must be after --start (8 s), got 2 s"),
+        # an unset "$MAP": typer made '' the folder '.', "--map needs a file, this is a
+        # folder"
+        (["axis", "--map", ""], "Invalid value for '--map': '': empty file name"),
+        (["angles", "-c", ""], "Invalid value for '--calibration' / '-c': '': empty file name"),
     ],
 )
 def test_usage_errors_before_any_file_is_read(tmp_path, args, message):
