@@ -34,7 +34,7 @@ the shared clock's value there.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -227,6 +227,7 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
     stamps or header rate); with time stamps it must agree with theirs within
     :data:`RATE_REFUSE`. Raises :class:`InputError` for unusable clocks.
     """
+    sensors = _one_wrap_cycle(sensors)
     clocks, notes = _device_clocks(sensors, source, rate)
     ref = clocks[sensors[0].name]
     grid, firsts = _shared_grid(clocks, ref, source)
@@ -237,6 +238,28 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
         notes += more
     return Aligned(time=grid - grid[0], rate=1.0 / ref.period, data=data, info=info,
                    notes=notes, origin=float(grid[0]))
+
+
+def _one_wrap_cycle(sensors: list[RawSensor]) -> list[RawSensor]:
+    """``sensors`` with the stamps of devices that started after their clock wrapped (a
+    DOT's microseconds wrap every 71.6 min) moved on by whole wraps, next to those that
+    started before it. Each device's own wraps are undone on its own (:func:`unwrap`); a
+    device whose first stamp lay past the wrap read as starting 71 min before the others
+    ("do not record at the same time"). Devices of one recording start within half a
+    wrap of each other."""
+    stamped = [s.time[0] for s in sensors if s.time is not None and s.time_wrap
+               and s.time.size and np.isfinite(s.time[0])]
+    if len(stamped) < 2:
+        return sensors
+    latest = float(max(stamped))
+    out = []
+    for s in sensors:
+        if (s.time is not None and s.time_wrap and s.time.size and np.isfinite(s.time[0])
+                and s.time[0] < latest - s.time_wrap / 2):
+            cycles = math.ceil((latest - s.time_wrap / 2 - s.time[0]) / s.time_wrap)
+            s = replace(s, time=s.time + cycles * s.time_wrap)
+        out.append(s)
+    return out
 
 
 def _device_clocks(sensors: list[RawSensor], source: str,

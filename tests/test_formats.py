@@ -95,6 +95,18 @@ def test_late_starting_sensor(fmt, tmp_path):
     assert any("span all sensors share" in w for w in loaded.warnings)
 
 
+def test_dot_sensor_starting_after_its_clock_wrapped(tmp_path):
+    # DOT stamps are microseconds that wrap at 2^32 (71.6 min); the writer starts them
+    # 0.97 s before the wrap, so a thigh 2 s late starts after it. Each device's own wrap
+    # was undone, not the devices' shared one: "'Shank' starts at 4292.97 s, after
+    # 'Thigh' stopped at 5.99 s" (fuzz audit)
+    rec = short()
+    loaded = load_recording(write("dot", rec, tmp_path, late={"thigh": 200}))
+    assert loaded.n_samples == rec.n_samples - 200
+    same(loaded, rec, NAMES["dot"], offset=200)
+    assert loaded.sensor_info["Shank"]["start_s"] == pytest.approx(-2.0, abs=1e-6)
+
+
 @pytest.mark.parametrize("fmt", FORMATS)
 def test_dropped_packets_bridged_or_refused(fmt, tmp_path):
     rec = short()
