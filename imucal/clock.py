@@ -91,14 +91,36 @@ def unwrap(values: np.ndarray, wrap: float | None) -> np.ndarray:
     return values + jumps
 
 
+#: Farthest a device's time stamps (s) or packet counter (samples) may lie from its first
+#: one: 115 days of recording, or of samples at 1 kHz. Beyond it a value is corrupt, and
+#: casting it to sample numbers overflowed (numpy's warnings, then a wrong message).
+MAX_CLOCK_SPAN = 1e7
+
+
+def _check_values(values: np.ndarray, what_values: str, unit: str, what: str) -> None:
+    """InputError naming the first data row (1-based) whose stamp or counter is missing,
+    not a number or :data:`MAX_CLOCK_SPAN` from the first."""
+    bad = ~np.isfinite(values)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"{what}: {what_values} missing or not a number at data row {i + 1}; "
+                         "fix or delete that row")
+    far = np.abs(values - values[0]) > MAX_CLOCK_SPAN
+    if far.any():
+        i = int(np.flatnonzero(far)[0])
+        raise InputError(f"{what}: {what_values} {values[i]:.6g}{unit and ' ' + unit} at data row "
+                         f"{i + 1} lies {abs(values[i] - values[0]):.3g}{unit and ' ' + unit} "
+                         "from the first: a corrupt value; fix or delete that row")
+
+
 def _from_counter(counter: np.ndarray, what: str) -> np.ndarray:
     k = counter - counter[0]
     steps = np.diff(k)
     if (steps <= 0).any():
         i = int(np.flatnonzero(steps <= 0)[0])
         raise InputError(
-            f"{what}: packet counter goes from {counter[i]:.0f} to {counter[i + 1]:.0f} at row "
-            f"{i + 2} of the data (repeated or out of order); remove the duplicated rows"
+            f"{what}: packet counter goes from {counter[i]:.0f} to {counter[i + 1]:.0f} at data "
+            f"row {i + 2} (repeated or out of order); remove the duplicated rows"
         )
     return np.rint(k).astype(np.int64)
 
@@ -118,7 +140,7 @@ def _from_stamps(t: np.ndarray, what: str) -> np.ndarray:
     if (dt < -0.5 * period).any():
         i = int(np.flatnonzero(dt < -0.5 * period)[0])
         raise InputError(
-            f"{what}: time stamps go backwards at row {i + 2} of the data ({t[i]:.6f} -> "
+            f"{what}: time stamps go backwards at data row {i + 2} ({t[i]:.6f} -> "
             f"{t[i + 1]:.6f} s after the first); rows out of order or a clock reset"
         )
     steps = np.maximum(1, np.rint(dt / period)).astype(np.int64)
@@ -144,11 +166,11 @@ def _from_stamps(t: np.ndarray, what: str) -> np.ndarray:
 def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
     n = s.gyr.shape[0]
     t = None if s.time is None else unwrap(s.time, s.time_wrap)
-    if t is not None and not np.isfinite(t).all():
-        if s.counter is None:
-            i = int(np.flatnonzero(~np.isfinite(t))[0])
-            raise InputError(f"{what}: time stamp missing or not a number at row {i + 2}")
-        t = None  # fall back to the counter
+    if t is not None and not np.isfinite(t).any() and s.counter is not None:
+        t = None  # no stamps at all: the counter (a counter with some stamps has another
+        # zero than the devices' stamps, and read as starting 600 s apart)
+    if t is not None:
+        _check_values(t, "time stamp", "s", what)
     if t is not None and n >= 3:
         # Relative to the first stamp: a large clock value would cost the fit precision.
         t0, t = t[0], t - t[0]
@@ -159,7 +181,7 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
         if worst > period:
             i = int(np.argmax(residual))
             raise InputError(
-                f"{what}: time stamp at row {i + 2} of the data lies {worst:g} s off the "
+                f"{what}: time stamp at data row {i + 1} lies {worst:g} s off the "
                 "device's regular clock (a clock reset or a pause in logging); cut the file there"
             )
         a += t0
@@ -179,9 +201,7 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
         stamps = None
         if s.counter is not None:
             c = unwrap(s.counter, s.counter_wrap)
-            if not np.isfinite(c).all():
-                i = int(np.flatnonzero(~np.isfinite(c))[0])
-                raise InputError(f"{what}: packet counter missing or not a number at row {i + 2}")
+            _check_values(c, "packet counter", "", what)
             k = _from_counter(c, what)
             origin = "packet counter"
         else:
@@ -215,7 +235,7 @@ def _check_dropped(k: np.ndarray, period: float, what: str, origin: str) -> None
     jump = int(k[i + 1] - k[i])
     raise InputError(
         f"{what}: a jump of {jump * period:.6g} s ({jump - 1} samples) in its {origin} at "
-        f"row {i + 2} of the data leaves {(span - k.size) / span:.1%} of its time without "
+        f"data row {i + 2} leaves {(span - k.size) / span:.1%} of its time without "
         "samples: a corrupt value or a long pause in logging; cut the file there"
     )
 
@@ -300,9 +320,14 @@ def _shared_grid(clocks: dict, ref, source: str) -> tuple[np.ndarray, dict]:
     firsts = {n: c.a for n, c in clocks.items()}
     lasts = {n: c.a + c.period * c.k[-1] for n, c in clocks.items()}
     start, end = max(firsts.values()), min(lasts.values())
-    if end - start < 2 * ref.period:
+    if end - start < (2 - SNAP) * ref.period:  # (three samples span two periods)
         late = max(firsts, key=firsts.get)
         early = min(lasts, key=lasts.get)
+        if end > start:
+            raise InputError(
+                f"{source}: the sensors record together for only {end - start:g} s ('{late}' "
+                f"starts last, '{early}' stops first): fewer than the 3 samples a recording "
+                "needs")
         raise InputError(
             f"{source}: the sensors do not record at the same time: '{late}' starts at "
             f"{firsts[late] - min(firsts.values()):g} s, after '{early}' stopped at "

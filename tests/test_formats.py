@@ -705,8 +705,10 @@ def test_one_corrupt_stamp_or_counter_is_named_not_read_as_dropped_packets(tmp_p
             del h5["Sensors/1234/Time"]
             h5["Sensors/1234/Time"] = t
         sensor, what = "Right Thigh", "time stamps"
-    with pytest.raises(InputError, match=f"sensor '{sensor}': a jump of .* in its {what} at "
-                       "row 500 of the data leaves 100.0% of its time without samples"):
+    # named as the corrupt value it is (before: a jump leaving 100 % without samples)
+    value = "time stamp" if what == "time stamps" else what
+    with pytest.raises(InputError, match=f"sensor '{sensor}': {value} .* at data row 500 lies "
+                       ".* from the first: a corrupt value; fix or delete that row"):
         load_recording(folder)
 
 
@@ -894,3 +896,41 @@ def test_apdm_format_version_that_is_no_number_is_only_noted(tmp_path):
         h5.attrs["FileFormatVersion"] = "abc"
     loaded = load_recording(path)
     assert len(loaded.sensors) == 3
+
+
+@pytest.mark.parametrize("fmt", ["xsens", "dot"])
+def test_one_missing_stamp_is_named_by_its_row(fmt, tmp_path):
+    # the device fell back to its packet counter, whose zero is not the others' stamps:
+    # "'00B42D4F' starts at 637.654 s, after '00B42D50' stopped at 7.99 s"
+    folder = write(fmt, short(), tmp_path)
+    path = sorted(folder.iterdir())[0]
+    lines = path.read_text().split("\n")
+    sep = "\t" if fmt == "xsens" else ","
+    head = next(i for i, ln in enumerate(lines) if "SampleTimeFine" in ln.split(sep))
+    column = lines[head].split(sep).index("SampleTimeFine")
+    cells = lines[head + 7].split(sep)
+    cells[column] = "NaN"
+    lines[head + 7] = sep.join(cells)
+    path.write_text("\n".join(lines))
+    with pytest.raises(InputError, match="time stamp missing or not a number at data row 7; "
+                                         "fix or delete that row"):
+        load_recording(folder)
+
+
+def test_devices_sharing_three_samples_load_and_fewer_are_named(tmp_path):
+    # three samples passed the minimum, then "'X' starts at 0 s, after 'X' stopped at
+    # 0.02 s" (the span of exactly two periods compared below it by rounding)
+    rec = short()
+    folder = write("xsens", rec, tmp_path)
+    for f in folder.iterdir():
+        lines = f.read_text().split("\n")
+        head = next(i for i, ln in enumerate(lines) if "Acc_X" in ln)
+        f.write_text("\n".join(lines[:head + 4]) + "\n")
+    assert load_recording(folder).n_samples == 3
+    # a thigh starting 3 samples before the end, a shank one sample short: 2 shared
+    shifted = write("dot", rec, tmp_path, late={"thigh": 497})
+    shank = next(f for f in shifted.iterdir() if f.name.startswith("Shank"))
+    shank.write_text("\n".join(shank.read_text().rstrip("\n").split("\n")[:-1]) + "\n")
+    with pytest.raises(InputError, match="record together for only 0.01 s \\('Thigh' starts "
+                       "last, 'Shank' stops first\\): fewer than the 3 samples"):
+        load_recording(shifted)

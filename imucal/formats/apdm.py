@@ -150,6 +150,9 @@ def _sensor(label, serial, rate, acc_ds, gyr_ds, time_ds, source) -> RawSensor:
         if not whole:
             raise ValueError(f"Time holds {time.dtype} values that are not whole "
                              "microseconds")
+        if np.abs(time).max() >= 2.0**63:  # beyond int64 (the cast warned, then "do not
+            # increase"); 2^63 us is 292 000 years
+            raise ValueError(f"Time holds {np.abs(time).max():.3g} us, beyond any clock")
     notes = []
     if not (np.isfinite(rate) and rate > 0):  # checked against the stamps only if a rate
         notes.append(f"sensor '{label}': the file's sample rate {rate:g} Hz is no rate; the "

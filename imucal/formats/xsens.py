@@ -99,7 +99,7 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
     time = None
     if "SampleTimeFine" in col:
         fine = values[:, col["SampleTimeFine"]]
-        if np.isfinite(fine).all():
+        if np.isfinite(fine).any():  # (one missing stamp is named by its row)
             time = fine / TICKS_PER_S
     rate = None
     for ln in comments:
