@@ -562,6 +562,12 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
     for block in ("axis", "position", "angle"):
         if e.get(block) is not None and not isinstance(e[block], dict):
             raise ValueError(f"joint '{name}' {block} is not a JSON object")
+    # (a hand-edited "failed" or null verdict with vectors wrote angles, exit 0)
+    if e["verdict"] not in _ORDER:
+        raise ValueError(f"joint '{name}' verdict is {e['verdict']!r}, not one of "
+                         f"{', '.join(_ORDER)}")
+    if e["verdict"] == "failed" and any(e.get(k) is not None for k in ("j1", "j2", "o1", "o2")):
+        raise ValueError(f"joint '{name}' is marked failed but has vectors")
     return JointCalibration(name=name, kind=e["joint"], sensors=tuple(sensors),
                             verdict=str(e["verdict"]), j1=vec("j1"), j2=vec("j2"),
                             o1=vec("o1"), o2=vec("o2"), warnings=list(e.get("warnings", [])),

@@ -558,6 +558,8 @@ def _sensor_name(name) -> str:
 def _as_n_by_3(value, what: str) -> np.ndarray:
     if np.iscomplexobj(value):
         raise InputError(f"{what} holds complex numbers; expected real numbers")
+    if getattr(value, "dtype", None) == np.bool_:  # (the estimators refuse them too)
+        raise InputError(f"{what} holds True/False values; expected real numbers")
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):

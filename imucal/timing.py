@@ -99,6 +99,8 @@ def check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, li
 
     if np.iscomplexobj(time):
         raise InputError(f"{source}: 'time' holds complex numbers; expected seconds")
+    if getattr(time, "dtype", None) == np.bool_:
+        raise InputError(f"{source}: 'time' holds True/False values; expected seconds")
     try:
         # a copy: the recording must not change when the caller's array does later
         time = np.array(time, dtype=np.float64).reshape(-1)

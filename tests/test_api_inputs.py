@@ -177,6 +177,12 @@ def test_make_recording_refuses_what_it_would_ignore(rec):
         imucal.make_recording({**data, b"thigh": data["thigh"]}, rate=100.0)
     with pytest.raises(InputError, match="sensors must be a mapping"):
         imucal.make_recording([th.gyr, th.acc], rate=100.0)
+    # True/False read as 1 and 0, where the estimators refuse them (fuzz audit)
+    with pytest.raises(InputError, match="sensor 'thigh' gyr holds True/False values"):
+        imucal.make_recording({"thigh": {"gyr": th.gyr > 0, "acc": th.acc}}, rate=100.0)
+    with pytest.raises(InputError, match="'time' holds True/False values; expected seconds"):
+        imucal.make_recording({"thigh": {"gyr": th.gyr[:2], "acc": th.acc[:2]}},
+                              time=np.array([False, True]))
     right = imucal.make_recording(data, rate=100.0, units={"thigh": {"gyr": "deg/s"}})
     np.testing.assert_allclose(right.sensor("thigh").gyr, th.gyr)
 

@@ -184,6 +184,8 @@ def test_load_calibration_errors(calibration, tmp_path):
     ("axis", 0.02, "knee' axis is not a JSON object"),
     # a TypeError of Python's words before; a string or true read as a number
     ("angle", [], "knee' angle is not a JSON object"),
+    ("verdict", None, "knee' verdict is None, not one of good, use with care"),
+    ("verdict", "failed", "knee' is marked failed but has vectors"),
     ("j1", [1, 2, "3"], "knee' j1 is \\[1, 2, '3'\\], not three numbers"),
     ("j1", [True, False, False], "knee' j1 is \\[True, False, False\\], not three numbers"),
 ])
@@ -193,7 +195,7 @@ def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, 
     # mirrored without a word, when the file was applied
     doc = calibration[0].to_document()
     knee = doc["joints"]["knee"]
-    (knee if key in ("j1", "axis", "sensors", "angle") else knee["angle"])[key] = value
+    (knee if key in ("j1", "axis", "sensors", "angle", "verdict") else knee["angle"])[key] = value
     (tmp_path / "edited.json").write_text(json.dumps(doc))
     with pytest.raises(InputError, match="edited.json: damaged calibration file.*" + match):
         load_calibration(tmp_path / "edited.json")
