@@ -85,6 +85,10 @@ UNCERTAIN = {
     "it moves with the low-pass cut-off": "uncertain (cut-off)",
     "the residuals are systematic": "uncertain (model)",
     "a different weighting of the samples": "uncertain (model)",
+    "a gyroscope bias was estimated": "uncertain (gyro bias)",
+    "moves when gyroscope biases are fitted": "uncertain (gyro bias)",
+    "accelerometer offset or scale": "uncertain (accelerometer)",
+    "it moves with the clock offset": "uncertain (clock offset)",
 }
 #: (estimate, side, window, time_offset block) of every fit in the tables, filled as
 #: they run.
