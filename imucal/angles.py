@@ -741,7 +741,8 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
             f"{jc.name}: the calibration found the second sensor's clock "
             f"{abs(1000 * lag):.0f} ms {'late' if lag > 0 else 'early'} but did not apply it "
             "(too little gain to tell it from soft tissue); if the clocks differ by that, the "
-            f"angles lag by up to {float(np.max(rate2, initial=0.0)) * abs(lag):.1f} deg "
+            f"angles {'lag' if lag > 0 else 'lead'} by up to "
+            f"{float(np.max(rate2, initial=0.0)) * abs(lag):.1f} deg "
             "where the knee turns fastest, which their 1-sigma carries. Calibrate with "
             "--time-offset SECONDS if the offset is known")
     sigma, extrapolated = _extrapolated(jc, sigma, flex, beyond, rec.rate)

@@ -91,8 +91,10 @@ class JointCalibration:
 
     @property
     def usable(self) -> bool:
-        """Whether the joint has its vectors (an estimate that stopped leaves none)."""
-        return self.o1 is not None and (self.kind != "hinge" or self.j1 is not None)
+        """Whether the joint has its vectors (an estimate that stopped leaves none) and
+        did not fail (a knee whose axis came but whose centre stopped keeps its axis)."""
+        return (self.verdict != "failed" and self.o1 is not None
+                and (self.kind != "hinge" or self.j1 is not None))
 
 
 @dataclass
@@ -562,12 +564,11 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
     for block in ("axis", "position", "angle"):
         if e.get(block) is not None and not isinstance(e[block], dict):
             raise ValueError(f"joint '{name}' {block} is not a JSON object")
-    # (a hand-edited "failed" or null verdict with vectors wrote angles, exit 0)
+    # (a hand-edited null verdict wrote angles, exit 0; a failed joint may keep the
+    # vectors that came before it stopped, and is not used: JointCalibration.usable)
     if e["verdict"] not in _ORDER:
         raise ValueError(f"joint '{name}' verdict is {e['verdict']!r}, not one of "
                          f"{', '.join(_ORDER)}")
-    if e["verdict"] == "failed" and any(e.get(k) is not None for k in ("j1", "j2", "o1", "o2")):
-        raise ValueError(f"joint '{name}' is marked failed but has vectors")
     return JointCalibration(name=name, kind=e["joint"], sensors=tuple(sensors),
                             verdict=str(e["verdict"]), j1=vec("j1"), j2=vec("j2"),
                             o1=vec("o1"), o2=vec("o2"), warnings=list(e.get("warnings", [])),

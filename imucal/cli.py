@@ -422,7 +422,8 @@ def angles(
     flexion_sign: Annotated[str, typer.Option(
         "--flexion-sign", metavar="auto|+|-",
         help="auto: decided on the calibration trial (knees flex more than they "
-        "hyperextend), or on this recording when that was ambiguous; + / -: flexion is "
+        "hyperextend), or on this recording when that was ambiguous (when both are, the "
+        "calibration's guess is kept, with a warning); + / -: flexion is "
         "the right-handed rotation of the second segment about the calibration's axis, "
         "or the opposite.")] = "auto",
     start: Start = None,

@@ -79,6 +79,7 @@ class _Clock:
     dropped: int
     source_of_time: str  # "time stamps", "packet counter", "sample rate"
     stamp_rate: float | None = None  # Hz, from the stamps when --rate replaced it
+    missing_stamp_row: int | None = None  # data row (1-based) of a stamp the counter replaced
 
 
 def unwrap(values: np.ndarray, wrap: float | None) -> np.ndarray:
@@ -166,9 +167,12 @@ def _from_stamps(t: np.ndarray, what: str) -> np.ndarray:
 def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
     n = s.gyr.shape[0]
     t = None if s.time is None else unwrap(s.time, s.time_wrap)
-    if t is not None and not np.isfinite(t).any() and s.counter is not None:
-        t = None  # no stamps at all: the counter (a counter with some stamps has another
-        # zero than the devices' stamps, and read as starting 600 s apart)
+    missing = None
+    if t is not None and not np.isfinite(t).all() and s.counter is not None:
+        # the packet counter instead (:func:`_device_clocks` refuses that next to devices
+        # whose clocks are their stamps: the counter's zero is not theirs)
+        missing = int(np.flatnonzero(~np.isfinite(t))[0]) + 1
+        t = None
     if t is not None:
         _check_values(t, "time stamp", "s", what)
     if t is not None and n >= 3:
@@ -222,7 +226,7 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
         a = float(c[0]) * period  # the counters of one export are shared: align on them
     _check_dropped(k, period, what, origin)
     return _Clock(k=k, a=float(a), period=float(period), dropped=int(k[-1] + 1 - n),
-                  source_of_time=origin, stamp_rate=stamps)
+                  source_of_time=origin, stamp_rate=stamps, missing_stamp_row=missing)
 
 
 def _check_dropped(k: np.ndarray, period: float, what: str, origin: str) -> None:
@@ -262,24 +266,29 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
 
 def _one_wrap_cycle(sensors: list[RawSensor]) -> list[RawSensor]:
     """``sensors`` with the stamps of devices that started after their clock wrapped (a
-    DOT's microseconds wrap every 71.6 min) moved on by whole wraps, next to those that
+    DOT's microseconds wrap every 71.6 min) moved on by a whole wrap, next to those that
     started before it. Each device's own wraps are undone on its own (:func:`unwrap`); a
     device whose first stamp lay past the wrap read as starting 71 min before the others
-    ("do not record at the same time"). Devices of one recording start within half a
-    wrap of each other."""
-    stamped = [s.time[0] for s in sensors if s.time is not None and s.time_wrap
-               and s.time.size and np.isfinite(s.time[0])]
+    ("do not record at the same time"). Only when the devices do not record at the same
+    time as they are and do once moved: devices 40 min apart within one cycle stay."""
+    stamped = [i for i, s in enumerate(sensors) if s.time is not None and s.time_wrap
+               and s.time.size and np.isfinite(s.time[[0, -1]]).all()]
     if len(stamped) < 2:
         return sensors
-    latest = float(max(stamped))
-    out = []
-    for s in sensors:
-        if (s.time is not None and s.time_wrap and s.time.size and np.isfinite(s.time[0])
-                and s.time[0] < latest - s.time_wrap / 2):
-            cycles = math.ceil((latest - s.time_wrap / 2 - s.time[0]) / s.time_wrap)
-            s = replace(s, time=s.time + cycles * s.time_wrap)
-        out.append(s)
-    return out
+    spans = {i: unwrap(sensors[i].time, sensors[i].time_wrap)[[0, -1]] for i in stamped}
+    latest = max(float(a) for a, _ in spans.values())
+    shift = {i: math.ceil((latest - sensors[i].time_wrap / 2 - a) / sensors[i].time_wrap)
+             * sensors[i].time_wrap if a < latest - sensors[i].time_wrap / 2 else 0.0
+             for i, (a, _) in spans.items()}
+
+    def overlap(moves):
+        return (min(float(b) + moves[i] for i, (_, b) in spans.items())
+                > max(float(a) + moves[i] for i, (a, _) in spans.items()))
+
+    if not any(shift.values()) or overlap(dict.fromkeys(spans, 0.0)) or not overlap(shift):
+        return sensors
+    return [replace(s, time=s.time + shift[i]) if shift.get(i) else s
+            for i, s in enumerate(sensors)]
 
 
 def _device_clocks(sensors: list[RawSensor], source: str,
@@ -311,6 +320,14 @@ def _device_clocks(sensors: list[RawSensor], source: str,
             notes.append(f"sensor '{s.name}': --rate {rate:g} Hz is used; its time stamps "
                          f"say {clk.stamp_rate:.4g} Hz")
         clocks[s.name] = clk
+    stamped = [n for n, c in clocks.items() if c.source_of_time == "time stamps"]
+    for name, c in clocks.items():
+        if stamped and c.missing_stamp_row is not None:
+            # its counter's zero is not the stamps': it read as starting 637 s apart
+            raise InputError(
+                f"{source}: sensor '{name}': time stamp missing or not a number at data row "
+                f"{c.missing_stamp_row}, so its clock would be its packet counter, which "
+                f"does not share the time stamps of '{stamped[0]}'; fix or delete that row")
     return clocks, notes
 
 

@@ -246,8 +246,8 @@ def _check_search_used(settings) -> None:
     """A search range set with a given time offset would be ignored: no search runs."""
     if settings.time_offset != "auto" and settings.offset_search != OFFSET_SEARCH_S:
         raise InputError(f"offset_search applies to time offset auto only (no search runs "
-                         f"with a given offset), got {settings.offset_search:g} s with a "
-                         f"time offset of {settings.time_offset:g} s")
+                         f"with a given offset), got {float(settings.offset_search)!r} s with a "
+                         f"time offset of {float(settings.time_offset)!r} s")
 
 
 def check_time_offset(value) -> float | str:

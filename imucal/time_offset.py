@@ -334,6 +334,10 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     ``OFFSET_MODEL_CAP`` times that term, joins the ``time_offset`` entry in quadrature
     and is reported as ``time_offset.moved_from_zero``; on clean data the term is a
     fraction of a degree, so a real offset's estimate keeps its verdict.
+
+    An offset found but not applied adds nothing, unless its refit would move the estimate
+    by more than ``UNAPPLIED_MOVE_SIGMAS`` of its 1-sigma: then that move is the
+    ``time_offset`` entry (``time_offset.unapplied_move``), with the warning that says so.
     """
     check_search(search, rate)
     first = fit(0.0)
@@ -383,11 +387,12 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
 def _unapplied_move_warning(result, found: Offset, rate: float, per_s: dict,
                             unit: str) -> list[str]:
     """The warning when the offset the profile prefers, not applied, would move the
-    estimate by more than ``UNAPPLIED_MOVE_SIGMAS`` of its 1-sigma.
+    estimate by more than ``UNAPPLIED_MOVE_SIGMAS`` of its 1-sigma (its caller then adds
+    that move to the 1-sigma, ``time_offset.unapplied_move``).
 
-    Not applied, the offset adds nothing to the 1-sigma (a model error's preferred shift
-    would otherwise cost the real recording's knees degrees they do not lose), so a
-    small real offset the thresholds let through left a confident wrong answer:
+    Not applied, the offset's own sigma adds nothing to the 1-sigma (a model error's
+    preferred shift would otherwise cost the real recording's knees degrees they do not
+    lose), so a small real offset the thresholds let through left a confident wrong answer:
     simulated circling and protocol, shank 5-10 ms late, 4-20 s at 40-200 Hz, found but
     below ``MIN_COST_RATIO``: axes 1-2.3 deg off at a 1-sigma of 0.07-0.3 deg, `good`
     (66 of 300 runs beyond 3 sigma, an independent audit). The move is the sensitivity

@@ -830,7 +830,24 @@ def test_bids_broken_channels_file_is_named(text, tmp_path):
     assert run.returncode == 2
     assert run.stderr.strip() == (f"imucal: error: {channels}: " + (
         "empty; a BIDS channels file lists one row per column" if not text
-        else "row 2 has 2 of the header's 4 fields"))
+        else "row 2 has 2 fields; name, component, type and tracked_point need 4"))
+
+
+def test_bids_layout_variants_that_loaded_before_still_load(tmp_path):
+    # the first version of the column checks refused these three (a review): a tab at the
+    # end of every data row, a blank first line, and channels rows that leave an optional
+    # last column off
+    rec = short()
+    folder = vw.bids(rec, tmp_path / "b")
+    motion = next(folder.glob("*_motion.tsv"))
+    channels = next(folder.glob("*_channels.tsv"))
+    rows = motion.read_text().splitlines()
+    motion.write_text("\n" + "\n".join(r + "\t" for r in rows) + "\n")
+    head, *chans = channels.read_text().splitlines()
+    channels.write_text("\n".join([head + "\tnotes"] + chans) + "\n")
+    loaded = load_recording(folder)
+    assert loaded.n_samples == rec.n_samples
+    same(loaded, rec, NAMES["bids"])
 
 
 def test_bids_sampling_frequency_true_is_no_rate(tmp_path):
@@ -912,9 +929,13 @@ def test_one_missing_stamp_is_named_by_its_row(fmt, tmp_path):
     cells[column] = "NaN"
     lines[head + 7] = sep.join(cells)
     path.write_text("\n".join(lines))
-    with pytest.raises(InputError, match="time stamp missing or not a number at data row 7; "
-                                         "fix or delete that row"):
+    with pytest.raises(InputError, match="time stamp missing or not a number at data row 7, "
+                       "so its clock would be its packet counter, which does not share the "
+                       "time stamps of '.*'; fix or delete that row"):
         load_recording(folder)
+    # one file alone has no other clock to disagree with: its counter, as before (a
+    # review found this refused by the first version of the check)
+    assert load_recording(path).n_samples == 500
 
 
 def test_devices_sharing_three_samples_load_and_fewer_are_named(tmp_path):
@@ -934,3 +955,23 @@ def test_devices_sharing_three_samples_load_and_fewer_are_named(tmp_path):
     with pytest.raises(InputError, match="record together for only 0.01 s \\('Thigh' starts "
                        "last, 'Shank' stops first\\): fewer than the 3 samples"):
         load_recording(shifted)
+
+
+def test_dot_devices_far_apart_in_one_clock_cycle_stay_where_they_are():
+    # the wrap alignment moved any device more than half a wrap (36 min) before the
+    # latest one a whole wrap on, also when they overlapped as they were: two devices
+    # recording 100-3700 s and 2400-6000 s were put 71.6 min apart, silently (a review)
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+    from imucal.formats.dot import TIME_WRAP
+
+    def device(name, t0, seconds, rate=10.0):
+        n = int(seconds * rate)
+        return RawSensor(name=name, gyr=np.zeros((n, 3)), acc=np.tile([0, 0, 9.81], (n, 1)),
+                         gyr_units="rad/s", acc_units="m/s^2",
+                         time=(t0 + np.arange(n) / rate) % TIME_WRAP, time_wrap=TIME_WRAP)
+
+    apart = align([device("A", 100, 3600), device("B", 2400, 3600)], "x")
+    assert apart.origin == pytest.approx(2400.0) and apart.time.size == 13000
+    wrapped = align([device("A", 4200, 600), device("B", 4300, 500)], "x")  # B after it
+    assert wrapped.origin == pytest.approx(4300.0) and wrapped.time.size == 5000

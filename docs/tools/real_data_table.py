@@ -75,6 +75,7 @@ SHORT = {
     "with the second sensor read": "offset would move it",
     "the clock offset between the sensors may exceed": "offset at edge",
     "the axis is not one physical line": "gravity mismatch",
+    "the axis's 1-sigma is": "1-sigma beyond 90 deg",
     "the first sensor reads": "acc off at rest",
     "the second sensor reads": "acc off at rest",
 }

@@ -54,13 +54,16 @@ def _channels(path: Path) -> list[dict[str, str]]:
     missing = [c for c in ("name", "component", "type", "tracked_point") if c not in header]
     if missing:
         raise InputError(f"{path}: no column {', '.join(missing)} in the header")
+    # only the columns read must be there: a row may leave optional ones off its end
+    needed = 1 + max(header.index(c) for c in ("name", "component", "type", "tracked_point"))
     rows = []
     for n, ln in lines[1:]:
         cells = [c.strip() for c in ln.split("\t")]
-        if len(cells) < len(header):
-            raise InputError(f"{path}: row {n} has {len(cells)} of the header's {len(header)} "
-                             "fields")
-        rows.append(dict(zip(header, cells, strict=False)))
+        if len(cells) < needed:
+            raise InputError(f"{path}: row {n} has {len(cells)} fields; name, component, "
+                             "type and tracked_point need "
+                             f"{needed}")
+        rows.append(dict(zip(header, cells + [""] * (len(header) - len(cells)), strict=False)))
     return rows
 
 
@@ -93,8 +96,12 @@ def read(path: Path, source: str | None = None) -> RawRecording:
     rows = _channels(channels_path)
     names = [r.get("name", f"column {i + 1}") for i, r in enumerate(rows)]
     data = read_text(motion, source).splitlines()
-    width = len(data[0].split("\t")) if data else 0
-    if data and width != len(rows):
+    first = next((ln for ln in data if ln.strip()), "")
+    cells = first.split("\t")
+    while len(cells) > len(rows) and not cells[-1].strip():  # a tab at each row's end
+        cells.pop()
+    width = len(cells)
+    if first and width != len(rows):
         # matched by position, every channel after a missing row read its neighbour's
         # column (a thigh's data as the shank's), without a word
         raise InputError(f"{channels_path}: lists {len(rows)} channels, but {motion.name} has "
