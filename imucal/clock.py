@@ -277,8 +277,8 @@ def _one_wrap_cycle(sensors: list[RawSensor]) -> list[RawSensor]:
         return sensors
     spans = {i: unwrap(sensors[i].time, sensors[i].time_wrap)[[0, -1]] for i in stamped}
     latest = max(float(a) for a, _ in spans.values())
-    shift = {i: math.ceil((latest - sensors[i].time_wrap / 2 - a) / sensors[i].time_wrap)
-             * sensors[i].time_wrap if a < latest - sensors[i].time_wrap / 2 else 0.0
+    # (first stamps lie within one wrap, so one wrap is the most a device is behind)
+    shift = {i: sensors[i].time_wrap if a < latest - sensors[i].time_wrap / 2 else 0.0
              for i, (a, _) in spans.items()}
 
     def overlap(moves):

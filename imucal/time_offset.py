@@ -371,12 +371,12 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
         result.time_offset["moved_from_zero"] = shift
         part = {k: float(np.hypot(v, min(shift[k], OFFSET_MODEL_CAP * model[k])))
                 for k, v in part.items()}
-    warning = [] if applied else _unapplied_move_warning(result, found, rate, per_s, unit)
+    move = {k: v * abs(found.delta_s) for k, v in per_s.items()}
+    warning = [] if applied else _unapplied_move_warning(result, found, rate, move, unit)
     if warning:
         # the warned move joins the 1-sigma: the estimate rests on the clocks being in
         # sync, and a 5 ms shank left circling axes 0.8-1.3 deg off at 5.7-13.5 x a
         # 1-sigma that did not carry it (an honesty audit)
-        move = {k: v * abs(found.delta_s) for k, v in per_s.items()}
         result.time_offset["unapplied_move"] = move
         part = {k: float(np.hypot(v, move[k])) for k, v in part.items()}
     _widen(result, part, unit, limit)
@@ -384,7 +384,7 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     return result
 
 
-def _unapplied_move_warning(result, found: Offset, rate: float, per_s: dict,
+def _unapplied_move_warning(result, found: Offset, rate: float, moves: dict,
                             unit: str) -> list[str]:
     """The warning when the offset the profile prefers, not applied, would move the
     estimate by more than ``UNAPPLIED_MOVE_SIGMAS`` of its 1-sigma (its caller then adds
@@ -404,7 +404,6 @@ def _unapplied_move_warning(result, found: Offset, rate: float, per_s: dict,
             or not abs(found.delta_s) > 2 * found.sigma_s):
         return []
     total = getattr(result, f"uncertainty_{unit}")
-    moves = {k: v * abs(found.delta_s) for k, v in per_s.items()}
     # (a 1-sigma of 0 with no move is no warning)
     ratios = {k: moves[k] / total[k] if total[k] > 0 else (np.inf if moves[k] > 0 else 0.0)
               for k in moves}

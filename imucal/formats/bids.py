@@ -44,7 +44,7 @@ def _channels(path: Path) -> list[dict[str, str]]:
     ------
     InputError
         an empty file, a header without name, component, type and tracked_point, or a
-        row with fewer fields than the header (with its line).
+        row too short to hold them (with its line; optional columns may be left off).
     """
     lines = [(n, ln) for n, ln in enumerate(read_text(path, str(path)).splitlines(), start=1)
              if ln.strip()]
