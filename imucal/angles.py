@@ -801,6 +801,22 @@ def _on_calibration_turn(raw: np.ndarray, ref: dict) -> np.ndarray:
     return raw + 360.0 * turns if np.isfinite(turns) else raw
 
 
+def _number(x: float, decimals: int) -> str:
+    """``x`` with ``decimals`` decimals, or 4 significant digits in exponent form when it
+    is that large (a hand-edited calibration's 1e300 printed 300 digits)."""
+    return f"{x:.4g}" if abs(x) >= 1e6 else f"{x:.{decimals}f}"
+
+
+def _beyond(value: float, limit: float, decimals: int, unit: str = "") -> str:
+    """``"value > limit"`` with as many more decimals as tell the two apart: a refusal
+    that reads "0.102 > 0.102" looks like a bug."""
+    for more in range(6):
+        a, b = _number(value, decimals + more), _number(limit, decimals + more)
+        if a != b:
+            break
+    return f"{a}{unit} > {b}{unit}"
+
+
 def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bool,
                origin: float) -> dict:
     """Does the calibration still fit this recording? (docs/angles.md) ``flex``: the
@@ -817,8 +833,8 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bo
     dis_lim = min(FIT_FACTOR * ref_dis + FIT_FLOOR_DEG, FIT_MAX_DEG)
     bad = []
     if res > res_lim:  # NaN (never moved, here or there) is no evidence against
-        bad.append(f"hinge residual {res:.3f} > {res_lim:.3f} (calibration trial "
-                   f"{ref_res:.3f})")
+        bad.append(f"hinge residual {_beyond(res, res_lim, 3)} (calibration trial "
+                   f"{_number(ref_res, 3)})")
     gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rate,
                             origin=origin)
     if gravity["consistent"] is False:
@@ -827,8 +843,8 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bo
                    f"{worst:.0f} deg between the sensors (one hinge axis: within "
                    f"{gravity['max_allowed_deg']:g} deg)")
     if dis > dis_lim:
-        bad.append(f"acc- vs gyro-angle disagreement {dis:.2f} deg > {dis_lim:.2f} deg "
-                   f"(calibration trial {ref_dis:.2f} deg)")
+        bad.append(f"acc- vs gyro-angle disagreement {_beyond(dis, dis_lim, 2, ' deg')} "
+                   f"(calibration trial {_number(ref_dis, 2)} deg)")
     low, high = PLAUSIBLE_FLEXION_DEG
     outside = float(np.mean((flex < low) | (flex > high))) if extended else 0.0
     p1, p99 = np.percentile(flex, [1, 99])

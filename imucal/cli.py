@@ -970,8 +970,11 @@ def _calibration_summary(doc: dict) -> None:
 
 
 def _num(x, spec: str) -> str:
-    """A number of a JSON document, which has null where there is none (NaN)."""
-    return "-" if x is None else format(x, spec)
+    """A number of a JSON document, which has null where there is none (NaN); exponent
+    form when it is that large (a hand-edited calibration file's 1e300)."""
+    if x is None:
+        return "-"
+    return format(x, ".4g") if abs(x) >= 1e6 else format(x, spec)
 
 
 def _vec(v) -> str:

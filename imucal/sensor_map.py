@@ -249,8 +249,11 @@ def _rename(recording: Recording, renamed: dict[str, str], source: str,
         # the loader's notes name sensors as "sensor 'NAME'" (one form everywhere); they
         # were written before the map, and a warning about 'Shank' beside a table of
         # 'left_shank' left the reader to pair them
-        return re.sub(r"sensor '([^']*)'", lambda m: f"sensor '{renamed[m[1]]}' ('{m[1]}' in "
-                      "the file)" if m[1] in renamed else m[0], note)
+        # (matched by the names themselves, longest first: a name may hold an apostrophe)
+        olds = sorted(renamed, key=len, reverse=True)
+        pattern = "sensor '(" + "|".join(re.escape(n) for n in olds) + ")'"
+        return re.sub(pattern, lambda m: f"sensor '{renamed[m[1]]}' ('{m[1]}' in the file)",
+                      note) if olds else note
 
     return replace(
         recording,

@@ -313,3 +313,21 @@ def test_forced_angles_of_a_knee_marked_not_identifiable_say_so_in_the_summary(t
     line = next(x for x in run.stderr.splitlines() if "fit check:" in x)
     assert line.strip().startswith(
         "fit check: DOES NOT FIT (not identifiable in the calibration; hinge residual")
+
+
+def test_fit_check_numbers_stay_readable_and_apart(cal_file, tmp_path):
+    # a limit equal to the residual to three decimals read "0.102 > 0.102", and a
+    # hand-edited residual of 1e300 printed a 301-digit limit
+    from imucal.angles import _beyond
+
+    assert _beyond(0.10213, 0.10207, 3) == "0.10213 > 0.10207"
+    assert _beyond(5.2, 4.1, 2, " deg") == "5.20 deg > 4.10 deg"
+    assert _beyond(3e300, 2e300, 3) == "3e+300 > 2e+300"
+    path, _ = cal_file
+    doc = json.loads(path.read_text())
+    doc["joints"]["knee"]["angle"]["hinge_residual"] = 1e300
+    cal = tmp_path / "huge.json"
+    cal.write_text(json.dumps(doc))
+    run = cli("angles", SAMPLE / "walking.h5", "-c", cal, "--end", "10")
+    line = next(x for x in run.stderr.splitlines() if "fit check:" in x)
+    assert "limit 2e+300" in line and len(line) < 300

@@ -334,3 +334,12 @@ def test_two_ximu3_devices_of_one_name_name_their_folders(tmp_path):
         f"{folder}: Shank 65577B4A (USB)/Inertial.csv and Shank 65577B4C (USB)/Inertial.csv "
         "are both read as sensor 'Shank', devices 65577B4A, 65577B4C; give each device its "
         "own name (its file or folder name, or the name set on it)")
+
+
+def test_loader_warnings_follow_a_new_name_with_an_apostrophe(tmp_path):
+    # the names were matched as "sensor '[^']*'", which stops inside "Bob's shank"
+    tags = {"thigh": "Thigh", "shank": "Bob's shank", "foot": "Foot"}
+    dropped = load_recording(vw.dot(short(), tmp_path / "d", names=tags, drops={"shank": [40]}),
+                             names={"Bob's shank": "s"})
+    assert dropped.warnings and all(
+        w.startswith("sensor 's' ('Bob's shank' in the file)") for w in dropped.warnings)
