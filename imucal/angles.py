@@ -343,8 +343,9 @@ class JointAngle:
     gyro_only_deg : (N,) pure integration of the rates with the same sign, equal to
         ``flexion_deg`` at the first sample (what the fusion corrects).
     sign, sign_source : +1 / -1 applied to the calibration's raw angle (the right-handed
-        rotation of the second segment about j), and why ("calibration", "recording",
-        "user").
+        rotation of the second segment about j), and why: "calibration" (its trial
+        decided), "recording" (this one decided), "user" (pinned) or "calibration guess"
+        (neither decided: the calibration's guess, with a warning).
     sign_evidence : this recording's evidence (:func:`sign_evidence`).
     zero : {"method", "raw_deg", "time_s", "time_in"}: what 0 deg is.
     check : the "still fits" evidence (docs/angles.md): hinge residual and acc-gyro
@@ -672,7 +673,7 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
             # Neither decides. The calibration's guess keeps its zero (chosen under that
             # guess) and gives every recording of a study the same direction, where the
             # recordings' own coin flips would not.
-            sign, source = int(ref["flexion_sign"]), "calibration"
+            sign, source = int(ref["flexion_sign"]), "calibration guess"
             warnings.append(f"{jc.name}: the flexion direction is ambiguous in the calibration "
                             f"trial (evidence {ref['sign_evidence']:+.2f}) and here ({doubt}); "
                             "the calibration's guess is kept: pin it (flexion_sign '+' or "

@@ -298,7 +298,7 @@ def test_a_short_recording_cannot_decide_the_flexion_direction(session):
     weak = replace(calibration, joints={"knee": replace(
         knee, angle=dict(knee.angle, sign_evidence=0.0))})
     short = joint_angles(walk, weak, start=5.2, end=5.6).joints["knee"]
-    assert short.sign == knee.angle["flexion_sign"] and short.sign_source == "calibration"
+    assert short.sign == knee.angle["flexion_sign"] and short.sign_source == "calibration guess"
     assert abs(short.sign_evidence) > 2 * SIGN_EVIDENCE_MIN and short.sign_evidence < 0
     assert "ambiguous" in short.warnings[0] and "less than the 4 s it needs" in short.warnings[0]
     assert "the calibration's guess is kept" in short.warnings[0]
@@ -327,7 +327,7 @@ def test_a_knee_that_hardly_moves_cannot_decide_the_flexion_direction(session):
         p5, p95 = np.percentile(k.flexion_deg, [5, 95])
         assert p95 - p5 < 0.1 * SIGN_MIN_SPAN_DEG
         decided += abs(k.sign_evidence) >= SIGN_EVIDENCE_MIN  # would have decided before
-        assert k.sign_source == "calibration" and k.sign == knee.angle["flexion_sign"]
+        assert k.sign_source == "calibration guess" and k.sign == knee.angle["flexion_sign"]
         assert any("ambiguous" in w and f"less than the {SIGN_MIN_SPAN_DEG:g} deg it needs"
                    in w for w in k.warnings)
     assert decided >= 1
