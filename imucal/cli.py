@@ -735,10 +735,19 @@ def convert(
 def _settings(ctx: typer.Context, cls, **values):
     """The estimator's settings object from the options, before any file is read; a bad
     value is a usage error naming its option (exit 2)."""
+    from .settings import check_search_used
+
     try:
-        return cls(**values)
+        settings = cls(**values)
+        if "offset_search" in values:
+            # the settings object cannot tell the default range from the same range
+            # typed (--offset-search 0.2), which no search would use either
+            # (typer carries its own copy of click: compare the source by name)
+            source = ctx.get_parameter_source("offset_search")
+            check_search_used(settings, typed=getattr(source, "name", "") == "COMMANDLINE")
     except InputError as err:
         raise _usage_error(ctx, str(err)) from None
+    return settings
 
 
 def _job(ctx: typer.Context, command: str, sensors: str | None, settings, **options):

@@ -136,7 +136,7 @@ class AxisSettings:
             raise InputError(f"select must be True or False, got {self.select!r}")
         object.__setattr__(self, "select", bool(self.select))
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
-        _check_search_used(self)
+        check_search_used(self)
 
     def as_kwargs(self) -> dict:
         """The settings as keyword arguments of the estimator."""
@@ -217,7 +217,7 @@ class CalibrateSettings:
             _check_int(self, "seed", 0)
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
         _check_number(self, "offset_search", low=0.0, open_low=True, high=MAX_TIME_OFFSET_S)
-        _check_search_used(self)
+        check_search_used(self)
         _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
 
 
@@ -242,9 +242,10 @@ def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) ->
     return settings
 
 
-def _check_search_used(settings) -> None:
-    """A search range set with a given time offset would be ignored: no search runs."""
-    if settings.time_offset != "auto" and settings.offset_search != OFFSET_SEARCH_S:
+def check_search_used(settings, typed: bool = False) -> None:
+    """A search range set with a given time offset would be ignored: no search runs.
+    ``typed``: the range was given explicitly, also when it equals the default."""
+    if settings.time_offset != "auto" and (typed or settings.offset_search != OFFSET_SEARCH_S):
         raise InputError(f"offset_search applies to time offset auto only (no search runs "
                          f"with a given offset), got {float(settings.offset_search)!r} s with a "
                          f"time offset of {float(settings.time_offset)!r} s")

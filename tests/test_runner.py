@@ -108,6 +108,9 @@ def test_no_module_imports_the_command_line():
          "Invalid value for '--offset-search': offset_search applies to time offset auto"),
         (["calibrate", "--time-offset", "0.02", "--offset-search", "1"],
          "Invalid value for '--offset-search': offset_search applies to time offset auto"),
+        # also the default range typed out, which the settings cannot tell from unset
+        (["position", "--time-offset", "0.02", "--offset-search", "0.2"],
+         "Invalid value for '--offset-search': offset_search applies to time offset auto"),
         (["calibrate", "--offset-search", "20"],
          "Invalid value for '--offset-search': offset_search must be in (0, 10], got 20"),
         (["calibrate", "--acc-error", "50"],
