@@ -30,7 +30,7 @@ from .atomic import (
     write_stdout,
     write_text_atomic,
 )
-from .errors import ImucalError, InputError, NotIdentifiableError, one_line, say
+from .errors import ImucalError, InputError, NotIdentifiableError, exit_code_of, one_line, say
 from .signals import raise_on_signals
 from .signals import report as report_interruption
 from .signals import unreported as unreported_interruption
@@ -858,16 +858,18 @@ class _errors:
         interruption = unreported_interruption()
         if interruption is not None:  # one that the code it hit turned into another error
             raise typer.Exit(report_interruption(interruption))
+        code = exit_code_of(err)  # as a study's line gets (runner.error_of)
         if isinstance(err, ImucalError):
             say(f"imucal: error: {one_line(err)}")
-            raise typer.Exit(err.exit_code)
-        if isinstance(err, OSError):
+        elif isinstance(err, OSError):
             where = f"{err.filename}: " if err.filename else ""
             say(one_line(f"imucal: error: {where}{err.strerror or err}"))
-            raise typer.Exit(2)
-        say(f"imucal: internal error: {type(err).__name__}: {err} (rerun with --debug and "
-            "report it)")
-        raise typer.Exit(3)
+        elif isinstance(err, MemoryError):  # no bug to report: a shorter window needs less
+            say("imucal: error: out of memory")
+        else:
+            say(f"imucal: internal error: {type(err).__name__}: {err} (rerun with --debug and "
+                "report it)")
+        raise typer.Exit(code)
 
 
 def _check_outputs(out, plot, rec, sensor_map=None, out_name: str = "--out") -> None:

@@ -23,8 +23,8 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 
-from .errors import InputError
-from .runner import INTERNAL_ERROR, Job
+from .errors import INTERNAL_ERROR, InputError
+from .runner import Job
 
 __all__ = ["Cluster", "connect", "INSTALL_HINT"]
 

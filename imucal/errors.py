@@ -26,6 +26,18 @@ class NotIdentifiableError(ImucalError):
     exit_code = 1
 
 
+#: Exit status of an unexpected error: a bug, or memory exhausted.
+INTERNAL_ERROR = 3
+
+
+def exit_code_of(err: BaseException) -> int:
+    """The exit status an exception maps to: an imucal error's own code, 2 for an
+    operating-system error (a file, a disk), ``INTERNAL_ERROR`` for anything else."""
+    if isinstance(err, ImucalError):
+        return err.exit_code
+    return 2 if isinstance(err, OSError) else INTERNAL_ERROR
+
+
 def one_line(text: str) -> str:
     """``text`` with every run of whitespace, newlines included, as one space: an error
     is one stderr line even where it quotes a name or a library's text with newlines."""

@@ -26,15 +26,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import ImucalError, InputError, NotIdentifiableError, one_line
+from .errors import (
+    INTERNAL_ERROR,
+    ImucalError,
+    InputError,
+    NotIdentifiableError,
+    exit_code_of,
+    one_line,
+)
 from .recording import estimator_window
 from .signals import unreported
 
 __all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors"]
-
-#: Exit code of a recording whose processing raised an unexpected exception.
-INTERNAL_ERROR = 3
-
 
 @dataclass(frozen=True)
 class Command:
@@ -319,10 +322,11 @@ def error_of(err: BaseException, file: str) -> tuple[int, str]:
     >>> error_of(FileNotFoundError(2, "No such file or directory", "x.h5"), "x.h5")
     (2, 'x.h5: No such file or directory')
     """
+    code = exit_code_of(err)
     if isinstance(err, ImucalError):
-        return err.exit_code, one_line(err)
+        return code, one_line(err)
     if isinstance(err, OSError):
-        return 2, one_line(f"{err.filename or file}: {err.strerror or err}")
+        return code, one_line(f"{err.filename or file}: {err.strerror or err}")
     if isinstance(err, MemoryError):
         return INTERNAL_ERROR, f"{file}: out of memory"
     return INTERNAL_ERROR, one_line(f"{file}: internal error: {type(err).__name__}: {err} "

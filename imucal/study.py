@@ -36,8 +36,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .atomic import check_not_inputs, check_writable, write_atomic, write_stdout
-from .errors import InputError, as_line, say
-from .runner import INTERNAL_ERROR, Job, run
+from .errors import INTERNAL_ERROR, InputError, as_line, say
+from .runner import Job, run
 from .signals import held, restore_defaults
 
 __all__ = ["Entry", "run_study", "process_recordings", "resolve_jobs", "entry"]

@@ -7,10 +7,11 @@ import dataclasses
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import axis_error_deg, simulated
+from conftest import axis_error_deg, run_imucal, simulated
 
 from imucal.runner import COMMANDS, Command, Job, Outcome, parse_sensors, run
 from imucal.settings import AxisSettings, PositionSettings
@@ -190,3 +191,17 @@ def test_still_periods_are_on_the_recordings_clock(real_recording, tmp_path):
         assert outcome.document["input"]["window_s"] == pytest.approx([t0 + 2, t0 + 20])
     assert periods[0.0] and periods[0.0][0][0] == pytest.approx(2.0)  # standing, cut at 2 s
     assert np.allclose(np.array(periods[100.0]) - 100.0, periods[0.0])
+
+
+def test_out_of_memory_in_a_single_file_command_is_no_bug_report(monkeypatch):
+    # the study's lines said "out of memory" (runner.error_of); `imucal info`, `angles`
+    # and `convert` said "internal error ... report it"; both now share the exit code
+    import imucal.loaders
+
+    def exhausted(*args, **kwargs):
+        raise MemoryError("Unable to allocate 3.07 EiB for an array")
+
+    monkeypatch.setattr(imucal.loaders, "load_recording", exhausted)
+    run_ = run_imucal("info", "sample_data/circling.h5", cwd=Path(__file__).resolve().parents[1])
+    assert run_.returncode == 3
+    assert run_.stderr.decode().strip() == "imucal: error: out of memory"
