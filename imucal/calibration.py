@@ -39,7 +39,6 @@ JOINT_TYPES = (
     ("ankle", "spheroidal", "shank", "foot"),
 )
 #: Names of a pelvis sensor (normalised: lower case, no spaces, underscores, hyphens).
-PELVIS_NAMES = {"pelvis", "sacrum", "lowerback", "hips", "hip"}
 _SPEC = re.compile(r"^\s*([A-Za-z][A-Za-z0-9_]*)\s*=\s*([a-z]+)\s*:\s*([^,]+),([^,]+)\s*$")
 SPEC_USAGE = "use NAME=hinge:FIRST,SECOND or NAME=spheroidal:FIRST,SECOND, e.g. " \
              "left_knee=hinge:left_thigh,left_shank"
@@ -173,15 +172,11 @@ def _vec(v):
 
 
 def sensor_segment(name: str) -> tuple[str | None, str | None]:
-    """(side, segment) of a sensor name: segments thigh, shank, foot (with their synonyms,
-    :data:`imucal.sensor_names.SEGMENT_SYNONYMS`) and pelvis; side left, right or None."""
+    """(side, segment) of a sensor name: segments thigh, shank, foot and pelvis (with their
+    synonyms, :data:`imucal.sensor_names.SEGMENT_SYNONYMS`); side left, right or None
+    (always None for the pelvis, which serves both hips)."""
     side, segment = segment_of(name)
-    if segment is None:
-        words = [w for w in re.split(r"[\s_\-.]+", str(name).lower()) if w]
-        rest = "".join(w for w in words if w not in ("left", "right", "l", "r"))
-        if rest in PELVIS_NAMES:
-            return None, "pelvis"
-    return side, segment
+    return (None, segment) if segment == "pelvis" else (side, segment)
 
 
 def discover_joints(recording: Recording) -> tuple[list[JointSpec], list[str]]:

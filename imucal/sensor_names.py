@@ -16,6 +16,9 @@ SEGMENT_SYNONYMS = {
     "thigh": "thigh", "upperleg": "thigh", "femur": "thigh",
     "shank": "shank", "lowerleg": "shank", "tibia": "shank", "shin": "shank",
     "foot": "foot", "calcaneus": "foot",
+    # one sensor on the pelvis serves both hips: its name's side, if any, is not the hip's
+    "pelvis": "pelvis", "sacrum": "pelvis", "lowerback": "pelvis", "hips": "pelvis",
+    "hip": "pelvis",
 }
 _SIDES = {"left": "left", "l": "left", "right": "right", "r": "right"}
 
@@ -44,7 +47,8 @@ def match_sensor(name: str, names: list[str], info: Mapping[str, Mapping] | None
 
     Tried in turn: the exact name; the name or the serial (``info[n]["serial"]``)
     ignoring case, spaces, underscores and hyphens; the body segment (thigh = upper leg =
-    femur, shank = lower leg = tibia, foot = calcaneus) with the side when one is given.
+    femur, shank = lower leg = tibia, foot = calcaneus, pelvis = sacrum = lower back = hip)
+    with the side when one is given.
     Raises an :class:`InputError` with the sensors there are and a "did you mean" hint
     when none or several match.
     """

@@ -46,6 +46,17 @@ def test_joints_of_both_legs_and_hips_from_a_pelvis():
     assert len(joints) == 6
 
 
+def test_a_pelvis_sensor_is_found_by_every_name_calibrate_finds_it_by():
+    # calibrate found hip=sacrum,left_thigh, but --sensors pelvis,left_thigh and
+    # --joint hip=spheroidal:pelvis,left_thigh said "no sensor 'pelvis'"
+    rec = _rec(["Sacrum", "left_thigh", "left_shank"])
+    joints, _ = _joints(["Sacrum", "left_thigh", "left_shank"])
+    assert joints["left_hip"] == ("spheroidal", "Sacrum", "left_thigh")
+    for name in ("pelvis", "sacrum", "lower back", "hip", "left_pelvis"):
+        assert rec.resolve(name) == "Sacrum"
+    assert rec.resolve("left_thigh") == "left_thigh"
+
+
 def test_joints_from_vendor_labels():
     joints, _ = _joints(["Pelvis", "Left Upper Leg", "Left Lower Leg", "Right Upper Leg",
                          "Right Lower Leg", "Sternum"])
