@@ -205,3 +205,30 @@ def test_out_of_memory_in_a_single_file_command_is_no_bug_report(monkeypatch):
     run_ = run_imucal("info", "sample_data/circling.h5", cwd=Path(__file__).resolve().parents[1])
     assert run_.returncode == 3
     assert run_.stderr.decode().strip() == "imucal: error: out of memory"
+
+
+@pytest.mark.parametrize("command", ["axis", "position", "calibrate"])
+def test_the_command_line_defaults_are_the_settings_defaults(command):
+    # cli.py spells its defaults as literals (importing the settings would load numpy
+    # for `--help`); nothing tied them to the settings until this test
+    import typer
+
+    from imucal.cli import app
+    from imucal.selection import MAX_SAMPLES
+    from imucal.settings import AxisSettings, CalibrateSettings, PositionSettings
+
+    settings = {"axis": AxisSettings, "position": PositionSettings,
+                "calibrate": CalibrateSettings}[command]()
+    click_command = typer.main.get_command(app).commands[command]
+    defaults = {p.name: p.default for p in click_command.params}
+    compared = 0
+    for name in ("restarts", "offset_search", "acc_error", "time_offset", "sign", "j2_sign",
+                 "select", "joint"):
+        if name in defaults and hasattr(settings, name):
+            assert defaults[name] == getattr(settings, name), name
+            compared += 1
+    assert compared >= 3
+    if "max_samples" in defaults:  # None on the command line: the settings' cap
+        assert defaults["max_samples"] is None and settings.max_samples == MAX_SAMPLES
+        assert f"default {MAX_SAMPLES}" in next(
+            p.help for p in click_command.params if p.name == "max_samples")
