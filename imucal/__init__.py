@@ -16,7 +16,8 @@ Library use::
     angles = imucal.joint_angles(imucal.load_recording("walk.h5"), cal)
     angles.to_frame()         # time (s), knee_flexion_deg, knee_flexion_sigma_deg
 
-Units everywhere: rad/s, m/s^2, Hz, s, m.
+Units: rad/s, m/s^2, Hz, s, m in and out; uncertainties and angles also in mm and deg,
+as each field's name says.
 """
 
 from __future__ import annotations

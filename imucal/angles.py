@@ -585,6 +585,9 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
         holds fewer than ``MIN_SAMPLES`` samples, or ``reference`` / ``flexion_sign`` are
         invalid. A calibration that does not fit gives
         ``fits=False`` and a warning with the evidence, never silently wrong angles.
+    NotIdentifiableError
+        A joint centre's acceleration that never lies in the joint plane: no
+        accelerometer angle corrects the gyroscopes' drift (docs/errors.md, exit 1).
 
     References
     ----------

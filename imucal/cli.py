@@ -1,6 +1,6 @@
 """The ``imucal`` command line: parses options, runs, prints (docs/architecture.md).
 
-``axis`` and ``position`` turn their options into a settings object and a
+``axis``, ``position`` and ``calibrate`` turn their options into a settings object and a
 :class:`imucal.runner.Job` before any file is read (a bad value is a usage error), hand
 them to :func:`imucal.runner.run` for one recording or :func:`imucal.study.run_study` for
 several, and print the outcome. Data (JSON) goes to stdout or ``--out``; progress,
@@ -46,7 +46,8 @@ app = typer.Typer(
     help=(
         "Knee hinge axis and ankle joint centre from inertial sensors on thigh, shank and "
         "foot (Seel, Schauer, Raisch 2012). Results are JSON on stdout; messages go to "
-        "stderr. Units: rad/s, m/s^2, Hz, s, m."
+        "stderr. Input units: rad/s, m/s^2, Hz, s (others by --gyr-units, "
+        "--acc-units); results in m, mm and deg as each field's name says."
     ),
     no_args_is_help=True,
     add_completion=False,
@@ -146,10 +147,10 @@ def _input_file(value: str | Path) -> Path:
 
 SensorMap = Annotated[Path | None, typer.Option(
     "--map", metavar="FILE", show_default=False, parser=_input_file,
-    help="Sensor map for a study: device names or serials as the files give them -> the "
-    "names to use, as JSON ({\"00B4D7D3\": \"left_thigh\"}) or KEY = NAME lines; keys "
-    "match ignoring case, spaces, underscores and hyphens; keys mapped to one name are "
-    "alternatives (e.g. one per participant). See docs/formats.md.")]
+    help="Sensor map (any command; made for studies): device names or serials as the "
+    "files give them -> the names to use, as JSON ({\"00B4D7D3\": \"left_thigh\"}) or "
+    "KEY = NAME lines; keys match ignoring case, spaces, underscores and hyphens; keys "
+    "mapped to one name are alternatives (e.g. one per participant). See docs/formats.md.")]
 Debug = Annotated[bool, typer.Option("--debug", help="Show a traceback on errors.")]
 Select = Annotated[bool, typer.Option(
     "--select/--no-select", help="Use only informative samples: drop still stretches and thin "

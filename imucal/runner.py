@@ -172,7 +172,8 @@ class Job:
     sensors : the (first, second) sensor names; empty for a command that works on the
         whole recording (``calibrate``: its joints are in the settings).
     settings : the estimator's settings object (:class:`imucal.settings.AxisSettings`,
-        :class:`~imucal.settings.PositionSettings`); its own ``start``/``end`` and
+        :class:`~imucal.settings.PositionSettings`,
+        :class:`~imucal.settings.CalibrateSettings`); its own ``start``/``end`` and
         ``time_origin`` are replaced by the window below and the recording's clock.
     start, end : window, s on the recording's time axis; None: from the first / to the
         last sample.

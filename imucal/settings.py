@@ -244,7 +244,13 @@ def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) ->
 
 def check_search_used(settings, typed: bool = False) -> None:
     """A search range set with a given time offset would be ignored: no search runs.
-    ``typed``: the range was given explicitly, also when it equals the default."""
+    ``typed``: the range was given explicitly, also when it equals the default.
+
+    Raises
+    ------
+    InputError
+        a range other than the default (or typed) with a time offset other than auto.
+    """
     if settings.time_offset != "auto" and (typed or settings.offset_search != OFFSET_SEARCH_S):
         raise InputError(f"offset_search applies to time offset auto only (no search runs "
                          f"with a given offset), got {float(settings.offset_search)!r} s with a "

@@ -109,7 +109,8 @@ def resolve_jobs(jobs: int, n_files: int) -> int:
 def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
               plot: Path | None = None, jobs: int = 1, scheduler: str | None = None,
               quiet: bool = False) -> int:
-    """``imucal axis``/``position`` with several RECs; writes JSON Lines, returns the status.
+    """``imucal axis``/``position``/``calibrate`` with several RECs; writes JSON Lines,
+    returns the status.
 
     Lines go to stdout as soon as they are ready in input order, or, with ``out``, into
     that file, which appears complete (atomically) at the end. Errors and warnings go to
