@@ -541,6 +541,22 @@ def _check_sign(flexion_sign) -> int | None:
     raise InputError(f"flexion sign must be auto, + or -, got {flexion_sign!r}")
 
 
+def _check_reference(reference) -> float | str | None:
+    """None, ``"standing"`` or a time in s as a float, else InputError."""
+    if reference is None or reference == "standing":
+        return reference
+    try:
+        if is_bool(reference):
+            raise TypeError  # (True read as 1 s)
+        t_ref = float(reference)
+    except (TypeError, ValueError):
+        raise InputError(f"reference must be None, 'standing' or a time in s, got "
+                         f"{reference!r}") from None
+    if not math.isfinite(t_ref):
+        raise InputError(f"reference must be None, 'standing' or a time in s, got {t_ref!r}")
+    return t_ref
+
+
 def joint_angles(recording, calibration: Calibration, *, reference=None,
                  flexion_sign="auto", start: float | None = None, end: float | None = None,
                  smoothing_s: float | None = None) -> JointAngles:
@@ -612,6 +628,7 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
                 if isinstance(calibration, str | os.PathLike) else "")
         raise InputError(f"expected a Calibration, got {type(calibration).__name__}{hint}")
     pinned = _check_sign(flexion_sign)
+    reference = _check_reference(reference)
     if smoothing_s is not None:
         smoothing_s = check_smoothing(smoothing_s)
     hinges = [j for j in calibration.hinges if j.usable and j.angle]
@@ -640,6 +657,9 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
         raise InputError(f"{recording.source}: the window holds {rec.n_samples} samples; "
                          f"angles need at least {MIN_SAMPLES} (the derivative of the rates "
                          "spans 9)")
+    if reference not in (None, "standing") and not rec.time[0] <= reference <= rec.time[-1]:
+        raise InputError(f"{recording.source}: reference time {reference:g} s is outside the "
+                         f"window measured ({rec.time[0]:g} to {rec.time[-1]:g} s)")
     joints = {}
     for jc in hinges:
         local = replace(jc, sensors=tuple(recording.resolve(s) for s in jc.sensors))
@@ -655,6 +675,9 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
 
 
 def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngle:
+    """One hinge's flexion over ``rec`` (``reference`` checked by :func:`_check_reference`,
+    ``pinned`` by :func:`_check_sign`): the fused angle, its direction and zero, the fit
+    check, and its 1-sigma with what the calibration's clock offset adds."""
     ref = jc.angle
     try:
         s1, s2, sig, fus, beyond = _fused(rec, jc, smoothing_s, context)
@@ -662,66 +685,12 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
         raise NotIdentifiableError(f"{rec.source}: joint '{jc.name}': {err}; nothing "
                                    "written") from None
     raw = _on_calibration_turn(np.degrees(fus.theta), ref)
-    warnings = []
     evidence = sign_evidence(raw)
-    if pinned is not None:
-        sign, source = pinned, "user"
-    elif abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN:
-        sign, source = int(ref["flexion_sign"]), "calibration"
-    else:
-        doubt = _sign_doubt(raw, evidence, rec.rate)
-        if doubt is None:
-            sign, source = (1 if evidence >= 0 else -1), "recording"
-        else:
-            # Neither decides. The calibration's guess keeps its zero (chosen under that
-            # guess) and gives every recording of a study the same direction, where the
-            # recordings' own coin flips would not.
-            sign, source = int(ref["flexion_sign"]), "calibration guess"
-            warnings.append(f"{jc.name}: the flexion direction is ambiguous in the calibration "
-                            f"trial (evidence {ref['sign_evidence']:+.2f}) and here ({doubt}); "
-                            "the calibration's guess is kept: pin it (flexion_sign '+' or "
-                            "'-') if the angles look inverted")
-    if reference is None:
-        zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
-                "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
-        if sign != int(ref["flexion_sign"]) and abs(ref["sign_evidence"]) < SIGN_EVIDENCE_MIN:
-            # The calibration trial's zero is its most extended posture under the sign it
-            # guessed (its evidence was weak), which is the most flexed one under this
-            # sign. (A sign pinned against a clear calibration just negates the angle.)
-            if ref["zero_time_s"] is None:  # the 1st percentile: take the other end
-                zero["raw_deg"] = (ref["zero_deg"]
-                                   + int(ref["flexion_sign"]) * ref["flexion_range_deg"][1])
-                zero["method"] += " (with the flexion direction used here)"
-            else:
-                warnings.append(f"{jc.name}: the calibration's zero (its most extended still "
-                                "period) was chosen for the opposite flexion direction; give "
-                                "a reference ('standing' or a time) for a meaningful zero")
-    elif reference == "standing":
-        periods = still_periods((s1.gyr, s2.gyr), rec.rate)
-        if not periods:
-            raise InputError(f"{rec.source}: no still period of at least {STILL_MIN_S:g} s for "
-                             "the zero (reference 'standing'); give a time instead")
-        z, method, t = _zero(raw, sign, rec, (s1.gyr, s2.gyr))
-        zero = {"method": method, "raw_deg": z, "time_s": t, "time_in": "this recording"}
-    else:
-        try:
-            if is_bool(reference):
-                raise TypeError  # (True read as 1 s)
-            t_ref = float(reference)
-        except (TypeError, ValueError):
-            raise InputError(f"reference must be None, 'standing' or a time in s, got "
-                             f"{reference!r}") from None
-        if not rec.time[0] <= t_ref <= rec.time[-1]:
-            raise InputError(f"{rec.source}: reference time {t_ref:g} s is outside the "
-                             f"window measured ({rec.time[0]:g} to {rec.time[-1]:g} s)")
-        i = int(np.argmin(np.abs(rec.time - t_ref)))
-        half = max(1, int(0.1 * rec.rate))
-        zero = {"method": "user time (mean over +-0.1 s)",
-                "raw_deg": float(raw[max(0, i - half):i + half + 1].mean()), "time_s": t_ref,
-                "time_in": "this recording"}
+    sign, source, warnings = _choose_sign(jc, raw, evidence, pinned, rec.rate)
+    zero, more = _choose_zero(jc, raw, sign, reference, rec, (s1.gyr, s2.gyr))
     flex = sign * (raw - zero["raw_deg"])
     gyro_only = sign * np.degrees(sig.theta_gyro - sig.theta_gyro[0]) + flex[0]
-    warnings = [f"calibration: {w}" for w in ref.get("warnings", [])] + warnings
+    warnings = [f"calibration: {w}" for w in ref.get("warnings", [])] + warnings + more
     # the range a knee reaches is only known from an extended zero, with flexion positive:
     # not from a user's time, a pinned sign, a zero chosen for the other direction, or a
     # calibration trial without a still period (its zero is its 1st percentile, 19 deg
@@ -732,6 +701,74 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
     check = _fit_check(jc, ref, s1, s2, fus, rec.rate, flex, extended, float(rec.time[0]))
     if not check["fits"]:
         warnings.append(check["message"])
+    sigma, lagged = _sigma_with_clock(jc, fus, s2)
+    if lagged:
+        warnings.append(lagged)
+    sigma, extrapolated = _extrapolated(jc, sigma, flex, beyond, rec.rate)
+    if extrapolated:
+        warnings.append(extrapolated)
+    return JointAngle(jc.name, jc.sensors, flex, sigma, gyro_only, sign,
+                      source, evidence, zero, check, detect_gait(flex, rec.rate), warnings)
+
+
+def _choose_sign(jc, raw: np.ndarray, evidence: float, pinned: int | None,
+                 rate: float) -> tuple[int, str, list[str]]:
+    """(flexion sign, its ``sign_source``, warnings): pinned, the calibration trial's clear
+    decision, this recording's (when it counts: :func:`_sign_doubt`), else the
+    calibration's guess with a warning."""
+    ref = jc.angle
+    if pinned is not None:
+        return pinned, "user", []
+    if abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN:
+        return int(ref["flexion_sign"]), "calibration", []
+    doubt = _sign_doubt(raw, evidence, rate)
+    if doubt is None:
+        return (1 if evidence >= 0 else -1), "recording", []
+    # Neither decides. The calibration's guess keeps its zero (chosen under that guess)
+    # and gives every recording of a study the same direction, where the recordings' own
+    # coin flips would not.
+    return int(ref["flexion_sign"]), "calibration guess", [
+        f"{jc.name}: the flexion direction is ambiguous in the calibration trial (evidence "
+        f"{ref['sign_evidence']:+.2f}) and here ({doubt}); the calibration's guess is kept: "
+        "pin it (flexion_sign '+' or '-') if the angles look inverted"]
+
+
+def _choose_zero(jc, raw: np.ndarray, sign: int, reference, rec,
+                 gyrs) -> tuple[dict, list[str]]:
+    """(the ``zero`` block: method, raw_deg, time_s, time_in; warnings) for ``reference``
+    None (the calibration's zero), ``"standing"`` (this recording's most extended still
+    period) or a time, s, inside the window (checked before: :func:`_check_reference`)."""
+    ref = jc.angle
+    if reference == "standing":
+        if not still_periods(gyrs, rec.rate):
+            raise InputError(f"{rec.source}: no still period of at least {STILL_MIN_S:g} s for "
+                             "the zero (reference 'standing'); give a time instead")
+        z, method, t = _zero(raw, sign, rec, gyrs)
+        return {"method": method, "raw_deg": z, "time_s": t, "time_in": "this recording"}, []
+    if reference is not None:
+        i = int(np.argmin(np.abs(rec.time - reference)))
+        half = max(1, int(0.1 * rec.rate))
+        return {"method": "user time (mean over +-0.1 s)",
+                "raw_deg": float(raw[max(0, i - half):i + half + 1].mean()),
+                "time_s": reference, "time_in": "this recording"}, []
+    zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
+            "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
+    if sign == int(ref["flexion_sign"]) or abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN:
+        return zero, []  # (a sign pinned against a clear calibration just negates the angle)
+    # The calibration trial's zero is its most extended posture under the sign it guessed
+    # (its evidence was weak), which is the most flexed one under this sign.
+    if ref["zero_time_s"] is None:  # the 1st percentile: take the other end
+        zero["raw_deg"] = ref["zero_deg"] + int(ref["flexion_sign"]) * ref["flexion_range_deg"][1]
+        zero["method"] += " (with the flexion direction used here)"
+        return zero, []
+    return zero, [f"{jc.name}: the calibration's zero (its most extended still period) was "
+                  "chosen for the opposite flexion direction; give a reference ('standing' "
+                  "or a time) for a meaningful zero"]
+
+
+def _sigma_with_clock(jc, fus, s2) -> tuple[np.ndarray, str | None]:
+    """(per-sample 1-sigma, deg, of the fused angle with the calibration's clock offset
+    carried; a warning when that offset was found but not applied)."""
     # reading the second sensor dt later than it should turns the gyro angle by about its
     # own rate about j2 times dt: the offset's 1-sigma, a fraction of a ms, is 0.1-0.3
     # deg at walking rates, as much as the fusion's own band (simulated gait, 100 ms
@@ -740,20 +777,16 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
     lag = unapplied_clock_offset(jc)
     sigma = np.hypot(np.hypot(np.degrees(fus.sigma), rate2 * clock_offset_sigma(jc)),
                      rate2 * abs(lag))
-    if lag:
-        warnings.append(
-            f"{jc.name}: the calibration found the second sensor's clock "
-            f"{abs(1000 * lag):.0f} ms {'late' if lag > 0 else 'early'} but did not apply it "
-            "(too little gain to tell it from soft tissue); if the clocks differ by that, the "
-            f"angles {'lag' if lag > 0 else 'lead'} by up to "
-            f"{float(np.max(rate2, initial=0.0)) * abs(lag):.1f} deg "
-            "where the knee turns fastest, which their 1-sigma carries. Calibrate with "
-            "--time-offset SECONDS if the offset is known")
-    sigma, extrapolated = _extrapolated(jc, sigma, flex, beyond, rec.rate)
-    if extrapolated:
-        warnings.append(extrapolated)
-    return JointAngle(jc.name, jc.sensors, flex, sigma, gyro_only, sign,
-                      source, evidence, zero, check, detect_gait(flex, rec.rate), warnings)
+    if not lag:
+        return sigma, None
+    return sigma, (
+        f"{jc.name}: the calibration found the second sensor's clock "
+        f"{abs(1000 * lag):.0f} ms {'late' if lag > 0 else 'early'} but did not apply it "
+        "(too little gain to tell it from soft tissue); if the clocks differ by that, the "
+        f"angles {'lag' if lag > 0 else 'lead'} by up to "
+        f"{float(np.max(rate2, initial=0.0)) * abs(lag):.1f} deg "
+        "where the knee turns fastest, which their 1-sigma carries. Calibrate with "
+        "--time-offset SECONDS if the offset is known")
 
 
 def _sign_doubt(raw: np.ndarray, evidence: float, rate: float) -> str | None:
