@@ -333,7 +333,11 @@ def calibrate(
     seed: Seed = None,
     start: Start = None,
     end: End = None,
-    time_offset: TimeOffset = "auto",
+    time_offset: Annotated[str, typer.Option(
+        "--time-offset", help="Clock offset of each joint's second sensor, s (positive: "
+        "its clock is late): auto (searched and applied per joint, see axis --help), 0 or "
+        "a number of seconds applied to EVERY joint (the shank's for the knee, the foot's "
+        "for the ankle): calibrate joints separately with --joint when they differ.")] = "auto",
     offset_search: OffsetSearch = 0.2,  # imucal.settings.OFFSET_SEARCH_S
     acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     out: Annotated[Path | None, typer.Option(
