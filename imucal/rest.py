@@ -129,8 +129,11 @@ def gravity_warning(check: dict, what: str = "the axis") -> str | None:
     if check["consistent"] is not False:
         return None
     worst = max(check["periods"], key=lambda r: r["mismatch_deg"])
+    # (a window without a rest of its own is checked against the recording's rests)
+    outside = (" (outside the window, which has no rest of its own; the same mounting "
+               "assumed)" if check.get("scope") == "recording" else "")
     return (f"{what} is not one physical line: while the sensors rest at "
-            f"{worst['start_s']:.0f}-{worst['end_s']:.0f} s it makes "
+            f"{worst['start_s']:.0f}-{worst['end_s']:.0f} s{outside} it makes "
             f"{worst['angle1_deg']:.0f} deg with the vertical in the first sensor but "
             f"{worst['angle2_deg']:.0f} deg in the second (one hinge axis makes the same "
             f"angle in both, within {check['max_allowed_deg']:g} deg): the axes are not "

@@ -121,3 +121,52 @@ def test_an_axis_that_fails_the_gravity_check_is_refused_not_answered(consistent
         assert r.gravity["max_mismatch_deg"] > 80.0
         assert r.verdict == "not identifiable"
         assert r.blocking[0].startswith("the axis is not one physical line")
+
+
+@pytest.mark.parametrize("consistent", [True, False])
+def test_a_window_without_a_rest_is_checked_against_the_rests_around_it(consistent):
+    # The real recording's walking windows of 10-20 s have no rest: the check did not run
+    # and 16 of 20 right- and left-knee windows gave `use with care` axes that the
+    # recording's rests outside them put 40-89 deg beyond the limit (a real-data audit).
+    # Simulated circling after 3 s at rest; the window leaves the rest out.
+    from conftest import simulated
+
+    from imucal import estimate_axis
+
+    rec, truth = simulated(2)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    j1, j2 = np.asarray(truth["j1"]), np.asarray(truth["j2"])
+    side = np.cross(j1, [1.0, 0.0, 0.0])
+    up1 = 9.81 * side / np.linalg.norm(side)
+    side2 = np.cross(j2, [0.0, 1.0, 0.0])
+    up2 = 9.81 * (side2 / np.linalg.norm(side2) if consistent else j2)
+    rest = int(3 * rec.rate)
+    rng = np.random.default_rng(0)
+
+    def still(up):
+        return rng.normal(0, 0.002, (rest, 3)), up + rng.normal(0, 0.02, (rest, 3))
+
+    (r1, a1), (r2, a2) = still(up1), still(up2)
+    r = estimate_axis(np.concatenate([r1, th.gyr]), np.concatenate([r2, sh.gyr]),
+                      acc1=np.concatenate([a1, th.acc]), acc2=np.concatenate([a2, sh.acc]),
+                      rate=rec.rate, restarts=20, seed=1, start=4.0)
+    assert r.gravity["scope"] == "recording"
+    assert r.gravity["periods"] and r.gravity["periods"][0]["end_s"] <= 3.01
+    if consistent:
+        assert r.gravity["consistent"] and r.verdict != "not identifiable"
+    else:
+        assert r.verdict == "not identifiable"
+        assert "(outside the window, which has no rest of its own" in r.blocking[0]
+    inside = estimate_axis(th.gyr, sh.gyr, acc1=th.acc, acc2=sh.acc, rate=rec.rate,
+                           restarts=20, seed=1)
+    assert inside.gravity["scope"] is None and inside.gravity["consistent"] is None
+
+
+def test_the_real_right_knee_while_walking_is_refused_by_the_rests_before(real_recording):
+    from imucal import estimate_axis
+
+    t, s = real_recording.sensor("right_thigh"), real_recording.sensor("right_shank")
+    r = estimate_axis(t.gyr, s.gyr, acc1=t.acc, acc2=s.acc, rate=RATE, restarts=20, seed=1,
+                      start=61.0, end=76.0)
+    assert r.gravity["scope"] == "recording" and r.gravity["max_mismatch_deg"] > 60.0
+    assert r.verdict == "not identifiable"
