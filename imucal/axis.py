@@ -31,6 +31,7 @@ from .gyr_bias import GyrBias, estimate_gyr_bias
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
+    BatchedProblem,
     Multistart,
     Stages,
     multistart,
@@ -809,7 +810,7 @@ NORM_FLOOR = {np.dtype(np.float32): 1e-6, np.dtype(np.float64): 1e-14}
 CHUNK = 4096
 
 
-class _HingeProblem:
+class _HingeProblem(BatchedProblem):
     """Residual (1) and its Gauss-Newton normal equations for many restarts at once.
 
     With ``|g x j|^2 = |g|^2 - (g.j)^2`` every restart's residual needs only the matrix
@@ -854,16 +855,6 @@ class _HingeProblem:
         ]
         self.blocks = [slice(k, min(k + CHUNK, n)) for k in range(0, n, CHUNK)]
         self._work = None
-
-    def with_mask(self, mask: np.ndarray | None) -> _HingeProblem:
-        """The same data with other subset weights (see ``__init__``), sharing the tables."""
-        other = object.__new__(type(self))  # a shallow copy
-        other.__dict__.update(self.__dict__)
-        other.mask = None if mask is None else mask.astype(self.dtype, copy=False)
-        other.count = (float(self.g1.shape[0]) if mask is None
-                       else mask.sum(axis=1, dtype=np.float64))
-        other._work = None
-        return other
 
     def _buffers(self, r: int):
         width = self.blocks[0].stop - self.blocks[0].start

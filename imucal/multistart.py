@@ -123,6 +123,29 @@ def _positive_definite(a: np.ndarray) -> np.ndarray:
     return ok
 
 
+class BatchedProblem:
+    """Base of the problems a :class:`Stages` builds: ``n`` samples, per-restart 0/1
+    subset weights ``mask`` ((R, n), or None: every sample for every restart) in the
+    problem's ``dtype``, ``count`` samples each restart uses, and a work buffer ``_work``
+    made on first use."""
+
+    n: int
+    dtype: type
+    mask: np.ndarray | None
+    count: float | np.ndarray
+    _work: np.ndarray | None
+
+    def with_mask(self, mask: np.ndarray | None):
+        """The same data with other subset weights, sharing the per-sample tables (the
+        refine stage reuses the subset stage's)."""
+        other = object.__new__(type(self))  # a shallow copy
+        other.__dict__.update(self.__dict__)
+        other.mask = None if mask is None else mask.astype(self.dtype, copy=False)
+        other.count = float(self.n) if mask is None else mask.sum(axis=1, dtype=np.float64)
+        other._work = None
+        return other
+
+
 @dataclass(frozen=True)
 class Stages:
     """One least-squares problem family and its staged multistart.
@@ -259,8 +282,7 @@ def multistart(stages: Stages, data: tuple, mask: np.ndarray | None, x0: np.ndar
     batch = fitted if batch is None else chain(batch, fitted)
 
     # the same data without subsets: share the subset problem's tables where it can
-    everything = (subset.with_mask(None) if hasattr(subset, "with_mask")
-                  else stages.problem(data, None, RESTART_DTYPE, True))
+    everything = subset.with_mask(None)
     refined = stages.solve(everything, batch.x, max_iterations, stages.restart_step_tolerance)
     project = stages.project or (lambda x: x)
     best, _ = best_restart(project(refined.x), refined.final_cost, stages.distance,

@@ -32,6 +32,7 @@ from .gyr_bias import joint_centre_with_bias
 from .multistart import (
     SENSITIVITY_ITERATIONS,
     SYMMETRIC,
+    BatchedProblem,
     Multistart,
     Stages,
     multistart,
@@ -675,7 +676,7 @@ def closest_point_on_axis(x: np.ndarray, line: np.ndarray) -> np.ndarray:
     return x + lam[..., None] * line
 
 
-class _SpheroidalProblem:
+class _SpheroidalProblem(BatchedProblem):
     """Residual (3) and the normal equations of eq. (4) for many restarts at once.
 
     ``Gamma_g(o) = (g g^T - |g|^2 I + [gdot]x) o`` is linear in ``o``: each sample's 3x3
@@ -713,15 +714,6 @@ class _SpheroidalProblem:
                 np.ascontiguousarray(gtg[up[0], up[1]].T, dtype=dtype),
             ))
         self._work = None
-
-    def with_mask(self, mask: np.ndarray | None) -> _SpheroidalProblem:
-        """The same data with other subset weights (see ``__init__``), sharing the tables."""
-        other = object.__new__(type(self))  # a shallow copy
-        other.__dict__.update(self.__dict__)
-        other.mask = None if mask is None else mask.astype(self.dtype, copy=False)
-        other.count = float(self.n) if mask is None else mask.sum(axis=1, dtype=np.float64)
-        other._work = None
-        return other
 
     @staticmethod
     def _gamma(g, gdot):

@@ -450,11 +450,12 @@ FOOTER = """
   both halves share (soft tissue, a joint that is no ball) cannot show there, and that
   is what the model term is for.
 - **Ankles fitted as a hinge.** They leave 0.26-0.38 of the signal, below the real knees,
-  and their restarts agree (this ankle moves mostly in one plane), so imucal does not
-  refuse them. The left ankle in 55-100 s, which came out `good` (1-sigma 3.6 / 4.9 deg)
-  before the model term, is now `use with care`: its smooth residual adds 40.6 deg, for a
-  1-sigma of 40.8 / 40.9 deg. Still no check here tells a real ankle from a hinge: choose
-  the joint model from anatomy. The right ankle in 55-100 s is the one row whose relative
+  and their restarts agree (this ankle moves mostly in one plane). The left ankle in
+  55-100 s, which came out `good` (1-sigma 3.6 / 4.9 deg) before the model term, then `use
+  with care` (its smooth residual adds 40.6 deg, for a 1-sigma of 40.8 / 40.9 deg), is
+  refused now only because the window has no rest and the recording's rests of 0-55 s show
+  its axes are no one line. Without a rest anywhere no check tells a real ankle from a
+  hinge: choose the joint model from anatomy. The right ankle in 55-100 s is the one row whose relative
   sign the data barely decide (1.31; plane and acc lean the other way).
 - **Joint centres.** They moved with the new joint-centre filter (a flat fourth-order
   low-pass at a cut-off from the spectrum instead of a second-order one at 10 Hz, and an
