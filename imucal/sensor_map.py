@@ -259,6 +259,9 @@ def _rename(recording: Recording, renamed: dict[str, str], source: str,
         recording,
         sensors={new(n): s for n, s in recording.sensors.items()},
         warnings=[renamed_in(w) for w in recording.warnings],
+        # (select keeps a window's notes by the sensors' names: the foot's dropped packets
+        # entered the knee's warnings, and cost its "good")
+        notes=tuple(renamed_in(n) for n in recording.notes),
         units={new(n): u for n, u in recording.units.items()},
         gaps=tuple(replace(g, sensor=new(g.sensor)) for g in recording.gaps),
         sensor_info=sensor_info,

@@ -343,3 +343,15 @@ def test_loader_warnings_follow_a_new_name_with_an_apostrophe(tmp_path):
                              names={"Bob's shank": "s"})
     assert dropped.warnings and all(
         w.startswith("sensor 's' ('Bob's shank' in the file)") for w in dropped.warnings)
+
+
+def test_a_renamed_sensor_s_notes_stay_out_of_another_pair_s_warnings(tmp_path):
+    # the notes kept the file's names, so select's filter (by the new names) let the
+    # foot's dropped packets into the knee's warnings
+    dropped = load_recording(vw.dot(short(), tmp_path / "d", drops={"foot": [40]}),
+                             names={"thigh": "t", "shank": "s", "foot": "f"})
+    assert any(w.startswith("sensor 'f' ('Foot' in the file)") for w in dropped.warnings)
+    knee = dropped.select(["t", "s"])
+    assert not any("Foot" in w or "'f'" in w for w in knee.warnings), knee.warnings
+    ankle = dropped.select(["s", "f"])
+    assert any(w.startswith("sensor 'f' ('Foot' in the file)") for w in ankle.warnings)
