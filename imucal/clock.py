@@ -401,11 +401,10 @@ def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
             f"sensor '{s.name}': {clk.dropped} sample(s) missing from its "
             f"{clk.source_of_time} (dropped packets), left as gaps"
         )
-    if cut0 or cut1:
-        notes.append(
-            f"sensor '{s.name}': {cut0} sample(s) before and {cut1} after the span all "
-            "sensors share are not used"
-        )
+    # Samples outside the span every sensor shares (devices started one after another)
+    # are no problem of the data used: ``info["cut"]`` records them, and ``imucal info``
+    # shows each sensor's start. As a warning they cost nearly every real multi-device
+    # export its "good" (its converted .h5 kept it).
     if interpolated:
         notes.append(
             f"sensor '{s.name}' ({1 / clk.period:.6g} Hz) does not sample at the grid's "
