@@ -362,8 +362,9 @@ class JointAngle:
         ``flexion_deg`` at the first sample (what the fusion corrects).
     sign, sign_source : +1 / -1 applied to the calibration's raw angle (the right-handed
         rotation of the second segment about j), and why: "calibration" (its trial
-        decided), "recording" (this one decided), "user" (pinned) or "calibration guess"
-        (neither decided: the calibration's guess, with a warning).
+        decided), "recording" (this window decided), "recording around the window" (the
+        window could not, its recording's other samples did), "user" (pinned) or
+        "calibration guess" (none decided: the calibration's guess, with a warning).
     sign_evidence : this recording's evidence (:func:`sign_evidence`).
     zero : {"method", "raw_deg", "time_s", "time_in"}: what 0 deg is.
     check : the "still fits" evidence (docs/angles.md): hinge residual and acc-gyro
@@ -704,7 +705,18 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
                                    "written") from None
     raw = _on_calibration_turn(np.degrees(fus.theta), ref)
     evidence = sign_evidence(raw)
-    sign, source, warnings = _choose_sign(jc, raw, evidence, pinned, rec.rate)
+
+    def around() -> np.ndarray | None:
+        """The raw angle over the samples around the window, where there are more."""
+        if context is None or context.n_samples <= rec.n_samples:
+            return None
+        try:
+            wide = _fused(context, jc, smoothing_s)[3]
+        except NotIdentifiableError:
+            return None
+        return _on_calibration_turn(np.degrees(wide.theta), ref)
+
+    sign, source, warnings = _choose_sign(jc, raw, evidence, pinned, rec.rate, around)
     zero, more = _choose_zero(jc, raw, sign, reference, rec, (s1.gyr, s2.gyr))
     flex = sign * (raw - zero["raw_deg"])
     gyro_only = sign * np.degrees(sig.theta_gyro - sig.theta_gyro[0]) + flex[0]
@@ -729,10 +741,11 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
                       source, evidence, zero, check, detect_gait(flex, rec.rate), warnings)
 
 
-def _choose_sign(jc, raw: np.ndarray, evidence: float, pinned: int | None,
-                 rate: float) -> tuple[int, str, list[str]]:
+def _choose_sign(jc, raw: np.ndarray, evidence: float, pinned: int | None, rate: float,
+                 around=None) -> tuple[int, str, list[str]]:
     """(flexion sign, its ``sign_source``, warnings): pinned, the calibration trial's clear
-    decision, this recording's (when it counts: :func:`_sign_doubt`), else the
+    decision, this recording's window's (when it counts: :func:`_sign_doubt`), the
+    recording's around the window (``around()``: its raw angle there, or None), else the
     calibration's guess with a warning."""
     ref = jc.angle
     if pinned is not None:
@@ -742,6 +755,15 @@ def _choose_sign(jc, raw: np.ndarray, evidence: float, pinned: int | None,
     doubt = _sign_doubt(raw, evidence, rate)
     if doubt is None:
         return (1 if evidence >= 0 else -1), "recording", []
+    # A window too short to decide (a stride's part says where in the stride it lies) is
+    # one of the recording's: its samples around the window decide for it. With the demo's
+    # circling calibration, 8 of 16 walking windows of 1 s read inverted, "fits" (a
+    # new-user trial), as the calibration's guess was the wrong one.
+    wide = None if around is None else around()
+    if wide is not None:
+        wide_evidence = sign_evidence(wide)
+        if _sign_doubt(wide, wide_evidence, rate) is None:
+            return (1 if wide_evidence >= 0 else -1), "recording around the window", []
     # Neither decides. The calibration's guess keeps its zero (chosen under that guess)
     # and gives every recording of a study the same direction, where the recordings' own
     # coin flips would not.
