@@ -22,7 +22,7 @@ import numpy as np
 from . import __version__
 from .errors import ImucalError, InputError
 from .quality import NOT_IDENTIFIABLE
-from .recording import Recording, check_recording, estimator_window
+from .recording import Recording, check_recording, estimator_window, input_info
 from .sensor_names import normalised_name, segment_of
 from .settings import ACC_ERROR_M_S2, OFFSET_SEARCH_S
 
@@ -377,11 +377,7 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
         # window's (a warning said "rest at 2-5 s" for 52-55 s)
         around, window = estimator_window(recording, names, start, end)
         s1, s2 = around.sensors[spec.first], around.sensors[spec.second]
-        info = {"path": recording.source, "sensors": names,
-                "sample_rate_hz": recording.rate, "samples_total": recording.n_samples,
-                "duration_s": recording.duration,
-                "units_in_file": {n: recording.units.get(n, {}) for n in jc.sensors},
-                "time_origin": window["time_origin"], "load_warnings": list(used.warnings)}
+        info = input_info(recording, names, around)
         common = {"rate": used.rate, "restarts": restarts, "seed": seed,
                   "time_offset": time_offset, "offset_search": offset_search, **window}
         axis = None

@@ -614,6 +614,29 @@ def check_recording(recording) -> None:
         raise InputError(f"expected a Recording, got {type(recording).__name__}{hint}")
 
 
+def input_info(recording: Recording, names, used: Recording) -> dict:
+    """The ``input`` block of a result (docs/json.md) for the sensors ``names`` of
+    ``recording`` and the part ``used`` (its window, in context) the estimate saw; with a
+    sensor map, which device each name came from. Shared by the commands and by
+    ``calibrate``'s joints (whose embedded results lacked ``sensor_map``)."""
+    info = {
+        "path": recording.source,
+        "sensors": list(names),
+        "sample_rate_hz": recording.rate,
+        "samples_total": recording.n_samples,
+        "duration_s": recording.duration,
+        "units_in_file": {n: recording.units.get(n, {}) for n in names},
+        "time_origin": float(used.time[0]),
+        "load_warnings": list(used.warnings),
+    }
+    if "sensor_map" in recording.provenance:  # which device each name came from
+        mapped = recording.provenance["sensor_map"]
+        in_file = {v: k for k, v in mapped["renamed"].items()}
+        info["sensor_map"] = {"file": str(mapped["file"]), "sensors": {
+            m: in_file.get(m, m) for m in map(recording.resolve, names)}}
+    return info
+
+
 def estimator_window(recording: Recording, names, start, end) -> tuple[Recording, dict]:
     """The sensors ``names`` in the window ``start``..``end`` (s on the recording's time
     axis), checked and repaired (Recording.select), and the estimators' keywords for it:

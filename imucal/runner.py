@@ -34,7 +34,7 @@ from .errors import (
     exit_code_of,
     one_line,
 )
-from .recording import estimator_window
+from .recording import estimator_window, input_info
 from .signals import unreported
 
 __all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors"]
@@ -367,7 +367,7 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
                                   {**job.settings.as_kwargs(), **window})
     except InputError as err:
         raise InputError(f"{recording.source}: {err}") from None
-    doc = command.report(result, input_info=_input_info(recording, names, used, job),
+    doc = command.report(result, input_info=input_info(recording, names, used),
                          trace=job.trace)
     what = f"{job.command} ({doc['joint']})" if "joint" in doc else job.command
     outcome.headline = (f"imucal {what}: {recording.source}: {names[0]} -> {names[1]}, "
@@ -386,19 +386,4 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
     outcome.document, outcome.result = doc, result
 
 
-def _input_info(recording, names, used, job: Job) -> dict:
-    info = {
-        "path": recording.source,
-        "sensors": list(names),
-        "sample_rate_hz": recording.rate,
-        "samples_total": recording.n_samples,
-        "duration_s": recording.duration,
-        "units_in_file": {n: recording.units.get(n, {}) for n in names},
-        "time_origin": float(used.time[0]),
-        "load_warnings": list(used.warnings),
-    }
-    if "sensor_map" in recording.provenance:  # which device each name came from
-        in_file = {v: k for k, v in recording.provenance["sensor_map"]["renamed"].items()}
-        info["sensor_map"] = {"file": str(job.sensor_map), "sensors": {
-            m: in_file.get(m, m) for m in map(recording.resolve, names)}}
-    return info
+

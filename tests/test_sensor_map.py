@@ -355,3 +355,18 @@ def test_a_renamed_sensor_s_notes_stay_out_of_another_pair_s_warnings(tmp_path):
     assert not any("Foot" in w or "'f'" in w for w in knee.warnings), knee.warnings
     ankle = dropped.select(["s", "f"])
     assert any(w.startswith("sensor 'f' ('Foot' in the file)") for w in ankle.warnings)
+
+
+def test_calibrate_with_map_names_the_devices_in_its_embedded_results(study, tmp_path):
+    # calibrate built its own input block, without sensor_map (json.md promises it with
+    # --map, and `imucal axis --map` has it)
+    rec, truth, paths, m, ref = study
+    out = tmp_path / "cal.json"
+    run = run_imucal("calibrate", paths["dot"], "--map", m, "--restarts", "20", "--seed",
+                     "1", "--joint", "left_knee=hinge:left_thigh,left_shank", "-o", out,
+                     "--force", "-q")
+    assert run.returncode == 0, run.stderr
+    knee = json.loads(out.read_text())["joints"]["left_knee"]
+    expected = {"file": str(m), "sensors": {"left_thigh": "Thigh", "left_shank": "Shank"}}
+    assert knee["axis"]["input"]["sensor_map"] == expected
+    assert knee["position"]["input"]["sensor_map"] == expected
