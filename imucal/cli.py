@@ -632,6 +632,12 @@ def simulate(
             raise InputError(f"{out}: unknown output format '{out.suffix or out.name}'; use "
                              ".h5, .hdf5 or .csv")
         truth_path = out.with_name(out.stem + ".truth.json")
+        # rec.csv and rec.h5 would share rec.truth.json: the other one would be left
+        # beside a truth of another seed and rate, silently
+        for other in (out.with_suffix(s) for s in (*HDF5_SUFFIXES, ".csv")):
+            if other.name != out.name and other.exists():
+                raise InputError(f"{out}: {other.name} lies beside it and would share "
+                                 f"{truth_path.name}; give the recording another name")
         check_writable(out)
         recording, truth = run_simulation(
             seed=seed, rate=rate, duration=duration, motion=motion,

@@ -487,3 +487,16 @@ def test_standard_output_stand_ins_get_the_text_as_the_text_stream_would(monkeyp
     monkeypatch.setattr(sys, "stdout", Tee(io.BufferedWriter(raw), encoding="utf-8"))
     write_stdout("c\n")
     assert raw.getvalue() == b"c\n"
+
+
+def test_simulate_refuses_a_name_whose_truth_another_recording_shares(tmp_path):
+    # rec.csv then rec.h5 both wrote rec.truth.json: rec.csv was left beside the truth
+    # of another seed and rate
+    assert imucal("simulate", tmp_path / "rec.csv", "--duration", "3", "--rate", "40",
+                  "-q").returncode == 0
+    truth = (tmp_path / "rec.truth.json").read_bytes()
+    run = imucal("simulate", tmp_path / "rec.h5", "--duration", "3", "-q")
+    assert run.returncode == 2
+    assert "rec.csv lies beside it and would share rec.truth.json" in run.stderr.decode()
+    assert not (tmp_path / "rec.h5").exists()
+    assert (tmp_path / "rec.truth.json").read_bytes() == truth
