@@ -956,6 +956,14 @@ def _summary(doc: dict, names) -> None:
         say(f"  warning: {w}")
 
 
+def _sigmas(result: dict, names: tuple[str, str], spec: str) -> str:
+    """``"1-sigma 13.3/4.0 mm"`` of an embedded result's two vectors ("-": none)."""
+    q, u = result["quality"], result["units"]["uncertainty"]
+    values = "/".join("-" if q[f"{v}_uncertainty_{u}"] is None
+                      else format(q[f"{v}_uncertainty_{u}"], spec) for v in names)
+    return f"1-sigma {values} {u}"
+
+
 def _calibration_summary(doc: dict) -> None:
     """One or two stderr lines per joint of a calibration document: verdict and numbers."""
     for name, j in doc["joints"].items():
@@ -964,12 +972,10 @@ def _calibration_summary(doc: dict) -> None:
         if j["o1"] is None:
             say(head)
         elif j["joint"] == "hinge":
-            q, a = j["axis"]["quality"], j["angle"] or {}
-            u = j["axis"]["units"]["uncertainty"]
-            sigma = "/".join("-" if q[f"{v}_uncertainty_{u}"] is None
-                             else f"{q[f'{v}_uncertainty_{u}']:.2f}" for v in ("j1", "j2"))
-            say(f"{head}; j1 = {_vec(j['j1'])}, j2 = {_vec(j['j2'])} (1-sigma {sigma} {u}); "
-                f"centre o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m")
+            a = j["angle"] or {}
+            say(f"{head}; j1 = {_vec(j['j1'])}, j2 = {_vec(j['j2'])} "
+                f"({_sigmas(j['axis'], ('j1', 'j2'), '.2f')}); centre o1 = {_vec(j['o1'])} m, "
+                f"o2 = {_vec(j['o2'])} m ({_sigmas(j['position'], ('o1', 'o2'), '.1f')})")
             if a:
                 from .angles import SIGN_EVIDENCE_MIN
 
@@ -980,12 +986,8 @@ def _calibration_summary(doc: dict) -> None:
                     f"residual {_num(a['hinge_residual'], '.3f')}, acc-gyro angle "
                     f"disagreement {_num(a['acc_gyro_disagreement_deg'], '.2f')} deg")
         else:
-            q = j["position"]["quality"]
-            u = j["position"]["units"]["uncertainty"]
-            sigma = "/".join("-" if q[f"{v}_uncertainty_{u}"] is None
-                             else f"{q[f'{v}_uncertainty_{u}']:.1f}" for v in ("o1", "o2"))
-            say(f"{head}; o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m (1-sigma {sigma} "
-                f"{u})")
+            say(f"{head}; o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m "
+                f"({_sigmas(j['position'], ('o1', 'o2'), '.1f')})")
         for w in j["warnings"]:
             if not w.startswith("position: axis: "):  # the hinge's axis, said above
                 say(f"    warning: {w}")

@@ -50,6 +50,11 @@ def test_calibrate_writes_every_joint_with_a_summary(cal_file):
     assert doc["settings"]["seed"] == 1 and doc["settings"]["restarts"] == 20
     assert "knee (hinge, thigh -> shank): good" in run.stderr
     assert "ankle (spheroidal, shank -> foot): good" in run.stderr
+    # the knee centre with its 1-sigma, as the ankle's (it had none: a new-user trial)
+    line = next(x for x in run.stderr.splitlines() if "knee (hinge" in x)
+    q = knee["position"]["quality"]
+    assert line.endswith(f"(1-sigma {q['o1_uncertainty_mm']:.1f}/"
+                         f"{q['o2_uncertainty_mm']:.1f} mm)")
 
 
 def test_a_drawn_seed_is_recorded(tmp_path):
