@@ -455,8 +455,8 @@ FOOTER = """
   with care` (its smooth residual adds 40.6 deg, for a 1-sigma of 40.8 / 40.9 deg), is
   refused now only because the window has no rest and the recording's rests of 0-55 s show
   its axes are no one line. Without a rest anywhere no check tells a real ankle from a
-  hinge: choose the joint model from anatomy. The right ankle in 55-100 s is the one row whose relative
-  sign the data barely decide (1.31; plane and acc lean the other way).
+  hinge: choose the joint model from anatomy. The right ankle in 55-100 s is the one row
+  whose relative sign the data barely decide (1.31; plane and acc lean the other way).
 - **Joint centres.** They moved with the new joint-centre filter (a flat fourth-order
   low-pass at a cut-off from the spectrum instead of a second-order one at 10 Hz, and an
   8th-order difference for `gdot`; [method.md](method.md#the-joint-centre-filter)): the
