@@ -184,14 +184,8 @@ def unapplied_clock_offset(jc) -> float:
     such an offset, if real, makes them lag: a calibration that found a 30 ms shank 16 ms
     late and left it gave a simulated walk 12 deg of error at a 1-sigma of 2 deg, "fits"
     (an honesty audit)."""
-    block = jc.axis.get("time_offset") if isinstance(jc.axis, dict) else None
-    if not isinstance(block, dict) or block.get("mode") != "auto" or block.get("applied") \
-            or block.get("at_edge"):
-        return 0.0
-    found, sigma = _offset_number(jc, "estimated_s"), _offset_number(jc, "sigma_s")
-    if found is None or sigma is None or not abs(found) > 2 * sigma:
-        return 0.0
-    return found
+    found, sigma = _unapplied_search(jc)
+    return found if abs(found) > 2 * sigma else 0.0
 
 
 def unapplied_offset_spread(jc) -> float:
@@ -202,14 +196,18 @@ def unapplied_offset_spread(jc) -> float:
     shank found at 14 +- 8 ms (not clear of twice its 1-sigma, so no warning) left a
     simulated walk 1.8 deg RMS off at a median 1-sigma of 0.8 deg, 80 % of the samples
     within 3 sigma (an honesty audit)."""
+    return math.hypot(*_unapplied_search(jc))
+
+
+def _unapplied_search(jc) -> tuple[float, float]:
+    """(estimated_s, sigma_s) of the calibration axis's clock-offset search where it ran
+    (mode auto), applied nothing and did not end at its edge; else (0, 0)."""
     block = jc.axis.get("time_offset") if isinstance(jc.axis, dict) else None
     if not isinstance(block, dict) or block.get("mode") != "auto" or block.get("applied") \
             or block.get("at_edge"):
-        return 0.0
+        return 0.0, 0.0
     found, sigma = _offset_number(jc, "estimated_s"), _offset_number(jc, "sigma_s")
-    if found is None or sigma is None:
-        return 0.0
-    return math.hypot(found, sigma)
+    return (0.0, 0.0) if found is None or sigma is None else (found, sigma)
 
 
 def clock_offset(jc) -> float:
