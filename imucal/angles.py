@@ -47,6 +47,8 @@ SIGN_MIN_S = 4.0
 #: (0.05 deg of spread) gave evidence of -0.19 and -0.48 and read 55 deg of flexion
 #: for a knee bent 10 deg, with no warning; walking spans 50-70 deg.
 SIGN_MIN_SPAN_DEG = 10.0
+#: s: a window too short to decide the direction is given the samples this close to it.
+SIGN_AROUND_S = 60.0
 #: Samples turning slower than this (rad/s, RMS of both sensors' angular rates) are left
 #: out of the hinge residual: at rest it would be noise over noise.
 MOVING_RATE = 0.5
@@ -722,11 +724,15 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
     evidence = sign_evidence(raw)
 
     def around() -> np.ndarray | None:
-        """The raw angle over the samples around the window, where there are more."""
+        """The raw angle over the samples within SIGN_AROUND_S of the window, where there
+        are more (not the whole recording: a 1 s window of a 1 h walk took 15 s)."""
         if context is None or context.n_samples <= rec.n_samples:
             return None
+        near = context.select(list(context.sensors),
+                              max(rec.time[0] - SIGN_AROUND_S, context.time[0]),
+                              min(rec.time[-1] + SIGN_AROUND_S, context.time[-1]))
         try:
-            wide = _fused(context, jc, smoothing_s)[3]
+            wide = _fused(near, jc, smoothing_s)[3]
         except NotIdentifiableError:
             return None
         return _on_calibration_turn(np.degrees(wide.theta), ref)

@@ -424,11 +424,15 @@ def _with_gyr_bias(g1, g2, acc1, acc2, rate, s: AxisSettings, bias: GyrBias) -> 
     return _refuse_if_uninformative(result)
 
 
+#: s: a window without a rest of its own is checked against the rests this close to it.
+NEAR_REST_S = 60.0
+
+
 def _gravity(p: Prepared, j1, j2, origin: float) -> dict:
     """The gravity check of the axes at rest, when accelerometers came with the rates;
     ``origin``: the first sample's time, s on the recording's clock. Over the window's
-    still periods, or, where it has none, over those of every sample given (the same
-    mounting assumed): 16 of 20 walking windows of 10-20 s of the real recording gave
+    still periods, or, where it has none, over those within ``NEAR_REST_S`` of it (the
+    same mounting assumed): 16 of 20 walking windows of 10-20 s of the real recording gave
     knee axes `use with care` that its rests outside them put 40-89 deg beyond the limit
     (a real-data audit)."""
     if p.first[1] is None:
@@ -438,8 +442,11 @@ def _gravity(p: Prepared, j1, j2, origin: float) -> dict:
     check = gravity_check(*args, window=p.window, origin=origin)
     if check["periods"]:
         return {**check, "scope": "window"}
-    whole = gravity_check(*args, origin=origin)
-    return {**whole, "scope": "recording" if whole["periods"] else None}
+    # only rests near the window: far from it the sensors may have been re-strapped
+    near = int(round(NEAR_REST_S * p.rate))
+    around = slice(max(0, p.window.start - near), min(p.first[0].shape[0], p.window.stop + near))
+    nearby = gravity_check(*args, window=around, origin=origin)
+    return {**nearby, "scope": "around the window" if nearby["periods"] else None}
 
 
 def _fit(p: Prepared, s: AxisSettings) -> Multistart:

@@ -634,8 +634,12 @@ def simulate(
         truth_path = out.with_name(out.stem + ".truth.json")
         # rec.csv and rec.h5 would share rec.truth.json: the other one would be left
         # beside a truth of another seed and rate, silently
-        for other in (out.with_suffix(s) for s in (*HDF5_SUFFIXES, ".csv")):
-            if other.name != out.name and other.exists():
+        # (any case: rec.H5 and rec.h5 are two files on Linux)
+        siblings = ([p for p in out.parent.iterdir() if p.stem == out.stem]
+                    if out.parent.is_dir() else [])
+        for other in siblings:
+            if (other.suffix.lower() in {*HDF5_SUFFIXES, ".csv"} and other.name != out.name
+                    and other.is_file()):
                 raise InputError(f"{out}: {other.name} lies beside it and would share "
                                  f"{truth_path.name}; give the recording another name")
         check_writable(out)

@@ -130,8 +130,9 @@ def gravity_warning(check: dict, what: str = "the axis") -> str | None:
         return None
     worst = max(check["periods"], key=lambda r: r["mismatch_deg"])
     # (a window without a rest of its own is checked against the recording's rests)
-    outside = (" (outside the window, which has no rest of its own; the same mounting "
-               "assumed)" if check.get("scope") == "recording" else "")
+    outside = (" (outside the window, which has no rest of its own: unless the sensors "
+               "were re-strapped or set down there, which cutting the recording or --force "
+               "gets past)" if check.get("scope") == "around the window" else "")
     return (f"{what} is not one physical line: while the sensors rest at "
             f"{worst['start_s']:.0f}-{worst['end_s']:.0f} s{outside} it makes "
             f"{worst['angle1_deg']:.0f} deg with the vertical in the first sensor but "

@@ -500,3 +500,9 @@ def test_simulate_refuses_a_name_whose_truth_another_recording_shares(tmp_path):
     assert "rec.csv lies beside it and would share rec.truth.json" in run.stderr.decode()
     assert not (tmp_path / "rec.h5").exists()
     assert (tmp_path / "rec.truth.json").read_bytes() == truth
+    # the same name in another case is another file (a review)
+    assert imucal("simulate", tmp_path / "c.H5", "--duration", "3", "-q").returncode == 0
+    run = imucal("simulate", tmp_path / "c.h5", "--duration", "3", "-q")
+    assert run.returncode == 2 and "c.H5 lies beside it" in run.stderr.decode()
+    # the same file again is no sibling
+    assert imucal("simulate", tmp_path / "c.H5", "--duration", "3", "-q").returncode == 0

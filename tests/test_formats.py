@@ -96,6 +96,15 @@ def test_late_starting_sensor(fmt, tmp_path):
     # no problem of the data used: as a warning it cost the export "good" against its
     # converted .h5
     assert not loaded.warnings
+    # but a sensor 2 s late takes 2 s of the others' data: said (a review found 15 of
+    # 20 s dropped silently)
+    (tmp_path / "late").mkdir()
+    late = load_recording(write(fmt, rec, tmp_path / "late", late={"shank": 200}))
+    assert sorted(w.split(":")[0] for w in late.warnings) == [
+        f"sensor '{NAMES[fmt][k]}'" for k in sorted(("thigh", "foot"),
+                                                     key=lambda k: NAMES[fmt][k])]
+    assert all("2.0 s before and 0.0 s after the span all sensors share are not used" in w
+               for w in late.warnings)
 
 
 def test_dot_sensor_starting_after_its_clock_wrapped(tmp_path):

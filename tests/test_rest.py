@@ -150,7 +150,7 @@ def test_a_window_without_a_rest_is_checked_against_the_rests_around_it(consiste
     r = estimate_axis(np.concatenate([r1, th.gyr]), np.concatenate([r2, sh.gyr]),
                       acc1=np.concatenate([a1, th.acc]), acc2=np.concatenate([a2, sh.acc]),
                       rate=rec.rate, restarts=20, seed=1, start=4.0)
-    assert r.gravity["scope"] == "recording"
+    assert r.gravity["scope"] == "around the window"
     assert r.gravity["periods"] and r.gravity["periods"][0]["end_s"] <= 3.01
     if consistent:
         assert r.gravity["consistent"] and r.verdict != "not identifiable"
@@ -160,6 +160,20 @@ def test_a_window_without_a_rest_is_checked_against_the_rests_around_it(consiste
     inside = estimate_axis(th.gyr, sh.gyr, acc1=th.acc, acc2=sh.acc, rate=rec.rate,
                            restarts=20, seed=1)
     assert inside.gravity["scope"] is None and inside.gravity["consistent"] is None
+    # a rest more than NEAR_REST_S away may be of another mounting: not used
+    from imucal.axis import NEAR_REST_S
+
+    reps = int(np.ceil((NEAR_REST_S + 5) * rec.rate / th.gyr.shape[0]))
+    gap = slice(0, reps * th.gyr.shape[0])
+
+    def far_from_rest(rest, x):
+        return np.concatenate([rest, np.tile(x, (reps, 1))[gap], x])
+
+    start = (rest + gap.stop) / rec.rate + 1.0
+    far = estimate_axis(far_from_rest(r1, th.gyr), far_from_rest(r2, sh.gyr),
+                        acc1=far_from_rest(a1, th.acc), acc2=far_from_rest(a2, sh.acc),
+                        rate=rec.rate, restarts=20, seed=1, start=start)
+    assert far.gravity["scope"] is None and far.verdict != "not identifiable"
 
 
 def test_the_real_right_knee_while_walking_is_refused_by_the_rests_before(real_recording):
@@ -168,5 +182,5 @@ def test_the_real_right_knee_while_walking_is_refused_by_the_rests_before(real_r
     t, s = real_recording.sensor("right_thigh"), real_recording.sensor("right_shank")
     r = estimate_axis(t.gyr, s.gyr, acc1=t.acc, acc2=s.acc, rate=RATE, restarts=20, seed=1,
                       start=61.0, end=76.0)
-    assert r.gravity["scope"] == "recording" and r.gravity["max_mismatch_deg"] > 60.0
+    assert r.gravity["scope"] == "around the window" and r.gravity["max_mismatch_deg"] > 60.0
     assert r.verdict == "not identifiable"
