@@ -87,15 +87,11 @@ def test_real_knees_axes_from_the_first_55_s_are_not_one_line(real_recording):
         assert sitting and sitting[0]["angle1_deg"] > 70 and sitting[0]["angle2_deg"] < 20
 
 
-@pytest.mark.parametrize("consistent", [True, False])
-def test_an_axis_that_fails_the_gravity_check_is_refused_not_answered(consistent):
-    # the real knees' first 55 s: the fit found the segments' long axes, 60-90 deg from
-    # the knee's, and reported them as "use with care" at a 1-sigma of 19-40 deg with
-    # this check a mere warning. Simulated circling, then 3 s at rest in which gravity
-    # makes the same angle with the true axis in both sensors, or 90 deg against 0
+def _circling_and_rest(consistent: bool):
+    """Simulated circling (rec, thigh, shank) and 3 s at rest for each sensor ((gyr, acc)
+    pairs, and its length in samples) in which gravity makes the same angle with the true
+    axis in both sensors, or (``consistent`` False) 90 deg against 0."""
     from conftest import simulated
-
-    from imucal import estimate_axis
 
     rec, truth = simulated(2)
     th, sh = rec.sensor("thigh"), rec.sensor("shank")
@@ -110,7 +106,18 @@ def test_an_axis_that_fails_the_gravity_check_is_refused_not_answered(consistent
     def still(up):
         return rng.normal(0, 0.002, (rest, 3)), up + rng.normal(0, 0.02, (rest, 3))
 
-    (r1, a1), (r2, a2) = still(up1), still(up2)
+    return rec, th, sh, still(up1), still(up2), rest
+
+
+@pytest.mark.parametrize("consistent", [True, False])
+def test_an_axis_that_fails_the_gravity_check_is_refused_not_answered(consistent):
+    # the real knees' first 55 s: the fit found the segments' long axes, 60-90 deg from
+    # the knee's, and reported them as "use with care" at a 1-sigma of 19-40 deg with
+    # this check a mere warning. Simulated circling, then 3 s at rest in which gravity
+    # makes the same angle with the true axis in both sensors, or 90 deg against 0
+    from imucal import estimate_axis
+
+    rec, th, sh, (r1, a1), (r2, a2), rest = _circling_and_rest(consistent)
     r = estimate_axis(np.concatenate([th.gyr, r1]), np.concatenate([sh.gyr, r2]),
                       acc1=np.concatenate([th.acc, a1]), acc2=np.concatenate([sh.acc, a2]),
                       rate=rec.rate, restarts=20, seed=1)
@@ -129,24 +136,9 @@ def test_a_window_without_a_rest_is_checked_against_the_rests_around_it(consiste
     # and 16 of 20 right- and left-knee windows gave `use with care` axes that the
     # recording's rests outside them put 40-89 deg beyond the limit (a real-data audit).
     # Simulated circling after 3 s at rest; the window leaves the rest out.
-    from conftest import simulated
-
     from imucal import estimate_axis
 
-    rec, truth = simulated(2)
-    th, sh = rec.sensor("thigh"), rec.sensor("shank")
-    j1, j2 = np.asarray(truth["j1"]), np.asarray(truth["j2"])
-    side = np.cross(j1, [1.0, 0.0, 0.0])
-    up1 = 9.81 * side / np.linalg.norm(side)
-    side2 = np.cross(j2, [0.0, 1.0, 0.0])
-    up2 = 9.81 * (side2 / np.linalg.norm(side2) if consistent else j2)
-    rest = int(3 * rec.rate)
-    rng = np.random.default_rng(0)
-
-    def still(up):
-        return rng.normal(0, 0.002, (rest, 3)), up + rng.normal(0, 0.02, (rest, 3))
-
-    (r1, a1), (r2, a2) = still(up1), still(up2)
+    rec, th, sh, (r1, a1), (r2, a2), rest = _circling_and_rest(consistent)
     r = estimate_axis(np.concatenate([r1, th.gyr]), np.concatenate([r2, sh.gyr]),
                       acc1=np.concatenate([a1, th.acc]), acc2=np.concatenate([a2, sh.acc]),
                       rate=rec.rate, restarts=20, seed=1, start=4.0)
