@@ -38,7 +38,6 @@ JOINT_TYPES = (
     ("knee", "hinge", "thigh", "shank"),
     ("ankle", "spheroidal", "shank", "foot"),
 )
-#: Names of a pelvis sensor (normalised: lower case, no spaces, underscores, hyphens).
 _SPEC = re.compile(r"^\s*([A-Za-z][A-Za-z0-9_]*)\s*=\s*([a-z]+)\s*:\s*([^,]+),([^,]+)\s*$")
 SPEC_USAGE = "use NAME=hinge:FIRST,SECOND or NAME=spheroidal:FIRST,SECOND, e.g. " \
              "left_knee=hinge:left_thigh,left_shank"

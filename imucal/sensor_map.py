@@ -245,15 +245,16 @@ def _rename(recording: Recording, renamed: dict[str, str], source: str,
                   for k, v in recording.provenance.items()}
     provenance["sensor_map"] = {"file": source, "renamed": dict(renamed),
                                 "keys": {new(n): k for n, k in claimed_by.items()}}
+    # the loader's notes name sensors as "sensor 'NAME'" (one form everywhere); they were
+    # written before the map, and a warning about 'Shank' beside a table of 'left_shank'
+    # left the reader to pair them (matched by the names themselves, longest first: a
+    # name may hold an apostrophe)
+    olds = sorted(renamed, key=len, reverse=True)
+    pattern = re.compile("sensor '(" + "|".join(re.escape(n) for n in olds) + ")'")
+
     def renamed_in(note: str) -> str:
-        # the loader's notes name sensors as "sensor 'NAME'" (one form everywhere); they
-        # were written before the map, and a warning about 'Shank' beside a table of
-        # 'left_shank' left the reader to pair them
-        # (matched by the names themselves, longest first: a name may hold an apostrophe)
-        olds = sorted(renamed, key=len, reverse=True)
-        pattern = "sensor '(" + "|".join(re.escape(n) for n in olds) + ")'"
-        return re.sub(pattern, lambda m: f"sensor '{renamed[m[1]]}' ('{m[1]}' in the file)",
-                      note) if olds else note
+        return pattern.sub(lambda m: f"sensor '{renamed[m[1]]}' ('{m[1]}' in the file)",
+                           note) if olds else note
 
     return replace(
         recording,
