@@ -256,7 +256,7 @@ def _joint_specs(recording: Recording, joints) -> tuple[list[JointSpec], list[st
 def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
               seed: int | None = None, start: float | None = None, end: float | None = None,
               time_offset: float | str = "auto", offset_search: float = OFFSET_SEARCH_S,
-              smoothing_s: float | None = None,
+              smoothing_s: float | None = None, sign: str = "auto", j2_sign: str = "auto",
               acc_error: float = ACC_ERROR_M_S2) -> Calibration:
     """Calibrate every joint of ``recording`` (module docstring).
 
@@ -277,6 +277,9 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     acc_error
         1-sigma of each accelerometer's error at 1 g, m/s^2, for the joint centres'
         uncertainty (:func:`imucal.estimate_position`).
+    sign, j2_sign
+        Every hinge axis's overall and relative sign, as in :func:`imucal.estimate_axis`
+        ("auto", or "+x" ... "-z" to pin that component of j1 / j2 positive).
 
     Returns
     -------
@@ -316,12 +319,14 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     # usage errors before any joint runs (each joint's estimate would stop on them, and
     # they came back as joints marked `failed`); the window against the recording too
     checked = CalibrateSettings(restarts=restarts, seed=seed, time_offset=time_offset,
-                                offset_search=offset_search, acc_error=acc_error)
+                                offset_search=offset_search, acc_error=acc_error, sign=sign,
+                                j2_sign=j2_sign)
     window = AxisSettings(start=start, end=end)
     # the checked values from here on: a 0-d array (a number to the checks) stopped the
     # calibration file's JSON at the end
     restarts, seed, time_offset = checked.restarts, checked.seed, checked.time_offset
     offset_search, acc_error = checked.offset_search, checked.acc_error
+    signs = {"sign": checked.sign, "j2_sign": checked.j2_sign}
     start, end = window.start, window.end
     asked = recording.window_slice(start, end)
     smoothing_s = check_smoothing(SMOOTHING_S if smoothing_s is None else smoothing_s)
@@ -332,7 +337,8 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
         jc, window, err = _calibrate_joint(recording, spec, restarts=restarts, seed=seed,
                                            start=start, end=end, time_offset=time_offset,
                                            offset_search=offset_search,
-                                           smoothing_s=smoothing_s, acc_error=acc_error)
+                                           smoothing_s=smoothing_s, acc_error=acc_error,
+                                           signs=signs)
         jc.warnings = notes + jc.warnings
         out[spec.name] = jc
         if window is not None:
@@ -354,7 +360,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
         settings={"restarts": restarts, "seed": seed, "start": start, "end": end,
                   "time_offset": time_offset, "offset_search_s": offset_search,
                   "smoothing_s": smoothing_s,
-                  "acc_error_m_s2": acc_error,
+                  "acc_error_m_s2": acc_error, **signs,
                   "joints": [f"{s.name}={s.kind}:{s.first},{s.second}" for s in specs]},
         sensors={n: dict(recording.sensor_info.get(n, {}), units_in_file=dict(
             recording.units.get(n, {}))) for n in used},
@@ -362,7 +368,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
 
 
 def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, time_offset,
-                     offset_search, smoothing_s, acc_error):
+                     offset_search, smoothing_s, acc_error, signs):
     """One joint; an estimate that stops leaves verdict ``failed`` and its reason."""
     from . import estimate_axis, estimate_position
     from .report import axis_report, position_report
@@ -381,7 +387,7 @@ def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, 
                   "time_offset": time_offset, "offset_search": offset_search, **window}
         axis = None
         if spec.kind == "hinge":
-            axis = estimate_axis(s1.gyr, s2.gyr, acc1=s1.acc, acc2=s2.acc, **common)
+            axis = estimate_axis(s1.gyr, s2.gyr, acc1=s1.acc, acc2=s2.acc, **common, **signs)
             jc.axis = axis_report(axis, input_info=info)
             jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
         pos = estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, joint=spec.kind,

@@ -340,6 +340,12 @@ def calibrate(
         "for the ankle): calibrate joints separately with --joint when they differ.")] = "auto",
     offset_search: OffsetSearch = 0.2,  # imucal.settings.OFFSET_SEARCH_S
     acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
+    sign: Annotated[str, typer.Option(
+        help="Overall sign of every hinge axis (see imucal axis --help).")] = "auto",
+    j2_sign: Annotated[str, typer.Option(
+        "--j2-sign", help="Pin every hinge axis's relative sign, e.g. --sign +x --j2-sign +x "
+        "when both sensors' x axes point laterally (see imucal axis --help): the angles "
+        "read their flexion direction through it.")] = "auto",
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", metavar="FILE", help="Write the calibration file (JSON) here instead "
         "of stdout (- : stdout).", show_default=False, parser=_output_file,
@@ -366,7 +372,8 @@ def calibrate(
 
         settings = _settings(ctx, CalibrateSettings, joints=tuple(joint or ()),
                              restarts=restarts, seed=seed, time_offset=time_offset,
-                             offset_search=offset_search, acc_error=acc_error)
+                             offset_search=offset_search, acc_error=acc_error, sign=sign,
+                             j2_sign=j2_sign)
         job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)

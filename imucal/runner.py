@@ -112,7 +112,8 @@ def _process_calibrate(job, recording, outcome) -> None:
     seed = resolve_seed(s.seed)
     cal = calibrate(recording, joints=list(s.joints) or None, restarts=s.restarts,
                     seed=seed, start=job.start, end=job.end, time_offset=s.time_offset,
-                    offset_search=s.offset_search, acc_error=s.acc_error)
+                    offset_search=s.offset_search, acc_error=s.acc_error, sign=s.sign,
+                    j2_sign=s.j2_sign)
     if job.sensor_map is not None:
         cal.settings["sensor_map"] = str(job.sensor_map)
     names = ", ".join(f"{j.name} ({j.sensors[0]} -> {j.sensors[1]})"

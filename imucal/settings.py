@@ -127,11 +127,7 @@ class AxisSettings:
         if self.start is not None and self.end is not None and self.end <= self.start:
             raise InputError(f"window end {self.end:g} s must be after its start "
                              f"{self.start:g} s")
-        for name in ("sign", "j2_sign"):
-            # (an array compares element-wise: np.array('+x') passed, then failed inside)
-            if not isinstance(getattr(self, name), str) or getattr(self, name) not in SIGNS:
-                raise InputError(f"{name} must be one of {', '.join(SIGNS)}, got "
-                                 f"'{getattr(self, name)}'")
+        _check_signs(self)
         if not is_bool(self.select):  # (bool("no") is True: a string left it on)
             raise InputError(f"select must be True or False, got {self.select!r}")
         object.__setattr__(self, "select", bool(self.select))
@@ -193,6 +189,9 @@ class CalibrateSettings:
         As in :class:`AxisSettings`; every joint uses the same.
     acc_error : float
         As in :class:`PositionSettings`, m/s^2; every joint centre uses the same.
+    sign, j2_sign : str
+        As in :class:`AxisSettings`, for every hinge's axis: pinning the relative sign
+        where the mounting is known reaches the angles through the calibration.
     """
 
     joints: tuple = ()
@@ -201,6 +200,8 @@ class CalibrateSettings:
     time_offset: float | str = "auto"
     offset_search: float = OFFSET_SEARCH_S
     acc_error: float = ACC_ERROR_M_S2
+    sign: str = "auto"
+    j2_sign: str = "auto"
 
     def __post_init__(self) -> None:
         from .calibration import JointSpec, parse_joint_spec
@@ -219,6 +220,7 @@ class CalibrateSettings:
         _check_number(self, "offset_search", low=0.0, open_low=True, high=MAX_TIME_OFFSET_S)
         check_search_used(self)
         _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
+        _check_signs(self)
 
 
 def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) -> AxisSettings:
@@ -240,6 +242,15 @@ def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) ->
     if both:
         raise InputError(f"give settings or keyword arguments, not both ({', '.join(both)})")
     return settings
+
+
+def _check_signs(settings) -> None:
+    """``sign`` and ``j2_sign`` are each one of :data:`SIGNS`, else InputError."""
+    for name in ("sign", "j2_sign"):
+        # (an array compares element-wise: np.array('+x') passed, then failed inside)
+        if not isinstance(getattr(settings, name), str) or getattr(settings, name) not in SIGNS:
+            raise InputError(f"{name} must be one of {', '.join(SIGNS)}, got "
+                             f"'{getattr(settings, name)}'")
 
 
 def check_search_used(settings, typed: bool = False) -> None:

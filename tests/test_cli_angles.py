@@ -336,3 +336,24 @@ def test_fit_check_numbers_stay_readable_and_apart(cal_file, tmp_path):
     run = cli("angles", SAMPLE / "walking.h5", "-c", cal, "--end", "10")
     line = next(x for x in run.stderr.splitlines() if "fit check:" in x)
     assert "limit 2e+300" in line and len(line) < 300
+
+
+def test_calibrate_pins_the_knee_axis_signs_and_records_them(tmp_path):
+    # `calibrate` had no --sign / --j2-sign: a lab that knows its mounting could pin the
+    # relative sign for `imucal axis` but not for the calibration `angles` reads
+    out = tmp_path / "cal.json"
+    run = cli("calibrate", SAMPLE / "circling.h5", *FAST, "--sign", "+x", "--j2-sign", "-x",
+              "--joint", "knee=hinge:thigh,shank", "-o", out, "-q", "--force")
+    assert run.returncode == 0, run.stderr
+    doc = json.loads(out.read_text())
+    knee = doc["joints"]["knee"]
+    assert knee["j1"][0] > 0 and knee["j2"][0] < 0  # as pinned
+    assert doc["settings"]["sign"] == "+x" and doc["settings"]["j2_sign"] == "-x"
+    assert knee["axis"]["settings"]["j2_sign"] == "-x"
+    free = cli("calibrate", SAMPLE / "circling.h5", *FAST, "--joint",
+               "knee=hinge:thigh,shank", "-q", "--force")
+    auto = json.loads(free.stdout)["joints"]["knee"]
+    # the data's own relative sign puts both x components on one side; the pin did not
+    assert np.sign(auto["j1"][0]) == np.sign(auto["j2"][0])
+    run = cli("calibrate", SAMPLE / "circling.h5", "--j2-sign", "q")
+    assert run.returncode == 2 and "Invalid value for '--j2-sign'" in run.stderr
