@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import InputError, NotIdentifiableError
+from .errors import InputError, NotIdentifiableError, number_text
 from .formats import HDF5_SUFFIXES
 from .fusion import SMOOTHING_S, check_smoothing, fuse, hinge_signals, plane_basis
 from .rest import STILL_MIN_S, STILL_RATE, gravity_check, gravity_warning, still_periods
@@ -899,17 +899,11 @@ def _on_calibration_turn(raw: np.ndarray, ref: dict) -> np.ndarray:
     return raw + 360.0 * turns if np.isfinite(turns) else raw
 
 
-def _number(x: float, decimals: int) -> str:
-    """``x`` with ``decimals`` decimals, or 4 significant digits in exponent form when it
-    is that large (a hand-edited calibration's 1e300 printed 300 digits)."""
-    return f"{x:.4g}" if abs(x) >= 1e6 else f"{x:.{decimals}f}"
-
-
 def _beyond(value: float, limit: float, decimals: int, unit: str = "") -> str:
     """``"value > limit"`` with as many more decimals as tell the two apart: a refusal
     that reads "0.102 > 0.102" looks like a bug."""
     for more in range(6):
-        a, b = _number(value, decimals + more), _number(limit, decimals + more)
+        a, b = number_text(value, decimals + more), number_text(limit, decimals + more)
         if a != b:
             break
     return f"{a}{unit} > {b}{unit}"
@@ -932,7 +926,7 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bo
     bad = []
     if res > res_lim:  # NaN (never moved, here or there) is no evidence against
         bad.append(f"hinge residual {_beyond(res, res_lim, 3)} (calibration trial "
-                   f"{_number(ref_res, 3)})")
+                   f"{number_text(ref_res, 3)})")
     gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rate,
                             origin=origin)
     if gravity["consistent"] is False:
@@ -942,7 +936,7 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bo
                    f"{gravity['max_allowed_deg']:g} deg)")
     if dis > dis_lim:
         bad.append(f"acc- vs gyro-angle disagreement {_beyond(dis, dis_lim, 2, ' deg')} "
-                   f"(calibration trial {_number(ref_dis, 2)} deg)")
+                   f"(calibration trial {number_text(ref_dis, 2)} deg)")
     low, high = PLAUSIBLE_FLEXION_DEG
     outside = float(np.mean((flex < low) | (flex > high))) if extended else 0.0
     p1, p99 = np.percentile(flex, [1, 99])

@@ -30,7 +30,15 @@ from .atomic import (
     write_stdout,
     write_text_atomic,
 )
-from .errors import ImucalError, InputError, NotIdentifiableError, exit_code_of, one_line, say
+from .errors import (
+    ImucalError,
+    InputError,
+    NotIdentifiableError,
+    exit_code_of,
+    number_text,
+    one_line,
+    say,
+)
 from .signals import raise_on_signals
 from .signals import report as report_interruption
 from .signals import unreported as unreported_interruption
@@ -540,10 +548,10 @@ def _angles_summary(result, out) -> None:
         marked = (c.get("calibration_verdict") == "not identifiable")
         say(f"    fit check: {'fits' if j['fits'] else 'DOES NOT FIT'} ("
             + ("not identifiable in the calibration; " if marked else "") + "hinge residual "
-            f"{_num(c['hinge_residual'], '.3f')}, limit "
-            f"{_num(c['hinge_residual_limit'], '.3f')}; acc-gyro disagreement "
-            f"{_num(c['acc_gyro_disagreement_deg'], '.2f')} deg, limit "
-            f"{_num(c['acc_gyro_disagreement_limit_deg'], '.2f')} deg"
+            f"{_num(c['hinge_residual'], 3)}, limit "
+            f"{_num(c['hinge_residual_limit'], 3)}; acc-gyro disagreement "
+            f"{_num(c['acc_gyro_disagreement_deg'], 2)} deg, limit "
+            f"{_num(c['acc_gyro_disagreement_limit_deg'], 2)} deg"
             + (f"; gravity mismatch {c['gravity_mismatch_deg']:.0f} deg"
                 if c.get("gravity_mismatch_deg") is not None else "")
             + (f"; {c['implausible_flexion_share']:.0%} of the flexion outside {low:g} to "
@@ -994,8 +1002,8 @@ def _calibration_summary(doc: dict) -> None:
                         < SIGN_EVIDENCE_MIN else "")
                 say(f"    flexion sign {a['flexion_sign']:+d} (evidence "
                     f"{a['sign_evidence']:+.2f}{weak}), zero: {a['zero_method']}; hinge "
-                    f"residual {_num(a['hinge_residual'], '.3f')}, acc-gyro angle "
-                    f"disagreement {_num(a['acc_gyro_disagreement_deg'], '.2f')} deg")
+                    f"residual {_num(a['hinge_residual'], 3)}, acc-gyro angle "
+                    f"disagreement {_num(a['acc_gyro_disagreement_deg'], 2)} deg")
         else:
             say(f"{head}; o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m "
                 f"({_sigmas(j['position'], ('o1', 'o2'), '.1f')})")
@@ -1004,12 +1012,9 @@ def _calibration_summary(doc: dict) -> None:
                 say(f"    warning: {w}")
 
 
-def _num(x, spec: str) -> str:
-    """A number of a JSON document, which has null where there is none (NaN); exponent
-    form when it is that large (a hand-edited calibration file's 1e300)."""
-    if x is None:
-        return "-"
-    return format(x, ".4g") if abs(x) >= 1e6 else format(x, spec)
+def _num(x, decimals: int) -> str:
+    """A number of a JSON document, which has null where there is none (NaN)."""
+    return "-" if x is None else number_text(x, decimals)
 
 
 def _vec(v) -> str:

@@ -38,6 +38,13 @@ def exit_code_of(err: BaseException) -> int:
     return 2 if isinstance(err, OSError) else INTERNAL_ERROR
 
 
+def number_text(x: float, decimals: int) -> str:
+    """``x`` with ``decimals`` decimals for a message, or 4 significant digits in
+    exponent form when it is that large (a hand-edited calibration's 1e300 printed 300
+    digits)."""
+    return f"{x:.4g}" if abs(x) >= 1e6 else f"{x:.{decimals}f}"
+
+
 def one_line(text: str) -> str:
     """``text`` with every run of whitespace, newlines included, as one space: an error
     is one stderr line even where it quotes a name or a library's text with newlines."""
