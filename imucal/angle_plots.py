@@ -1,5 +1,5 @@
-"""Figure of :func:`imucal.joint_angles`: flexion over time with its band, and a gait-cycle
-view when the recording is walking (docs/angles.md)."""
+"""Figure of :func:`imucal.joint_angles`: flexion over time with its band, and a cycle
+view when the flexion repeats regularly, as in walking (docs/angles.md)."""
 
 from __future__ import annotations
 
@@ -39,10 +39,11 @@ def zero_label(zero: dict) -> str:
 def angles_figure(result, *, truth: dict | None = None, gyro_only: bool = True):
     """The figure of a :class:`imucal.angles.JointAngles` (a matplotlib ``Figure``, no
     pyplot): per joint, flexion over time with the 2-sigma band (deg; and pure gyro
-    integration for comparison, ``gyro_only``); beside it the mean +- SD over gait
-    cycles when walking was found. Above each joint: what + and 0 mean, whether the
-    joint still fits its calibration (red when not, and then no cycle average), the
-    calibration's verdict when it is not identifiable, and the joint's warnings.
+    integration for comparison, ``gyro_only``); beside it the mean +- SD over the
+    cycles when the flexion repeats regularly (walking, or circling the leg). Above each
+    joint: what + and 0 mean, whether the joint still fits its calibration (red when
+    not, and then no cycle average), the calibration's verdict when it is not
+    identifiable, and the joint's warnings.
     ``truth``: joint -> (N,) true flexion (simulations)."""
     from matplotlib.figure import Figure
 
@@ -170,7 +171,7 @@ def _cycle_panel(cyc, j) -> None:
     cyc.set_ylabel("flexion (deg)")
     cyc.grid(alpha=0.3)
     if not j.fits:  # an average would make angles that are not the knee's look regular
-        cyc.set_title("gait cycles: not averaged\n(the joint does not fit)", fontsize=9,
+        cyc.set_title("cycles: not averaged\n(the joint does not fit)", fontsize=9,
                       color="tab:red")
         cyc.set_xticks([])
         cyc.set_yticks([])
@@ -180,5 +181,5 @@ def _cycle_panel(cyc, j) -> None:
     mean, sd = cycles.mean(axis=0), cycles.std(axis=0)
     cyc.fill_between(x, mean - sd, mean + sd, color="C1", alpha=0.3, lw=0)
     cyc.plot(x, mean, color="C1")
-    cyc.set_title(f"{len(cycles)} gait cycles, stride {j.gait['stride_s']:.2f} s\n"
+    cyc.set_title(f"{len(cycles)} cycles of {j.gait['stride_s']:.2f} s\n"
                   "(mean +- SD)", fontsize=9)

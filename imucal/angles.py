@@ -103,6 +103,21 @@ def sign_evidence(angle: np.ndarray) -> float:
     A knee spends most of its time near extension and makes excursions into flexion, so
     with flexion positive this is positive (walking about +0.5, standing with leg motions
     near +1); a symmetric motion (pure circling) gives about 0: weak evidence.
+
+    Returns
+    -------
+    float
+        The skew in [-1, 1]; 0 when the angle does not vary.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.angles import sign_evidence
+    >>> knee = np.r_[np.zeros(80), np.linspace(0, 60, 20)]   # deg: mostly extended
+    >>> sign_evidence(knee), sign_evidence(-knee)
+    (1.0, -1.0)
+    >>> round(abs(sign_evidence(np.sin(np.linspace(0, 8 * np.pi, 2000)))), 2)  # symmetric
+    0.0
     """
     p5, p50, p95 = np.percentile(angle, [5, 50, 95])
     span = p95 - p5
@@ -120,7 +135,23 @@ def hinge_residual(g1, g2, j1, j2) -> float:
     the knee flexed at 6 rad/s), which left the residual to a handful of samples, or none
     (a re-strapped thigh then went unnoticed), and made a walk's residual several times
     its protocol calibration trial's (soft tissue 2 deg / 3 mm: 13 of 40 walks refused).
-    Simulated: 0.005-0.015 with a rigid hinge, 0.03-0.23 with soft tissue."""
+    Simulated: 0.005-0.015 with a rigid hinge, 0.03-0.23 with soft tissue.
+
+    Parameters
+    ----------
+    g1, g2 : (N, 3) angular rates, rad/s, in the first / second sensor's frame.
+    j1, j2 : (3,) the hinge axis in those frames (any length; normalised here).
+
+    Returns
+    -------
+    float
+        The relative residual (dimensionless), NaN when no sample moves.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", eq. (1).
+    """
     g1, g2 = np.asarray(g1, float), np.asarray(g2, float)
     j1, j2 = (np.asarray(j, float) / np.linalg.norm(j) for j in (j1, j2))
     p1 = np.linalg.norm(np.cross(g1, j1), axis=1)
@@ -136,7 +167,24 @@ def detect_gait(flexion_deg: np.ndarray, rate: float) -> dict | None:
     """Walking, if the flexion has at least :data:`GAIT_MIN_CYCLES` swing peaks (prominence
     :data:`GAIT_PROMINENCE_DEG`) at regular stride intervals: ``{"peaks": sample indices
     of peak swing flexion, "stride_s": median stride, "cv": variation}``; else None.
-    Cycles run from one swing peak to the next."""
+    Cycles run from one swing peak to the next. Any regular flexion qualifies: circling
+    the leg as well as walking.
+
+    Returns
+    -------
+    dict or None
+        ``peaks`` (int array of sample indices), ``stride_s`` (s), ``cv`` (the strides'
+        coefficient of variation), or None when the flexion does not repeat regularly.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.angles import detect_gait
+    >>> t = np.arange(1000) / 100.0                                   # s, 100 Hz
+    >>> gait = detect_gait(30 - 30 * np.cos(2 * np.pi * t / 1.1), 100.0)
+    >>> len(gait["peaks"]), gait["stride_s"]
+    (9, 1.1)
+    """
     from scipy.signal import find_peaks
 
     peaks, _ = find_peaks(flexion_deg, prominence=GAIT_PROMINENCE_DEG,
@@ -172,7 +220,13 @@ def _offset_number(jc, key: str) -> float | None:
 
 def clock_offset_sigma(jc) -> float:
     """The 1-sigma, s, of the clock offset :func:`clock_offset` returns (0 when none was
-    applied, or when it was given, which is taken as exact)."""
+    applied, or when it was given, which is taken as exact).
+
+    Returns
+    -------
+    float
+        The offset's 1-sigma, s.
+    """
     block = jc.axis.get("time_offset") if isinstance(jc.axis, dict) else None
     applied = isinstance(block, dict) and block.get("applied")
     sigma = _offset_number(jc, "sigma_s")
@@ -185,7 +239,13 @@ def unapplied_clock_offset(jc) -> float:
     1-sigma and inside the search; else 0. The angles read the sensors as in sync, so
     such an offset, if real, makes them lag: a calibration that found a 30 ms shank 16 ms
     late and left it gave a simulated walk 12 deg of error at a 1-sigma of 2 deg, "fits"
-    (an honesty audit)."""
+    (an honesty audit).
+
+    Returns
+    -------
+    float
+        The offset found and not applied, s (positive: the second sensor late), or 0.
+    """
     found, sigma = _unapplied_search(jc)
     return found if abs(found) > 2 * sigma else 0.0
 
@@ -197,7 +257,13 @@ def unapplied_offset_spread(jc) -> float:
     when the search ended at its edge. The angles read such sensors as in sync; a 10 ms
     shank found at 14 +- 8 ms (not clear of twice its 1-sigma, so no warning) left a
     simulated walk 1.8 deg RMS off at a median 1-sigma of 0.8 deg, 80 % of the samples
-    within 3 sigma (an honesty audit)."""
+    within 3 sigma (an honesty audit).
+
+    Returns
+    -------
+    float
+        The spread, s (root mean square, >= 0).
+    """
     return math.hypot(*_unapplied_search(jc))
 
 
@@ -214,7 +280,13 @@ def _unapplied_search(jc) -> tuple[float, float]:
 
 def clock_offset(jc) -> float:
     """The clock offset, s, the calibration's axis estimate applied between the hinge's
-    sensors (positive: the second sensor's clock is late; docs/json.md), else 0."""
+    sensors (positive: the second sensor's clock is late; docs/json.md), else 0.
+
+    Returns
+    -------
+    float
+        The applied offset, s.
+    """
     value = _offset_number(jc, "time_offset_s")
     return 0.0 if value is None else value
 
@@ -277,7 +349,24 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S,
     """The ``angle`` block of a hinge in the calibration file (docs/json.md): flexion sign
     and zero decided on the calibration trial ``rec`` (``context``: its sensors with the
     samples around it, see ``_fused``), and the statistics the "still fits" check
-    compares other recordings with."""
+    compares other recordings with.
+
+    Returns
+    -------
+    dict
+        ``flexion_sign`` (+1 / -1), ``sign_evidence``, ``zero_deg`` / ``zero_method`` /
+        ``zero_time_s`` (raw angle, deg, of 0 flexion, how and when it was found),
+        ``reference_x1`` / ``reference_x2`` (the joint-plane reference directions in the
+        first / second sensor frame), ``smoothing_s`` (s), ``hinge_residual``,
+        ``acc_gyro_disagreement_deg``, ``flexion_range_deg`` (1st and 99th percentile),
+        ``sigma_median_deg``, ``gravity_mismatch_deg``, ``gravity_consistent`` and
+        ``warnings`` (list of str).
+
+    References
+    ----------
+    Seel, Ruppin, Raisch (2014), "IMU-based joint angle measurement for gait analysis",
+    Sensors 14(4): the gyroscope angle with its accelerometer-based drift correction.
+    """
     s1, s2, sig, fus, _ = _fused(rec, jc, smoothing_s, context)
     raw = np.degrees(fus.theta)
     evidence = sign_evidence(raw)
@@ -328,7 +417,13 @@ def own_check_failure(name: str, disagreement_deg: float, gravity_consistent) ->
     """Why no recording can pass the fit check with this calibration: its own trial fails
     the parts of it that do not depend on the trial's own numbers (a disagreement above
     ``FIT_MAX_DEG``, axes the gravity check rejects), else None. Such a knee was "use
-    with care" in ``calibrate`` and then refused on the very trial it came from."""
+    with care" in ``calibrate`` and then refused on the very trial it came from.
+
+    Returns
+    -------
+    str or None
+        One sentence naming ``name`` and the failing parts, or None.
+    """
     fails = ([f"acc-gyro disagreement {disagreement_deg:.0f} deg > {FIT_MAX_DEG:g} deg"]
              if disagreement_deg > FIT_MAX_DEG else [])
     if gravity_consistent is False:
@@ -342,7 +437,13 @@ def own_check_failure(name: str, disagreement_deg: float, gravity_consistent) ->
 def implausible_range(name: str, flexion_range) -> str | None:
     """Why a calibration trial's flexion range ``[p1, p99]`` (deg) is no hinge of the body's
     (it spans more than ``PLAUSIBLE_SPAN_DEG``), else None. The real knees of the shared
-    recording, with axes the gravity check rejects, spanned -25 to 278 deg."""
+    recording, with axes the gravity check rejects, spanned -25 to 278 deg.
+
+    Returns
+    -------
+    str or None
+        One sentence naming ``name`` and the range, or None when it is plausible.
+    """
     low, high = flexion_range
     if not high - low > PLAUSIBLE_SPAN_DEG:
         return None
@@ -432,7 +533,22 @@ class JointAngles:
         """Why these angles are not to be trusted, one phrase per joint that does not fit
         (``joint 'knee': not identifiable in the calibration`` / ``joint 'knee': the
         calibration does not fit``); empty when every joint fits. The command line
-        refuses to write the angles when there is one, unless ``--force``."""
+        refuses to write the angles when there is one, unless ``--force``.
+
+        Returns
+        -------
+        list of str
+            One phrase per joint that does not fit.
+
+        Examples
+        --------
+        >>> import imucal
+        >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"), seed=1,
+        ...                        restarts=20, joints=["knee=hinge:thigh,shank"])
+        >>> angles = imucal.joint_angles(imucal.load_recording("sample_data/walking.h5"), cal)
+        >>> angles.problems()
+        []
+        """
         problems = []
         for j in self.joints.values():
             if not j.fits:
@@ -443,8 +559,24 @@ class JointAngles:
         return problems
 
     def to_frame(self):
-        """pandas DataFrame: ``time`` (s), ``<joint>_flexion_deg`` and
-        ``<joint>_flexion_sigma_deg`` per joint."""
+        """The angles as a table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per sample: ``time`` (s), and per joint ``<joint>_flexion_deg`` and
+            ``<joint>_flexion_sigma_deg`` (deg).
+
+        Examples
+        --------
+        >>> import imucal
+        >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"), seed=1,
+        ...                        restarts=20, joints=["knee=hinge:thigh,shank"])
+        >>> angles = imucal.joint_angles(imucal.load_recording("sample_data/walking.h5"), cal)
+        >>> table = angles.to_frame()
+        >>> list(table.columns), len(table)
+        (['time', 'knee_flexion_deg', 'knee_flexion_sigma_deg'], 3000)
+        """
         import pandas as pd
 
         cols = {"time": self.time}
@@ -454,7 +586,26 @@ class JointAngles:
         return pd.DataFrame(cols)
 
     def to_document(self) -> dict:
-        """JSON-ready summary (no per-sample data: those are in :meth:`write`'s table)."""
+        """JSON-ready summary (no per-sample data: those are in :meth:`write`'s table).
+
+        Returns
+        -------
+        dict
+            ``imucal_version``, ``command`` (``"angles"``), ``input``, ``calibration``,
+            ``reference``, ``fits``, ``convention``, ``joints`` (per joint: sign, zero,
+            range, 1-sigma, check, gait, warnings; docs/angles.md#output) and
+            ``warnings``.
+
+        Examples
+        --------
+        >>> import imucal
+        >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"), seed=1,
+        ...                        restarts=20, joints=["knee=hinge:thigh,shank"])
+        >>> angles = imucal.joint_angles(imucal.load_recording("sample_data/walking.h5"), cal)
+        >>> doc = angles.to_document()
+        >>> doc["fits"], doc["joints"]["knee"]["column"]
+        (True, 'knee_flexion_deg')
+        """
         from . import __version__
         from .report import clean
 
@@ -532,6 +683,18 @@ class JointAngles:
         InputError
             the suffix is neither ``.csv`` nor ``.h5``/``.hdf5``, or the file cannot be
             written.
+
+        Examples
+        --------
+        >>> import imucal
+        >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"), seed=1,
+        ...                        restarts=20, joints=["knee=hinge:thigh,shank"])
+        >>> angles = imucal.joint_angles(imucal.load_recording("sample_data/walking.h5"), cal)
+        >>> import tempfile, pathlib, pandas as pd
+        >>> with tempfile.TemporaryDirectory() as tmp:
+        ...     angles.write(pathlib.Path(tmp) / "knee.csv")
+        ...     pd.read_csv(pathlib.Path(tmp) / "knee.csv").shape
+        (3000, 3)
         """
         from .atomic import as_path, write_atomic, write_hdf5_atomic
         from .report import dumps

@@ -431,8 +431,8 @@ def angles(
         "attributes; the JSON summary as the root attribute 'imucal').")] = None,
     plot: Annotated[Path | None, typer.Option(
         metavar="FILE", show_default=False, parser=_output_file, help="Write the figure "
-        "(flexion over time with its 2-sigma band, gait cycles when walking): .png, .pdf or "
-        ".svg.")] = None,
+        "(flexion over time with its 2-sigma band; the mean cycle when the flexion repeats "
+        "regularly, as in walking): .png, .pdf or .svg.")] = None,
     reference: Annotated[str | None, typer.Option(
         metavar="standing|SECONDS", show_default=False,
         help="What 0 deg means. Default: the calibration's zero (its trial's most extended "
@@ -538,8 +538,10 @@ def _angles_summary(result, out) -> None:
     for j in doc["joints"].values():
         lo, hi = j["range_deg"]
         c = j["check"]
-        gait = "" if j["gait"] is None else (f"; walking: {j['gait']['strides']} strides of "
-                                             f"{j['gait']['stride_s']:.2f} s")
+        # regular flexion peaks are found in circling the leg as well as in walking, so
+        # the line names cycles, not a walk
+        gait = "" if j["gait"] is None else (f"; {j['gait']['strides']} regular flexion "
+                                             f"cycles of {j['gait']['stride_s']:.2f} s")
         say(f"  {j['column']}: {lo:.1f} to {hi:.1f} deg (median 1-sigma "
             f"{j['sigma_deg']['median']:.2f} deg), sign {j['flexion_sign']:+d} from "
             f"{j['sign_source']}, 0 = {j['zero']['method']}{gait}")

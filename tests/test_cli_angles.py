@@ -92,7 +92,7 @@ def test_angles_of_the_sample_walk_as_csv_on_stdout(cal_file):
     # percentile of flexion, whichever sign the calibration first guessed.
     _, circ = simulate(seed=7, rate=100.0, duration=20.0, snr=100.0, motion="circling")
     assert offset == pytest.approx(-np.percentile(circ["knee_flexion_deg"], 1), abs=2.0)
-    assert "walking: 2" in run.stderr and "fit check: fits" in run.stderr
+    assert "regular flexion cycles of 1." in run.stderr and "fit check: fits" in run.stderr
 
 
 def test_angles_to_h5_with_a_figure(cal_file, tmp_path):
