@@ -26,6 +26,11 @@ from .signals import held
 def check_writable(path: str | Path) -> Path:
     """Fail early (before any computation) when ``path`` cannot be written.
 
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as given (a symbolic link not resolved); nothing is created there.
+
     Raises
     ------
     InputError
@@ -85,10 +90,26 @@ def _target(path: Path) -> Path:
 
 def descriptor_of(path: Path) -> int | None:
     """The descriptor N that ``path`` names (``/dev/stdout``, ``/dev/fd/N``,
-    ``/proc/self/fd/N``, links to them), else None. Such a target is written through that
-    very descriptor: it shares the shell's file position, so what the shell writes before
-    and after (``{ echo H; imucal ... -o /dev/stdout; } > f``, ``> log 2>&1``) stays in
-    order; a file opened anew would write over it."""
+    ``/proc/self/fd/N``, links to them).
+
+    Such a target is written through that very descriptor: it shares the shell's file
+    position, so what the shell writes before and after
+    (``{ echo H; imucal ... -o /dev/stdout; } > f``, ``> log 2>&1``) stays in order; a
+    file opened anew would write over it.
+
+    Returns
+    -------
+    int or None
+        The descriptor number (1 for ``/dev/stdout``, following links); None for any
+        other path, and after 40 links.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from imucal.atomic import descriptor_of
+    >>> descriptor_of(Path("/dev/fd/3")), descriptor_of(Path("out.json"))
+    (3, None)
+    """
     p = os.path.abspath(path)
     for _ in range(40):  # the kernel's own limit on links followed
         match = _FD_PATH.match(p)
@@ -142,8 +163,19 @@ def _prefix(path: Path) -> str:
 
 
 def as_path(path, what: str = "a file name") -> Path:
-    """``path`` (str, bytes or os.PathLike) as a Path, else InputError: None or a number
-    from a notebook failed as a TypeError deep inside."""
+    """``path`` (str, bytes or os.PathLike) as a Path: None or a number from a notebook
+    failed as a TypeError deep inside.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``; bytes decoded with the file system's encoding.
+
+    Raises
+    ------
+    InputError
+        ``path`` is not a str, bytes or os.PathLike; ``what`` names what was expected.
+    """
     if isinstance(path, bytes):
         path = os.fsdecode(path)
     if not isinstance(path, str | os.PathLike):
@@ -157,6 +189,12 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
     The temporary file keeps the target's suffix (libraries pick formats by it) and gets
     the usual umask-based permissions rather than tempfile's 0600. A target that is not a
     regular file is written through (:func:`_write_through`).
+
+    Raises
+    ------
+    InputError
+        The temporary file or the target cannot be written (:func:`staged`); exceptions
+        of ``write`` other than OSError pass through, and nothing is left behind.
     """
     with staged(path, write):
         pass
@@ -170,6 +208,11 @@ def staged(path: str | Path, write: Callable[[Path], None]):
 
     For an output that must not appear unless another one is written too: a figure
     whose run then failed to write its JSON (``--out /dev/full``) was left behind.
+
+    Yields
+    ------
+    None
+        Once, after ``write(tmp)`` has run; the file is put in place when the block ends.
 
     Raises
     ------
@@ -284,7 +327,13 @@ def write_hdf5_atomic(path: str | Path, fill: Callable) -> None:
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:
-    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    """Write ``text`` (UTF-8) to ``path`` atomically.
+
+    Raises
+    ------
+    InputError
+        ``path`` cannot be written (:func:`write_atomic`).
+    """
     write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
@@ -374,11 +423,17 @@ def write_stdout(text: str) -> None:
 
 
 def check_not_inputs(outputs, inputs) -> None:
-    """InputError when an output path names one of the input files or another output.
+    """Check that no output path names one of the input files or another output.
 
     ``outputs``: (option, path or None) pairs such as ("--out", path); ``inputs``: the
     recordings read ("-" for stdin is skipped). Writing such an output would destroy the
     recording, or one output would silently replace the other.
+
+    Raises
+    ------
+    InputError
+        An output is an input file, or two outputs are one file (links and other
+        spellings of one existing file count as that file).
     """
     read = {_identity(p) for p in inputs if str(p) != "-"}
     seen: dict = {}

@@ -31,23 +31,58 @@ INTERNAL_ERROR = 3
 
 
 def exit_code_of(err: BaseException) -> int:
-    """The exit status an exception maps to: an imucal error's own code, 2 for an
-    operating-system error (a file, a disk), ``INTERNAL_ERROR`` for anything else."""
+    """The exit status an exception maps to.
+
+    Returns
+    -------
+    int
+        An imucal error's own ``exit_code`` (2 input, 1 not identifiable), 2 for an
+        operating-system error (a file, a disk), ``INTERNAL_ERROR`` (3) for anything else.
+
+    Examples
+    --------
+    >>> from imucal.errors import NotIdentifiableError, exit_code_of
+    >>> [exit_code_of(e) for e in (NotIdentifiableError("flat"), OSError(), KeyError())]
+    [1, 2, 3]
+    """
     if isinstance(err, ImucalError):
         return err.exit_code
     return 2 if isinstance(err, OSError) else INTERNAL_ERROR
 
 
 def number_text(x: float, decimals: int) -> str:
-    """``x`` with ``decimals`` decimals for a message, or 4 significant digits in
-    exponent form when it is that large (a hand-edited calibration's 1e300 printed 300
-    digits)."""
+    """``x`` as text for a message.
+
+    Returns
+    -------
+    str
+        ``x`` with ``decimals`` decimals, or 4 significant digits (``.4g``, exponent form)
+        when ``abs(x) >= 1e6`` (a hand-edited calibration's 1e300 printed 300 digits).
+
+    Examples
+    --------
+    >>> from imucal.errors import number_text
+    >>> number_text(2.345, 1), number_text(1e300, 1)
+    ('2.3', '1e+300')
+    """
     return f"{x:.4g}" if abs(x) >= 1e6 else f"{x:.{decimals}f}"
 
 
 def one_line(text: str) -> str:
     """``text`` with every run of whitespace, newlines included, as one space: an error
-    is one stderr line even where it quotes a name or a library's text with newlines."""
+    is one stderr line even where it quotes a name or a library's text with newlines.
+
+    Returns
+    -------
+    str
+        ``str(text)`` so joined, without leading or trailing whitespace.
+
+    Examples
+    --------
+    >>> from imucal.errors import one_line
+    >>> one_line("  bad\\n  file\\tname ")
+    'bad file name'
+    """
     return " ".join(str(text).split())
 
 
@@ -60,7 +95,20 @@ def as_line(text) -> str:
     """``text`` with its line breaks shown as escapes (``\\n``, ``\\r``, ``\\x0b``, ...): a
     file named with a newline, quoted in a headline or a warning, leaves the message one
     line for whoever reads stderr line by line, and still readable (``one_line`` above
-    turns them into spaces)."""
+    turns them into spaces).
+
+    Returns
+    -------
+    str
+        ``str(text)`` with every character ``str.splitlines`` breaks at replaced by its
+        escape; everything else kept.
+
+    Examples
+    --------
+    >>> from imucal.errors import as_line
+    >>> print(as_line("a\\nb.h5"))
+    a\\nb.h5
+    """
     return str(text).translate(_LINE_BREAKS)
 
 

@@ -80,7 +80,23 @@ def describe(recording: Recording) -> dict:
 def rate_origin(recording: Recording) -> str:
     """Where the recording's sample rate came from, as a phrase: for a vendor export the
     device whose samples form the common grid, and the devices interpolated onto it at
-    rates of their own (Hz)."""
+    rates of their own (Hz).
+
+    Returns
+    -------
+    str
+        ``recording.rate_from`` for imucal's own layouts (:attr:`Recording.rate_from`);
+        for a vendor export "the samples of sensor '<first>' (<its clock>), the common
+        grid", and "; interpolated onto it: '<name>' (<rate> Hz), ..." where devices
+        were.
+
+    Examples
+    --------
+    >>> import imucal
+    >>> from imucal.provenance import rate_origin
+    >>> rate_origin(imucal.load_recording("sample_data/walking.h5"))
+    "the 'sample_rate' attribute, checked against 'time'"
+    """
     info = recording.sensor_info
     if not info:
         return recording.rate_from
@@ -95,7 +111,15 @@ def rate_origin(recording: Recording) -> str:
 
 
 def sensor_table(recording: Recording) -> list[str]:
-    """Lines of a plain-text table, one per sensor of a vendor export ([] otherwise)."""
+    """A plain-text table of a vendor export's sensors, for ``imucal info``.
+
+    Returns
+    -------
+    list[str]
+        "format: ...", a header line, then one line per sensor: serial, own rate (Hz),
+        start (s), length (s), samples, units read, dropped samples. ``[]`` for imucal's
+        own layouts (no ``sensor_info``).
+    """
     info = recording.sensor_info
     if not info:
         return []
@@ -116,7 +140,16 @@ def sensor_table(recording: Recording) -> list[str]:
 
 def hdf5_attrs(recording: Recording) -> dict:
     """Root attributes recording the provenance in a converted HDF5 file (JSON text for
-    the nested ones); empty for imucal's own layouts."""
+    the nested ones).
+
+    Returns
+    -------
+    dict
+        ``source`` always, ``sensor_map`` (JSON) after ``--map``; for a vendor export also
+        ``source_format``, ``source_files``, ``serials``, ``original_rates_hz`` (Hz),
+        ``dropped_samples``, ``sensor_info`` (JSON text each) and ``time_origin_s`` (s,
+        float). For imucal's own layouts without a map, ``{"source": ...}`` alone.
+    """
     p = recording.provenance
     attrs = {"source": recording.source}
     if "sensor_map" in p:  # --map: the map file and which sensor it renamed to what

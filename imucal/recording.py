@@ -124,10 +124,32 @@ class Recording:
     def sensor(self, name: str) -> SensorData:
         """The sensor called ``name``, finite over the whole recording.
 
-        Short gaps are interpolated as :meth:`select` does; an :class:`InputError` names a
-        sensor that does not exist (listing the ones that do), the first gap too long to
-        repair, or non-finite samples at the recording's start or end, which only
-        :meth:`select` can drop (from all the sensors an estimate uses alike).
+        ``name`` may also be the sensor's serial or body segment (:meth:`resolve`). Short
+        gaps are interpolated as :meth:`select` does.
+
+        Returns
+        -------
+        SensorData
+            ``gyr`` in rad/s and ``acc`` in m/s^2, each (N, 3) float64 in the sensor's own
+            frame, N = :attr:`n_samples`, all finite. Without gaps, the recording's own
+            arrays (not copies).
+
+        Raises
+        ------
+        InputError
+            A sensor that does not exist (listing the ones that do), the first gap too long
+            to repair, or non-finite samples at the recording's start or end, which only
+            :meth:`select` can drop (from all the sensors an estimate uses alike).
+
+        Examples
+        --------
+        >>> import imucal
+        >>> rec = imucal.load_recording("sample_data/walking.h5")
+        >>> thigh = rec.sensor("thigh")
+        >>> thigh.gyr.shape, thigh.acc.shape    # rad/s, m/s^2, thigh sensor frame
+        ((3000, 3), (3000, 3))
+        >>> rec.sensor("Upper Leg") is thigh    # by body segment
+        True
         """
         name = self.resolve(name)
         data = self._lookup(name)
@@ -144,8 +166,29 @@ class Recording:
 
     def window_slice(self, start: float | None = None, end: float | None = None) -> slice:
         """The samples of the window ``[start, end)``, s on the recording's time axis
-        (None: its start / end); InputError naming the file for a window outside it or
-        holding fewer than 2 samples."""
+        (None: its start / end).
+
+        Returns
+        -------
+        slice
+            Sample indices ``[i0, i1)`` into ``time`` and every sensor's arrays, step None;
+            ``slice(0, n_samples)`` when neither ``start`` nor ``end`` is given.
+
+        Raises
+        ------
+        InputError
+            Naming the file, for a ``start`` or ``end`` that is not a finite number, a
+            window outside the recording, or one holding fewer than 2 samples.
+
+        Examples
+        --------
+        >>> import imucal
+        >>> rec = imucal.load_recording("sample_data/walking.h5")  # 100 Hz, t = 0..30 s
+        >>> rec.window_slice(1.0, 3.0)
+        slice(100, 300, None)
+        >>> rec.window_slice(end=0.5)
+        slice(0, 50, None)
+        """
         if start is None and end is None:
             return slice(0, self.n_samples)
         seconds = []
@@ -203,8 +246,29 @@ class Recording:
         Returns
         -------
         Recording
-            Finite data of the named sensors only, its ``warnings`` those that concern
-            them (the file's ``notes``, repairs, units, stuck signals in the window).
+            Finite data of the named sensors only (rad/s, m/s^2, (M, 3) float64, sensor
+            frames), ``time`` in s on the recording's clock, ``gaps`` empty, ``window``
+            the samples of the window checked (all M of them unless ``context``), its
+            ``warnings`` those that concern them (the file's ``notes``, repairs, units,
+            stuck signals in the window).
+
+        Raises
+        ------
+        InputError
+            A name no sensor answers to (or none at all), a window outside the recording,
+            a signal with no finite sample, fewer than 2 samples finite in every named
+            sensor at once, or a gap in the window too long or too frequent to repair.
+
+        Examples
+        --------
+        >>> import imucal
+        >>> rec = imucal.load_recording("sample_data/walking.h5")
+        >>> used = rec.select(["thigh", "shank"], 1.0, 3.0)   # t = 1 to 3 s
+        >>> list(used.sensors), used.n_samples, float(used.time[0]), used.window
+        (['thigh', 'shank'], 200, 1.0, (0, 200))
+        >>> wide = rec.select(["thigh", "shank"], 1.0, 3.0, context=True)
+        >>> wide.n_samples, wide.window                       # finite context kept
+        (3000, (100, 300))
         """
         names = self._named(names)
         n, source = self.n_samples, self.source
@@ -325,11 +389,24 @@ class Recording:
     def resolve(self, name: str) -> str:
         """The name of the sensor that ``name`` addresses (see :func:`match_sensor`).
 
+        Returns
+        -------
+        str
+            The key in ``sensors``: ``name`` itself when it is one, else the one sensor
+            whose name, serial or body segment (with side) ``name`` gives.
+
         Raises
         ------
         InputError
             no sensor or several match ``name`` (:func:`match_sensor`); sensors whose files
             were empty are named.
+
+        Examples
+        --------
+        >>> import imucal
+        >>> rec = imucal.load_recording("sample_data/walking.h5")
+        >>> rec.resolve("thigh"), rec.resolve("SHANK"), rec.resolve("tibia")
+        ('thigh', 'shank', 'shank')
         """
         if name in self.sensors:
             return name
@@ -581,14 +658,27 @@ def window_slice(
 ) -> slice:
     """Sample slice for the window [start, end) in seconds from the first sample.
 
+    ``n`` samples at ``rate`` Hz; ``start``/``end`` None for the recording's start / end.
     ``origin`` is the first sample's time on the recording's own time axis; messages
     give times on that axis, as the user typed them.
+
+    Returns
+    -------
+    slice
+        ``slice(round(start * rate), min(n, round(end * rate)))``; it may hold fewer than
+        2 samples (:meth:`Recording.window_slice` refuses those).
 
     Raises
     ------
     InputError
         ``start`` or ``end`` is not finite or lies outside the recording, or ``end`` is not
         after ``start``.
+
+    Examples
+    --------
+    >>> from imucal.recording import window_slice
+    >>> window_slice(1000, 100.0, 1.0, 2.5)
+    slice(100, 250, None)
     """
     duration = n / rate
     s = 0.0 if start is None else float(start)
@@ -606,8 +696,14 @@ def window_slice(
 
 
 def check_recording(recording) -> None:
-    """InputError unless ``recording`` is a :class:`Recording` (a file name, say, failed
-    with an AttributeError deep inside)."""
+    """Check that ``recording`` is a :class:`Recording` (a file name, say, failed with an
+    AttributeError deep inside).
+
+    Raises
+    ------
+    InputError
+        ``recording`` is anything else; for a path, the hint to load it first.
+    """
     if not isinstance(recording, Recording):
         hint = (" (load it first: imucal.load_recording(path))"
                 if isinstance(recording, str | os.PathLike) else "")
@@ -618,7 +714,16 @@ def input_info(recording: Recording, names, used: Recording) -> dict:
     """The ``input`` block of a result (docs/json.md) for the sensors ``names`` of
     ``recording`` and the part ``used`` (its window, in context) the estimate saw; with a
     sensor map, which device each name came from. Shared by the commands and by
-    ``calibrate``'s joints (whose embedded results lacked ``sensor_map``)."""
+    ``calibrate``'s joints (whose embedded results lacked ``sensor_map``).
+
+    Returns
+    -------
+    dict
+        ``path``, ``sensors``, ``sample_rate_hz`` (Hz), ``samples_total``, ``duration_s``
+        (s, whole recording), ``units_in_file``, ``time_origin`` (s, ``used``'s first
+        sample), ``load_warnings`` (``used``'s), and ``sensor_map`` ({"file", "sensors":
+        name -> name in the file}) when the recording was loaded with one.
+    """
     info = {
         "path": recording.source,
         "sensors": list(names),
@@ -641,7 +746,17 @@ def estimator_window(recording: Recording, names, start, end) -> tuple[Recording
     """The sensors ``names`` in the window ``start``..``end`` (s on the recording's time
     axis), checked and repaired (Recording.select), and the estimators' keywords for it:
     the window counted from the first sample they are given, and that sample's time on the
-    recording's clock (``time_origin``)."""
+    recording's clock (``time_origin``).
+
+    Returns
+    -------
+    used : Recording
+        ``recording.select(names, start, end, context=True)``.
+    window : dict
+        ``start``, ``end`` (s from ``used``'s first sample, whole samples; each None
+        where it was not given and the window reaches that end of ``used``) and ``time_origin``
+        (s, ``used``'s first sample on the recording's clock).
+    """
     used = recording.select(names, start, end, context=True)
     i0, i1 = used.window
     # Whole samples, so the estimators cut exactly the samples select checked; the finite

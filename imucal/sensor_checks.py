@@ -87,10 +87,26 @@ class Gap:
 
 
 def corrupt_readings(arr: np.ndarray, kind: str) -> np.ndarray:
-    """(N,) readings of ``arr`` (N, 3, SI units) that are no measurement: beyond
-    :data:`NONPHYSICAL`, or spikes beyond :data:`SENSOR_RANGE`: runs of at most
-    :data:`MAX_SPIKE_SAMPLES` at least :data:`SPIKE_RATIO` times the readings on either
-    side (a missing reading or the signal's end counts as 0)."""
+    """The readings of ``arr`` ((N, 3), SI units: rad/s for ``kind`` "gyr", m/s^2 for
+    "acc") that are no measurement: beyond :data:`NONPHYSICAL`, or spikes beyond
+    :data:`SENSOR_RANGE`: runs of at most :data:`MAX_SPIKE_SAMPLES` at least
+    :data:`SPIKE_RATIO` times the readings on either side (a missing reading or the
+    signal's end counts as 0). A reading's size is its largest absolute axis.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N,) bool, True for such a reading; non-finite readings are False.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.sensor_checks import corrupt_readings
+    >>> gyr = np.full((5, 3), 1.0)
+    >>> gyr[2] = 1e3                          # rad/s: a one-sample spike
+    >>> corrupt_readings(gyr, "gyr")
+    array([False, False,  True, False, False])
+    """
     with np.errstate(invalid="ignore"):
         size = np.abs(arr).max(axis=1)
         finite = np.isfinite(size)
@@ -109,11 +125,17 @@ def corrupt_readings(arr: np.ndarray, kind: str) -> np.ndarray:
 
 
 def nonphysical(arr: np.ndarray, name: str, kind: str) -> list[tuple]:
-    """Readings of ``arr`` (N, 3, SI units) that are no measurement
-    (:func:`corrupt_readings`) set to NaN in place, so they become gaps: [(name, kind,
-    count, first index, its largest value)] or []. Before, one 1e30 sample stopped every
-    estimate with "no restart produced a finite result", naming neither the sample nor
-    the cause (a new-user review)."""
+    """Readings of ``arr`` ((N, 3), SI units) that are no measurement
+    (:func:`corrupt_readings`) set to NaN in place, so they become gaps. Before, one 1e30
+    sample stopped every estimate with "no restart produced a finite result", naming
+    neither the sample nor the cause (a new-user review).
+
+    Returns
+    -------
+    list[tuple]
+        ``[(name, kind, count, first index, its largest absolute axis value)]`` (the
+        value in rad/s or m/s^2), or ``[]`` when every reading is a measurement.
+    """
     bad = corrupt_readings(arr, kind)
     if not bad.any():
         return []
@@ -125,7 +147,14 @@ def nonphysical(arr: np.ndarray, name: str, kind: str) -> list[tuple]:
 
 def nonphysical_notes(corrupt: list[tuple], time: np.ndarray) -> list[str]:
     """One warning per signal that :func:`nonphysical` found readings beyond the sensor
-    range in, with the first one's time (s, on ``time``)."""
+    range in, with the first one's time (s, on ``time``).
+
+    Returns
+    -------
+    list[str]
+        One line per entry of ``corrupt``: count, :data:`SENSOR_RANGE` (rad/s or m/s^2),
+        the first value, its time (s) and sample index.
+    """
     return [f"sensor '{name}' {kind}: {count} reading(s) beyond any body-worn sensor's "
             f"range ({SENSOR_RANGE[kind]:g} {'rad/s' if kind == 'gyr' else 'm/s^2'}), the "
             f"first {value:.6g} at t="
@@ -135,10 +164,14 @@ def nonphysical_notes(corrupt: list[tuple], time: np.ndarray) -> list[str]:
 
 
 def check_units(kind: str, unit, what: str) -> None:
-    """Raise an :class:`InputError` naming ``what`` unless ``unit`` is known for ``kind``.
+    """Check that ``unit`` is known for ``kind`` (``"gyr"``: rad/s, deg/s; ``"acc"``:
+    m/s^2, g).
 
-    ``kind`` is ``"gyr"`` or ``"acc"``; the message suggests the accepted spelling of a
-    common alias (``dps`` -> ``deg/s``).
+    Raises
+    ------
+    InputError
+        Naming ``what``, for any other unit (not a str, or misspelt); the message suggests
+        the accepted spelling of a common alias (``dps`` -> ``deg/s``) or a close match.
     """
     table = GYR_UNITS if kind == "gyr" else ACC_UNITS
     if isinstance(unit, str) and unit in table:
@@ -153,13 +186,32 @@ def check_units(kind: str, unit, what: str) -> None:
 
 
 def max_gap_samples(rate: float) -> int:
-    """Longest gap, in samples at ``rate`` Hz, that is filled by interpolation."""
+    """Longest gap, in samples at ``rate`` Hz, that is filled by interpolation.
+
+    Returns
+    -------
+    int
+        ``floor(MAX_INTERPOLATED_GAP_S * rate)`` (0.05 s worth of samples).
+
+    Examples
+    --------
+    >>> from imucal.sensor_checks import max_gap_samples
+    >>> max_gap_samples(100.0), max_gap_samples(60.0)
+    (5, 3)
+    """
     return int(np.floor(MAX_INTERPOLATED_GAP_S * rate + 1e-9))
 
 
 def find_gaps(raw, time: np.ndarray) -> tuple[Gap, ...]:
-    """Every run of non-finite samples in ``raw`` ({sensor: {kind: (N, 3)}}), as a
-    :class:`Gap` with its first sample's time (s, on ``time``)."""
+    """Every run of non-finite samples (NaN or Inf in any axis) in ``raw``
+    ({sensor: {kind: (N, 3)}}).
+
+    Returns
+    -------
+    tuple[Gap, ...]
+        One :class:`Gap` per run, by sensor and kind in ``raw``'s order, then by start;
+        ``time`` the run's first sample's time (s, on ``time``).
+    """
     gaps = []
     for name, arrays in raw.items():
         for kind, arr in arrays.items():
@@ -170,12 +222,26 @@ def find_gaps(raw, time: np.ndarray) -> tuple[Gap, ...]:
 
 
 def finite_rows(sd: SensorData) -> np.ndarray:
-    """(N,) True where both of the sensor's signals are finite in every axis."""
+    """Where both of the sensor's signals are finite in every axis.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N,) bool.
+    """
     return np.isfinite(sd.gyr).all(axis=1) & np.isfinite(sd.acc).all(axis=1)
 
 
 def gap_warnings(gaps, raw, rate: float, n: int) -> list[str]:
-    """One line per signal with gaps: where they are and what an estimate using it will do."""
+    """One line per signal with gaps: where they are and what an estimate using it will do.
+
+    Returns
+    -------
+    list[str]
+        Per signal with gaps, in ``raw``'s order: the count, the first gap's time and the
+        longest gap (samples, s, its time), and whether estimates will interpolate or stop;
+        or that it has no finite sample at all.
+    """
     notes = []
     max_gap = max_gap_samples(rate)
     for name, arrays in raw.items():
@@ -217,7 +283,18 @@ def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
-    """Plain-language doubts about the declared units, with the evidence."""
+    """Plain-language doubts about the declared units, with the evidence.
+
+    ``sensors`` hold data converted to SI units; ``units`` the units declared per sensor.
+
+    Returns
+    -------
+    list[str]
+        Per sensor: a gyroscope peak norm above :data:`MAX_LIMB_RATE` (35 rad/s: deg/s?),
+        a median accelerometer norm within :data:`ACC_LOOKS_LIKE_G` (about 1 in m/s^2:
+        g?) or outside :data:`ACC_PLAUSIBLE` (:func:`acc_scale_doubt`). Empty sensors are
+        skipped.
+    """
     notes = []
     for name, sd in sensors.items():
         if sd.gyr.shape[0] == 0:
@@ -244,7 +321,13 @@ def unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
 
 def acc_scale_doubt(median: float) -> str:
     """Why a median specific force (m/s^2) outside :data:`ACC_PLAUSIBLE` points to wrong
-    accelerometer units, naming the likely mistake."""
+    accelerometer units, naming the likely mistake.
+
+    Returns
+    -------
+    str
+        A phrase starting "has a median norm of ...", to follow "sensor '<name>' acc".
+    """
     if median < ACC_PLAUSIBLE[0]:
         return (f"has a median norm of {median:.3g} m/s^2, far below 1 g = 9.81 m/s^2: the "
                 "declared units look wrong (m/s^2 or g data declared as mg?), or gravity "
@@ -256,7 +339,14 @@ def acc_scale_doubt(median: float) -> str:
 
 def stuck_warnings(sensors: Mapping[str, SensorData]) -> list[str]:
     """Signals that never change: real sensors always show some noise, so such a signal
-    comes from a dead, disconnected or saturated sensor (or a filler value)."""
+    comes from a dead, disconnected or saturated sensor (or a filler value).
+
+    Returns
+    -------
+    list[str]
+        One line per signal (sensor, gyr/acc) whose samples all equal its first, with
+        that value (rad/s or m/s^2); empty signals are skipped.
+    """
     notes = []
     for name, sd in sensors.items():
         for kind, unit in (("gyr", "rad/s"), ("acc", "m/s^2")):

@@ -44,8 +44,33 @@ MAX_MAP_BYTES = 1_000_000
 
 
 def read_sensor_map(path: str | Path) -> dict[str, str]:
-    """The mapping in a map file (JSON object, or ``KEY = NAME`` lines); an
-    :class:`InputError` names the file and the line for anything else."""
+    """The mapping in a map file (JSON object, or ``KEY = NAME`` lines).
+
+    Returns
+    -------
+    dict[str, str]
+        Device name or serial (as written, stripped) -> the name to use, in file order.
+
+    Raises
+    ------
+    InputError
+        Naming the file (and the line or key): ``-``, a folder, a missing or unreadable
+        file, one over :data:`MAX_MAP_BYTES` or holding binary data, invalid JSON or a
+        JSON list, a name that is not text, a line without ``=``, an empty key or name,
+        a name with a comma or a control character, a key mapped to two names, or no
+        entry at all.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucal.sensor_map import read_sensor_map
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = Path(folder) / "map.txt"
+    ...     _ = path.write_text("00B4D7D3 = left_thigh  # participant 1\\n")
+    ...     read_sensor_map(path)
+    {'00B4D7D3': 'left_thigh'}
+    """
     source = str(path)
     p = Path(path)
     if source == "-":
@@ -144,12 +169,27 @@ def apply_sensor_map(recording: Recording, names: Mapping[str, str] | str | Path
     sensors keep their serials and labels in ``sensor_info``; ``provenance["sensor_map"]``
     records the map and what it renamed.
 
+    Returns
+    -------
+    Recording
+        A copy with the mapped sensors renamed in ``sensors``, ``units``, ``gaps``,
+        ``sensor_info`` (with ``name_in_file``), ``provenance`` and the warnings and
+        notes that name them; data unchanged. Unmapped sensors keep their names.
+
     Raises
     ------
     InputError
         the map cannot be read or is not a mapping; a key matches no sensor or several; two
         sensors get one name; one sensor is mapped twice; or a new name is that of a sensor
         the map leaves as it is. Each message names ``source``.
+
+    Examples
+    --------
+    >>> import imucal
+    >>> from imucal.sensor_map import apply_sensor_map
+    >>> rec = imucal.load_recording("sample_data/walking.h5")
+    >>> list(apply_sensor_map(rec, {"thigh": "left_thigh"}).sensors)
+    ['left_thigh', 'shank', 'foot']
     """
     if isinstance(names, str | bytes | os.PathLike):
         if not isinstance(names, str):

@@ -24,14 +24,40 @@ _SIDES = {"left": "left", "l": "left", "right": "right", "r": "right"}
 
 
 def normalised_name(text: str) -> str:
-    """Lower case without spaces, underscores, hyphens or dots: "Left Upper_Leg" ->
-    "leftupperleg"."""
+    """``text`` in lower case without spaces, tabs, underscores, hyphens or dots.
+
+    Returns
+    -------
+    str
+        The key names and serials are compared by.
+
+    Examples
+    --------
+    >>> from imucal.sensor_names import normalised_name
+    >>> normalised_name("Left Upper_Leg")
+    'leftupperleg'
+    """
     return "".join(ch for ch in str(text).lower() if ch not in " _-.\t")
 
 
 def segment_of(text: str) -> tuple[str | None, str | None]:
-    """(side, segment) a sensor name denotes, e.g. ("left", "thigh") for "L Upper Leg";
-    (None, None) when it names no known segment."""
+    """The side and body segment a sensor name denotes.
+
+    Returns
+    -------
+    side : str or None
+        "left" or "right" (from a word "left"/"l"/"right"/"r", or a leading "left"/
+        "right" written as one word with the segment); None when the name gives none.
+    segment : str or None
+        "thigh", "shank", "foot" or "pelvis" (:data:`SEGMENT_SYNONYMS`); None when the
+        name, without its side, is no known segment.
+
+    Examples
+    --------
+    >>> from imucal.sensor_names import segment_of
+    >>> segment_of("L Upper Leg"), segment_of("rightTibia"), segment_of("Opal 1234")
+    (('left', 'thigh'), ('right', 'shank'), (None, None))
+    """
     words = [w for w in re.split(r"[\s_\-.]+", str(text).lower()) if w]
     side = next((_SIDES[w] for w in words if w in _SIDES), None)
     rest = "".join(w for w in words if w not in _SIDES)
@@ -48,9 +74,27 @@ def match_sensor(name: str, names: list[str], info: Mapping[str, Mapping] | None
     Tried in turn: the exact name; the name or the serial (``info[n]["serial"]``)
     ignoring case, spaces, underscores and hyphens; the body segment (thigh = upper leg =
     femur, shank = lower leg = tibia, foot = calcaneus, pelvis = sacrum = lower back = hip)
-    with the side when one is given.
-    Raises an :class:`InputError` with the sensors there are and a "did you mean" hint
-    when none or several match.
+    with the side when one is given. ``info`` is :attr:`Recording.sensor_info`;
+    ``source`` names the file in messages.
+
+    Returns
+    -------
+    str
+        The matching entry of ``names``.
+
+    Raises
+    ------
+    InputError
+        No sensor matches (listing the sensors there are, with serials, and a "did you
+        mean" hint), or several sensors are the segment asked for.
+
+    Examples
+    --------
+    >>> from imucal.sensor_names import match_sensor
+    >>> match_sensor("left_thigh", ["Left Upper Leg", "Left Lower Leg"])
+    'Left Upper Leg'
+    >>> match_sensor("00B4", ["thigh"], {"thigh": {"serial": "00b4"}})
+    'thigh'
     """
     info = info or {}
     if name in names:

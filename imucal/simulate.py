@@ -376,9 +376,37 @@ def simulate(
 
     Returns
     -------
-    (Recording, dict)
-        The recording (sensors ``thigh``, ``shank``, ``foot``; source ``"<simulated>"``) and
-        the JSON-serialisable ground truth (see :data:`CONVENTION` and docs/simulator.md).
+    recording : Recording
+        Sensors ``thigh``, ``shank``, ``foot`` (gyr rad/s, acc m/s^2, (N, 3) float64 in each
+        sensor's frame, N = ``round(rate * duration)``), ``rate`` Hz; source
+        ``"<simulated>"``.
+    truth : dict
+        The JSON-serialisable ground truth (see :data:`CONVENTION` and docs/simulator.md):
+        ``knee`` and ``ankle`` (``j1``, ``j2`` unit axes, ``o1``, ``o2`` in m, sensor
+        frames), ``knee_flexion_deg``, ``clock_offset_s``, ``gyr_bias``, ``noise_std``,
+        ``settings`` (the seed drawn, too), ...
+
+    Raises
+    ------
+    InputError
+        An unknown ``motion``, a rate, duration, ``snr``, noise level, soft-tissue size,
+        clock offset, bias or seed that is not a usable number, fewer than 2 samples, or
+        more samples than half this machine's memory holds.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. III-A (the
+    three-segment model with randomly placed sensors; the motions here are imucal's own).
+
+    Examples
+    --------
+    >>> from imucal.simulate import simulate
+    >>> rec, truth = simulate(seed=1, duration=5.0)
+    >>> list(rec.sensors), rec.n_samples, rec.rate
+    (['thigh', 'shank', 'foot'], 500, 100.0)
+    >>> [round(x, 3) for x in truth["knee"]["j1"]]     # thigh sensor frame
+    [0.458, -0.854, 0.248]
     """
     rec, truth, _ = _simulate_with_internals(
         seed=seed, rate=rate, duration=duration, snr=snr, motion=motion, gyr_noise=gyr_noise,
@@ -1133,10 +1161,23 @@ def _realism_truth(mot, t, clock, bias, noise_std, tissue, knee_angle, rot_deg, 
 def parse_clock_offsets(items: list[str] | None, option: str = "--clock-offset") -> dict:
     """``["shank=0.02", ...]`` -> ``{"shank": 0.02}`` (seconds); one-line errors.
 
+    Returns
+    -------
+    dict[str, float]
+        Sensor (``thigh``, ``shank``, ``foot``) -> clock offset, s; ``{}`` for None or
+        ``[]``.
+
     Raises
     ------
     InputError
-        an item is not ``SENSOR=SECONDS`` with a number of seconds.
+        an item is not ``SENSOR=SECONDS`` with a number of seconds, names an unknown
+        sensor, or names one a second time (``option`` names the option).
+
+    Examples
+    --------
+    >>> from imucal.simulate import parse_clock_offsets
+    >>> parse_clock_offsets(["shank=0.02", "foot=-0.01"])
+    {'shank': 0.02, 'foot': -0.01}
     """
     out = {}
     usage = f"use SENSOR=SECONDS with SENSOR one of {', '.join(SENSORS)}, e.g. shank=0.02"
@@ -1168,10 +1209,23 @@ def parse_sensor_bias(items: list[str] | None, option: str = "--gyr-bias", unit:
     ``["0.02"]`` -> 0.02 (every sensor, random directions); ``["shank=0.02",
     "foot=0.01,0,0"]`` -> ``{"shank": 0.02, "foot": (0.01, 0.0, 0.0)}``.
 
+    Returns
+    -------
+    None, float or dict
+        None for no items; a magnitude (``unit``) for one bare number; else sensor ->
+        magnitude (float) or components (tuple of 3 floats), ``unit``, sensor frame.
+
     Raises
     ------
     InputError
-        an item is neither one magnitude nor ``SENSOR=`` one magnitude or three components.
+        an item is neither one magnitude nor ``SENSOR=`` one magnitude or three components,
+        names an unknown sensor, or names one a second time.
+
+    Examples
+    --------
+    >>> from imucal.simulate import parse_sensor_bias
+    >>> parse_sensor_bias(["0.02"]), parse_sensor_bias(["foot=0.01,0,0"])
+    (0.02, {'foot': (0.01, 0.0, 0.0)})
     """
     if not items:
         return None

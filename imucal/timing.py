@@ -25,11 +25,18 @@ RATE_WARN = 0.01
 
 def check_plausible_rate(rate: float, source: str = "", origin: str = "",
                          fix: str = "check the rate's units") -> None:
-    """InputError unless ``rate`` (Hz) lies within MIN/MAX_RATE_HZ: body-worn IMUs sample
-    at a few Hz to a few kHz, and outside that the number is a unit mistake (ms for s,
-    kHz for Hz), not a sample rate. The one check of every rate imucal meets (given,
-    stored, from a file's time steps or a device's stamps); ``source`` and ``origin``
-    say whose and where from, ``fix`` what to check."""
+    """Check that ``rate`` (Hz) lies within MIN/MAX_RATE_HZ (1 to 10 000 Hz): body-worn
+    IMUs sample at a few Hz to a few kHz, and outside that the number is a unit mistake
+    (ms for s, kHz for Hz), not a sample rate. The one check of every rate imucal meets
+    (given, stored, from a file's time steps or a device's stamps); ``source`` and
+    ``origin`` say whose and where from, ``fix`` what to check.
+
+    Raises
+    ------
+    InputError
+        ``rate`` lies outside the range (NaN too), naming ``source``, ``origin`` and
+        ``fix``.
+    """
     if MIN_RATE_HZ <= rate <= MAX_RATE_HZ:
         return
     # "below"/"above" and enough digits: 0.99999 Hz printed as 1 Hz would seem to lie
@@ -44,6 +51,11 @@ def check_plausible_rate(rate: float, source: str = "", origin: str = "",
 
 def check_rate(rate) -> float:
     """A sample rate in Hz as a float, checked (:func:`check_plausible_rate`).
+
+    Returns
+    -------
+    float
+        ``rate`` in Hz, within 1 to 10 000 Hz.
 
     Raises
     ------
@@ -68,6 +80,26 @@ def check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, li
         a rate that is no plausible number of Hz, a time column that is not numeric,
         finite, as long as the data and regular within :data:`TIME_JITTER_TOLERANCE`, or
         neither given; the message names ``source``.
+
+    Returns
+    -------
+    rate : float
+        Hz: the rate given, else ``1 / median step`` of ``time``.
+    time : numpy.ndarray
+        (n,) float64, s: ``time`` as given (a copy), ``arange(n) / rate`` without one, or,
+        where a given rate and ``time``'s span disagree by over half a sample, rebuilt as
+        ``time[0] + arange(n) / rate``.
+    notes : list[str]
+        Warnings: the rebuilt time axis when the rates differ by over :data:`RATE_WARN`
+        (1 %), or ``time``'s steps drifting from their median by as much.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.timing import check_timing
+    >>> rate, time, notes = check_timing(None, np.arange(5) * 0.01, 5, "x.csv")
+    >>> round(rate, 6), time.shape, notes
+    (100.0, (5,), [])
     """
     if rate is not None:
         number = None

@@ -46,6 +46,19 @@ def save_recording(
     InputError
         For an unknown suffix, a sensor name HDF5 cannot hold, or a folder that cannot be
         written to.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import imucal
+    >>> rec = imucal.load_recording("sample_data/circling.h5")
+    >>> part = rec.select(["thigh", "shank"], 0.0, 5.0)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     imucal.save_recording(part, Path(folder) / "part.csv")
+    ...     back = imucal.load_recording(Path(folder) / "part.csv")
+    ...     print(sorted(back.sensors), back.n_samples, round(back.rate, 6))
+    ['shank', 'thigh'] 500 100.0
     """
     path = Path(path)
     suffix = path.suffix.lower()

@@ -79,8 +79,15 @@ class RawRecording:
 
 
 def export_files(path: Path, is_export) -> list[Path]:
-    """The files of a one-file-per-sensor export: ``path`` itself, or the files in the
-    folder ``path`` that ``is_export`` recognises, sorted by name."""
+    """The files of a one-file-per-sensor export.
+
+    Returns
+    -------
+    list[pathlib.Path]
+        For a folder ``path``: its files (not subfolders) that ``is_export(file)``
+        recognises, sorted by name; for a file: ``[path]`` if ``is_export(path)``, else
+        ``[]``.
+    """
     if path.is_dir():
         return sorted(p for p in path.iterdir() if p.is_file() and is_export(p))
     return [path] if is_export(path) else []
@@ -91,6 +98,13 @@ def read_export(path: Path, source: str, files: list[Path], read_file, format_na
     """A :class:`RawRecording` of one-file-per-sensor ``files`` (from :func:`export_files`),
     each read by ``read_file(file, source, many)``; other files in the folder are named
     in a note (``what``: the export's name in messages).
+
+    Returns
+    -------
+    RawRecording
+        ``format=format_name``, one :class:`RawSensor` per file in the order of ``files``,
+        and ``notes`` naming the folder's empty files and its other files (hidden ones
+        left out).
 
     Raises
     ------
@@ -130,12 +144,39 @@ FORMATS = (
 
 
 def describe_formats() -> str:
-    """The formats imucal reads, as one line for messages and ``--help``."""
+    """The formats imucal reads, as one line for messages and ``--help``.
+
+    Returns
+    -------
+    str
+        :data:`FORMATS` joined by ", ".
+
+    Examples
+    --------
+    >>> from imucal.formats import describe_formats
+    >>> describe_formats()
+    'imucal HDF5/CSV, Xsens MT Manager (.txt/.csv), ..., Shimmer Consensys (.csv)'
+    """
     return ", ".join(FORMATS)
 
 
 def detect(path: Path):
-    """The format module that reads ``path`` (file or folder), or None."""
+    """The format module that reads ``path`` (file or folder).
+
+    Returns
+    -------
+    module or None
+        The first vendor module (BIDS, x-IMU3, APDM, DOT, Xsens, Shimmer, in this order)
+        whose ``sniff(path)`` is true; None when none is (imucal's own layouts too), a
+        module's sniff failing with a read or parse error counting as false.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from imucal.formats import detect
+    >>> detect(Path("sample_data/walking.h5")) is None   # imucal's own layout
+    True
+    """
     for module in _modules():
         try:
             if module.sniff(path):
@@ -152,6 +193,12 @@ def detect(path: Path):
 
 def read_text(path: Path, source: str | None = None) -> str:
     """A text file's content: UTF-8 (with or without a byte-order mark), else Latin-1.
+
+    Returns
+    -------
+    str
+        The whole file decoded, without a byte-order mark; ``source`` (default ``path``)
+        names it in messages.
 
     Raises
     ------
@@ -171,7 +218,14 @@ def read_text(path: Path, source: str | None = None) -> str:
 
 
 def is_empty(path: Path) -> bool:
-    """Whether a file holds nothing but white space (an export that wrote no data)."""
+    """Whether a file holds nothing but white space (an export that wrote no data).
+
+    Returns
+    -------
+    bool
+        True for a file under 4096 bytes of nothing but white space and UTF-8 byte-order
+        marks; False for anything else, and for a file that cannot be read.
+    """
     try:
         with open(path, "rb") as fh:
             data = fh.read(4096)
@@ -181,7 +235,14 @@ def is_empty(path: Path) -> bool:
 
 
 def head_text(path: Path, limit: int = 8192) -> str:
-    """The first ``limit`` bytes of a file as text (for sniffing); '' if unreadable."""
+    """The first ``limit`` bytes of a file as text (for sniffing).
+
+    Returns
+    -------
+    str
+        Decoded as UTF-8 (a byte-order mark dropped, undecodable bytes replaced by
+        U+FFFD); '' for a file that cannot be read or has a NUL byte there (binary).
+    """
     try:
         with open(path, "rb") as fh:
             data = fh.read(limit)
@@ -193,7 +254,20 @@ def head_text(path: Path, limit: int = 8192) -> str:
 
 
 def sep_line(line: str) -> str | None:
-    """The separator an Excel-style first line declares (``sep=,`` or ``"sep=<TAB>"``)."""
+    """The separator an Excel-style first line declares (``sep=,`` or ``"sep=<TAB>"``).
+
+    Returns
+    -------
+    str or None
+        The one character after ``sep=`` (a tab when the line ends there); None for a
+        line that declares none.
+
+    Examples
+    --------
+    >>> from imucal.formats import sep_line
+    >>> sep_line("sep=;\\n"), sep_line("PacketCounter,Acc_X")
+    (';', None)
+    """
     text = line.strip().strip('"').strip("'")
     if text.lower().startswith("sep=") and len(line.strip().strip('"')) >= 4:
         raw = line.strip().strip('"')[4:5]
@@ -204,15 +278,32 @@ def sep_line(line: str) -> str | None:
 def twice(source: str, name: str, first: int, second: int) -> InputError:
     """The error for a column the reader uses that the header names twice (0-based
     ``first``, ``second``): which of the two holds the data is not known, and taking
-    either silently read a magnetometer as an accelerometer, or merged two devices."""
+    either silently read a magnetometer as an accelerometer, or merged two devices.
+
+    Returns
+    -------
+    InputError
+        Not raised: the caller raises it. Its message names ``source``, ``name`` and both
+        columns (1-based).
+    """
     return InputError(f"{source}: column '{name}' appears twice (columns {first + 1} and "
                       f"{second + 1}); which one holds the data is not known: rename or "
                       "remove one")
 
 
 def column_index(names: list[str], source: str, used) -> dict[str, int]:
-    """Each header name's column (0-based); a name in ``used`` given twice raises
-    :func:`twice`'s InputError."""
+    """Each header name's column.
+
+    Returns
+    -------
+    dict[str, int]
+        Header name -> its column (0-based); a name given twice maps to its first column.
+
+    Raises
+    ------
+    InputError
+        A name in ``used`` is given twice (:func:`twice`).
+    """
     col: dict[str, int] = {}
     for i, n in enumerate(names):
         if n in col and n in used:
@@ -235,6 +326,14 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
     InputError
         a header without data rows, a table pandas cannot parse, or a cell that is not a
         number (with its row and column).
+
+    Returns
+    -------
+    values : numpy.ndarray
+        (rows, len(names)) float64, the file's numbers as they are (no unit conversion);
+        NaN for empty and ``NaN``/``n/a`` cells; fields beyond ``names`` dropped.
+    notes : list[str]
+        Warnings: the dropped truncated last row, if any.
     """
     import pandas as pd
 
@@ -275,7 +374,20 @@ UNIT_RE = re.compile(r"\(([^()]*)\)\s*$")
 
 def normalise_units(kind: str, text: str | None, default: str) -> str:
     """A vendor's spelling of a unit as imucal's (``deg/s``, ``rad/s``, ``m/s^2``, ``g``,
-    ``mg``); unknown spellings are returned as they are (make_recording then names them)."""
+    ``mg``).
+
+    Returns
+    -------
+    str
+        imucal's spelling; ``default`` for None or blank ``text``; an unknown spelling as
+        it is, without spaces (make_recording then names it).
+
+    Examples
+    --------
+    >>> from imucal.formats import normalise_units
+    >>> normalise_units("gyr", "°/s", "rad/s"), normalise_units("acc", "m/s²", "g")
+    ('deg/s', 'm/s^2')
+    """
     if text is None or not str(text).strip():
         return default
     t = str(text).strip().replace(" ", "").replace("²", "^2").replace("°", "deg")
@@ -292,9 +404,21 @@ def normalise_units(kind: str, text: str | None, default: str) -> str:
 
 
 def header_rate(text: str, pattern: re.Pattern, where: str) -> float | None:
-    """The sample rate, Hz, that ``pattern`` (one group: the number before "Hz") finds in
-    a header line ``text``; None where it finds none. InputError naming the line where
-    that "number" is none (``.Hz``, ``1.0.0Hz``)."""
+    """The sample rate that ``pattern`` (one group: the number before "Hz") finds in a
+    header line ``text``.
+
+    Returns
+    -------
+    float or None
+        The rate in Hz (as written, not checked for plausibility); None where ``pattern``
+        finds none.
+
+    Raises
+    ------
+    InputError
+        Naming ``where`` and the line, where the "number" found is none (``.Hz``,
+        ``1.0.0Hz``).
+    """
     m = pattern.search(text)
     if m is None:
         return None

@@ -33,7 +33,15 @@ US_PER_S = 1e6
 
 def sniff(path: Path) -> bool:
     """Whether ``path`` holds an APDM Opal HDF5 file (the plug-in ``sniff``,
-    :mod:`imucal.formats`)."""
+    :mod:`imucal.formats`).
+
+    Returns
+    -------
+    bool
+        True for a file with the HDF5 signature holding a ``Sensors`` group (v5 layout) or
+        the ``MonitorLabelList`` and ``CaseIdList`` attributes (v3/v4); False otherwise,
+        also for a folder or an HDF5 file h5py cannot open.
+    """
     if not path.is_file():
         return False
     with open(path, "rb") as fh:
@@ -63,8 +71,25 @@ def _units(ds, kind: str, default: str) -> str:
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """``path`` read as an APDM Opal HDF5 file (the plug-in ``read``, :mod:`imucal.formats`:
-    an InputError naming ``source`` for anything unusable)."""
+    """``path`` read as an APDM Opal HDF5 file (the plug-in ``read``, :mod:`imucal.formats`).
+
+    Returns
+    -------
+    RawRecording
+        ``format`` "APDM Opal HDF5 v5" or "... v3/v4"; one :class:`RawSensor` per
+        readable device (named by its label, else its serial or case ID, which ``serial``
+        holds), ``gyr``/``acc`` (N, 3) in the datasets' declared units (rad/s, m/s^2 by
+        default), ``time`` s from the earliest device's first stamp (the stamps are us
+        since 1970), ``claimed_rate`` Hz (None where the file's is no rate); ``notes``
+        the devices skipped, ``info`` the file format version and the clock's time 0.
+
+    Raises
+    ------
+    InputError
+        Naming ``source`` (default ``str(path)``): the file cannot be opened as HDF5
+        (corrupted, truncated), the v3/v4 label and case-ID lists do not pair up, or no
+        device is readable.
+    """
     source = source or str(path)
     try:
         with h5py.File(path, "r") as h5:

@@ -29,7 +29,13 @@ def _motion_files(path: Path) -> list[Path]:
 
 def sniff(path: Path) -> bool:
     """Whether ``path`` holds a BIDS-motion recording (the plug-in ``sniff``,
-    :mod:`imucal.formats`)."""
+    :mod:`imucal.formats`).
+
+    Returns
+    -------
+    bool
+        True when ``path`` is, or is a folder holding, a ``*_motion.tsv`` file.
+    """
     return bool(_motion_files(path))
 
 
@@ -68,8 +74,25 @@ def _channels(path: Path) -> list[dict[str, str]]:
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """``path`` read as a BIDS-motion recording (the plug-in ``read``, :mod:`imucal.formats`:
-    an InputError naming ``source`` for anything unusable)."""
+    """``path`` read as a BIDS-motion recording (the plug-in ``read``, :mod:`imucal.formats`).
+
+    Returns
+    -------
+    RawRecording
+        ``format`` BIDS-motion; one :class:`RawSensor` per tracked point with ACCEL and GYRO
+        x, y, z channels, ``gyr``/``acc`` (N, 3) in the channels file's units (rad/s,
+        m/s^2 by default), ``time`` s from the LATENCY channel, else row / rate, rows
+        where the point has no value left out; ``claimed_rate`` the JSON's
+        ``SamplingFrequency``, Hz; ``notes`` points skipped and a truncated last row.
+
+    Raises
+    ------
+    InputError
+        Naming ``source`` (default ``str(path)``): several motion files, a missing
+        ``_channels.tsv`` or ``_motion.json``, no usable positive ``SamplingFrequency``,
+        channel rows that do not match the columns, a channel given twice, a cell that is
+        not a number, or no usable tracked point.
+    """
     source = source or str(path)
     files = _motion_files(path)
     if len(files) > 1:

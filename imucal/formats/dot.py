@@ -71,13 +71,34 @@ def _files(path: Path) -> list[Path]:
 
 def sniff(path: Path) -> bool:
     """Whether ``path`` holds a Movella DOT export (the plug-in ``sniff``,
-    :mod:`imucal.formats`)."""
+    :mod:`imucal.formats`).
+
+    Returns
+    -------
+    bool
+        True when ``path`` is, or is a folder holding, a DOT export CSV (recognised by its
+        content).
+    """
     return bool(_files(path))
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """``path`` read as a Movella DOT export (the plug-in ``read``, :mod:`imucal.formats`:
-    an InputError naming ``source`` for anything unusable)."""
+    """``path`` read as a Movella DOT export (the plug-in ``read``, :mod:`imucal.formats`).
+
+    Returns
+    -------
+    RawRecording
+        ``format`` Movella DOT; one :class:`RawSensor` per file (sorted by name), named by
+        its device tag, ``gyr`` deg/s and ``acc`` m/s^2 (N, 3), ``time`` s from
+        ``SampleTimeFine`` (us, wrapping), ``counter`` the packet counter where the file
+        has one; ``notes`` the folder's files not read.
+
+    Raises
+    ------
+    InputError
+        Naming ``source`` (default ``str(path)``): no DOT file found, or one that cannot be
+        read (:func:`imucal.formats.read_export`).
+    """
     source = source or str(path)
     return read_export(path, source, _files(path), _read_file, NAME, "Movella DOT export")
 

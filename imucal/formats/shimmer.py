@@ -43,7 +43,14 @@ def _split(lines):
 
 def sniff(path: Path) -> bool:
     """Whether ``path`` holds a Shimmer Consensys export (the plug-in ``sniff``,
-    :mod:`imucal.formats`)."""
+    :mod:`imucal.formats`).
+
+    Returns
+    -------
+    bool
+        True for a ``.csv``/``.txt``/``.tsv``/``.dat`` file whose header row has a
+        ``Shimmer_...Timestamp...`` column; False otherwise (folders too).
+    """
     if not path.is_file() or path.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
         return False
     lines = head_text(path, 4096).splitlines()
@@ -55,8 +62,24 @@ def sniff(path: Path) -> bool:
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """``path`` read as a Shimmer Consensys export (the plug-in ``read``, :mod:`imucal.formats`:
-    an InputError naming ``source`` for anything unusable)."""
+    """``path`` read as a Shimmer Consensys export (the plug-in ``read``, :mod:`imucal.formats`).
+
+    Returns
+    -------
+    RawRecording
+        ``format`` Shimmer Consensys; one :class:`RawSensor` per device with calibrated
+        accelerometer, gyroscope and Unix time stamp columns (its rows only), ``gyr``
+        (deg/s by default) and ``acc`` (m/s^2 by default) (N, 3) in the units row's
+        units, ``time`` s from the earliest device's first stamp; ``notes`` the devices
+        skipped and a truncated last row.
+
+    Raises
+    ------
+    InputError
+        Naming ``source`` (default ``str(path)``): the file cannot be read, a column used is
+        named twice, a cell is not a number, or no device has calibrated accelerometer,
+        gyroscope and Unix time stamps.
+    """
     source = source or str(path)
     lines = read_text(path, source).splitlines()
     sep, start = _split(lines)

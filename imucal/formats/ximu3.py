@@ -61,13 +61,34 @@ def _empty(path: Path) -> list[Path]:
 
 def sniff(path: Path) -> bool:
     """Whether ``path`` holds an x-IMU3 logged session (the plug-in ``sniff``,
-    :mod:`imucal.formats`)."""
+    :mod:`imucal.formats`).
+
+    Returns
+    -------
+    bool
+        True when ``path`` is, or is a folder holding device folders with, an
+        ``Inertial.csv`` (empty ones too, so that the reader names them).
+    """
     return bool(_devices(path) or _empty(path))
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """``path`` read as an x-IMU3 logged session (the plug-in ``read``, :mod:`imucal.formats`:
-    an InputError naming ``source`` for anything unusable)."""
+    """``path`` read as an x-IMU3 logged session (the plug-in ``read``, :mod:`imucal.formats`).
+
+    Returns
+    -------
+    RawRecording
+        ``format`` x-IMU3; one :class:`RawSensor` per device's ``Inertial.csv``, ``gyr``
+        (deg/s by default) and ``acc`` (g by default) (N, 3) in the header's units,
+        ``time`` s (the file's us time stamps / 1e6); ``notes`` the empty device files
+        and folders without ``Inertial.csv``.
+
+    Raises
+    ------
+    InputError
+        Naming ``source`` (default ``str(path)``): the file is empty, every ``Inertial.csv``
+        is empty, or a device's file cannot be read.
+    """
     source = source or str(path)
     files, empty = _devices(path), _empty(path)
     if not files and path.is_file():

@@ -61,13 +61,34 @@ def _files(path: Path) -> list[Path]:
 
 def sniff(path: Path) -> bool:
     """Whether ``path`` holds an Xsens MT Manager export (the plug-in ``sniff``,
-    :mod:`imucal.formats`)."""
+    :mod:`imucal.formats`).
+
+    Returns
+    -------
+    bool
+        True when ``path`` is, or is a folder holding, an MT Manager ``.txt``/``.csv``
+        export (recognised by its content).
+    """
     return bool(_files(path))
 
 
 def read(path: Path, source: str | None = None) -> RawRecording:
-    """``path`` read as an Xsens MT Manager export (the plug-in ``read``, :mod:`imucal.formats`:
-    an InputError naming ``source`` for anything unusable)."""
+    """``path`` read as an Xsens MT Manager export (the plug-in ``read``, :mod:`imucal.formats`).
+
+    Returns
+    -------
+    RawRecording
+        ``format`` Xsens MT Manager; one :class:`RawSensor` per file (sorted by name),
+        ``gyr`` rad/s and ``acc`` m/s^2 (N, 3), ``counter`` the packet counter,
+        ``time`` s from ``SampleTimeFine`` where the file has it (else None); ``notes``
+        the folder's files not read.
+
+    Raises
+    ------
+    InputError
+        Naming ``source`` (default ``str(path)``): no export file found, or one that cannot
+        be read (:func:`imucal.formats.read_export`).
+    """
     source = source or str(path)
     return read_export(path, source, _files(path), _read_file, NAME, "Xsens MT Manager export")
 
