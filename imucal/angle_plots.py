@@ -16,8 +16,31 @@ CYCLE_POINTS = 101
 
 
 def gait_cycles(flexion_deg: np.ndarray, peaks: np.ndarray) -> np.ndarray:
-    """(cycles, CYCLE_POINTS) flexion resampled over each cycle from one peak of swing
-    flexion to the next (0-100 %), vectorised over cycles."""
+    """Flexion resampled over each cycle (a gait cycle when walking), from one flexion peak
+    to the next (0-100 %), vectorised over cycles.
+
+    Parameters
+    ----------
+    flexion_deg
+        (N,) flexion, deg.
+    peaks
+        Sample indices of the flexion peaks (peak swing flexion when walking),
+        increasing; one cycle fewer than peaks.
+
+    Returns
+    -------
+    (cycles, CYCLE_POINTS) float64
+        Flexion, deg, linearly interpolated at :data:`CYCLE_POINTS` evenly spaced points
+        of each cycle.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.angle_plots import gait_cycles
+    >>> cycles = gait_cycles(np.arange(30.0), [0, 10, 20])
+    >>> cycles.shape, cycles[:, [0, 50, 100]].tolist()
+    ((2, 101), [[0.0, 5.0, 10.0], [10.0, 15.0, 20.0]])
+    """
     peaks = np.asarray(peaks)
     a, b = peaks[:-1], peaks[1:]
     frac = np.linspace(0.0, 1.0, CYCLE_POINTS)
@@ -29,7 +52,21 @@ def zero_label(zero: dict) -> str:
     """What 0 deg is, short enough for a title: the method's first clause (its details in
     parentheses stay in the JSON) and where the zero was taken, e.g. "calibration: most
     extended still period at 3.2 s (calibration trial)". (Cut at a fixed length, the
-    title read "... the 1st percentile of flexion )".)"""
+    title read "... the 1st percentile of flexion )".)
+
+    Returns
+    -------
+    str
+        The text of ``zero["method"]`` before its first " (", plus " at T s (WHERE)"
+        when ``zero["time_s"]`` is given (s, in ``zero["time_in"]``).
+
+    Examples
+    --------
+    >>> from imucal.angle_plots import zero_label
+    >>> zero_label({"method": "most extended still period (gyro below 0.1 rad/s)",
+    ...             "time_s": 3.21, "time_in": "calibration trial"})
+    'most extended still period at 3.2 s (calibration trial)'
+    """
     label = zero["method"].split(" (")[0]
     if zero.get("time_s") is not None:
         label += f" at {zero['time_s']:.1f} s ({zero['time_in']})"
@@ -44,7 +81,14 @@ def angles_figure(result, *, truth: dict | None = None, gyro_only: bool = True):
     joint: what + and 0 mean, whether the joint still fits its calibration (red when
     not, and then no cycle average), the calibration's verdict when it is not
     identifiable, and the joint's warnings.
-    ``truth``: joint -> (N,) true flexion (simulations)."""
+    ``truth``: joint -> (N,) true flexion, deg (simulations).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One row per joint (flexion in deg against time in s, and the cycle view when the
+        flexion repeats regularly), 12 in wide with the cycle view, else 9 in.
+    """
     from matplotlib.figure import Figure
 
     from .plots import chars_per_line
@@ -86,7 +130,13 @@ def angles_figure(result, *, truth: dict | None = None, gyro_only: bool = True):
 def plot_angles(result, path: str | Path, *, truth: dict | None = None,
                 gyro_only: bool = True) -> None:
     """Write :func:`angles_figure` to ``path`` (PNG, PDF or SVG by extension; the same
-    figure gives the same bytes, :func:`imucal.plots.save_figure`), atomically."""
+    figure gives the same bytes, :func:`imucal.plots.save_figure`), atomically.
+
+    Raises
+    ------
+    InputError
+        As :func:`staged_angles_figure`: an unknown suffix, or the file cannot be written.
+    """
     with staged_angles_figure(result, path, truth=truth, gyro_only=gyro_only):
         pass
 
@@ -96,6 +146,13 @@ def staged_angles_figure(result, path: str | Path, *, truth: dict | None = None,
     """:func:`plot_angles` as a block (:func:`imucal.atomic.staged`): the figure is in place
     only when the block ends without an exception, so that a run whose table then fails
     to be written leaves no figure of it.
+
+    Returns
+    -------
+    context manager
+        The figure is drawn on the call; entering writes it to a temporary file beside
+        ``path`` (a device or pipe: to ``path`` itself), a clean exit puts it at
+        ``path``, an exception in the block removes it.
 
     Raises
     ------

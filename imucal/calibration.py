@@ -128,7 +128,31 @@ class Calibration:
         return [j for j in self.joints.values() if j.kind == "hinge"]
 
     def to_document(self) -> dict:
-        """The calibration file's JSON document (docs/json.md, "Calibration file")."""
+        """The calibration file's JSON document (docs/json.md, "Calibration file").
+
+        Returns
+        -------
+        document : dict
+            Plain JSON values (NaN and Inf as None): ``format``, ``format_version``,
+            ``imucal_version``, ``command`` ("calibrate"), ``input`` (trial path,
+            ``sample_rate_hz`` in Hz, ``window_s`` in s, sensors), ``settings``, ``units``
+            and ``joints``: per joint its kind, sensors, verdict, warnings, ``j1``/``j2``
+            (hinges; unit vectors in the first / second sensor's frame), ``o1``/``o2``
+            (m, each in its sensor's frame), the angle block (hinges) and the full axis /
+            position documents.
+
+        Examples
+        --------
+        >>> import imucal
+        >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"),
+        ...                        restarts=10, seed=1)
+        >>> doc = cal.to_document()
+        >>> doc["format"], doc["format_version"], list(doc["joints"])
+        ('imucal-calibration', 2, ['knee', 'ankle'])
+        >>> knee = doc["joints"]["knee"]
+        >>> knee["joint"], knee["sensors"], [round(x, 2) for x in knee["j1"]]
+        ('hinge', ['thigh', 'shank'], [-0.42, -0.35, 0.84])
+        """
         from .report import clean
 
         joints = {}
@@ -156,7 +180,28 @@ class Calibration:
         })
 
     def write(self, path: str | Path) -> None:
-        """Write :meth:`to_document` as JSON to ``path`` (atomically)."""
+        """Write :meth:`to_document` as JSON to ``path`` (atomically: a temporary file
+        beside it, then renamed; :func:`load_calibration` reads it back).
+
+        Raises
+        ------
+        InputError
+            ``path`` (or the temporary file beside it) cannot be written
+            (:func:`imucal.atomic.write_atomic`).
+
+        Examples
+        --------
+        >>> import json, tempfile
+        >>> from pathlib import Path
+        >>> import imucal
+        >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"),
+        ...                        restarts=10, seed=1)
+        >>> with tempfile.TemporaryDirectory() as folder:
+        ...     cal.write(Path(folder) / "cal.json")
+        ...     doc = json.loads((Path(folder) / "cal.json").read_text())
+        >>> doc["command"], sorted(doc["joints"]), doc["units"]["o1"]
+        ('calibrate', ['ankle', 'knee'], 'm')
+        """
         from .atomic import write_text_atomic
         from .report import dumps
 
@@ -171,19 +216,49 @@ def _vec(v):
 
 
 def sensor_segment(name: str) -> tuple[str | None, str | None]:
-    """(side, segment) of a sensor name: segments thigh, shank, foot and pelvis (with their
-    synonyms, :data:`imucal.sensor_names.SEGMENT_SYNONYMS`); side left, right or None
-    (always None for the pelvis, which serves both hips)."""
+    """Side and segment of a sensor name.
+
+    Returns
+    -------
+    side : str or None
+        ``"left"``, ``"right"`` or None (no side in the name; always None for the pelvis,
+        which serves both hips).
+    segment : str or None
+        ``"thigh"``, ``"shank"``, ``"foot"`` or ``"pelvis"`` (synonyms included,
+        :data:`imucal.sensor_names.SEGMENT_SYNONYMS`); None for any other name.
+
+    Examples
+    --------
+    >>> from imucal.calibration import sensor_segment
+    >>> sensor_segment("left_thigh"), sensor_segment("Shank"), sensor_segment("wrist")
+    (('left', 'thigh'), (None, 'shank'), (None, None))
+    """
     side, segment = segment_of(name)
     return (None, segment) if segment == "pelvis" else (side, segment)
 
 
 def discover_joints(recording: Recording) -> tuple[list[JointSpec], list[str]]:
-    """The joints the sensor names allow, and notes (sensors named twice, none found).
+    """The joints the sensor names of ``recording`` allow.
 
     Per side (``left``, ``right`` or none): knee from thigh + shank, ankle from shank +
     foot, hip from the pelvis + thigh (one pelvis serves both hips). Names: ``knee`` etc.
     without a side, ``left_knee`` with one.
+
+    Returns
+    -------
+    specs : list of JointSpec
+        Hips, then knees, then ankles; within each, no side first, then left, then right.
+        Empty when no pair of segments is found.
+    notes : list of str
+        One note per segment named by two sensors (the first one is used).
+
+    Examples
+    --------
+    >>> import imucal
+    >>> from imucal.calibration import discover_joints
+    >>> specs, notes = discover_joints(imucal.load_recording("sample_data/circling.h5"))
+    >>> [(s.name, s.kind, s.first, s.second) for s in specs], notes
+    ([('knee', 'hinge', 'thigh', 'shank'), ('ankle', 'spheroidal', 'shank', 'foot')], [])
     """
     found: dict[tuple[str | None, str], str] = {}
     notes = []
@@ -211,8 +286,28 @@ def discover_joints(recording: Recording) -> tuple[list[JointSpec], list[str]]:
 
 
 def parse_joint_spec(text: str) -> JointSpec:
-    """``"left_knee=hinge:left_thigh,left_shank"`` -> :class:`JointSpec`; InputError with the
-    expected form otherwise. Sensor names are checked against a recording later."""
+    """``"left_knee=hinge:left_thigh,left_shank"`` -> :class:`JointSpec`. Sensor names are
+    checked against a recording later.
+
+    Returns
+    -------
+    JointSpec
+        Name, kind (``hinge`` or ``spheroidal``) and the two sensor names as written
+        (stripped), proximal first.
+
+    Raises
+    ------
+    InputError
+        ``text`` is not ``NAME=KIND:FIRST,SECOND``, the kind is neither hinge nor
+        spheroidal, or the two sensor names are the same; the message gives the
+        expected form.
+
+    Examples
+    --------
+    >>> from imucal.calibration import parse_joint_spec
+    >>> parse_joint_spec("left_knee=hinge:left_thigh,left_shank")
+    JointSpec(name='left_knee', kind='hinge', first='left_thigh', second='left_shank')
+    """
     m = _SPEC.match(str(text))
     if m is None:
         raise InputError(f"joint '{text}': {SPEC_USAGE}")

@@ -86,7 +86,22 @@ class _Clock:
 
 
 def unwrap(values: np.ndarray, wrap: float | None) -> np.ndarray:
-    """Undo the wrap-around of a counter or time stamp that restarts at 0 after ``wrap``."""
+    """Undo the wrap-around of a counter or time stamp that restarts at 0 after ``wrap``.
+
+    A step down by more than ``wrap / 2`` is taken as one wrap.
+
+    Returns
+    -------
+    (N,) float64
+        ``values`` with ``wrap`` added once per wrap before each sample, in their own
+        unit (s, samples); unchanged when ``wrap`` is None or there are fewer than 2.
+
+    Examples
+    --------
+    >>> from imucal.clock import unwrap
+    >>> unwrap([65534, 65535, 0, 1], 65536).tolist()
+    [65534.0, 65535.0, 65536.0, 65537.0]
+    """
     values = np.asarray(values, dtype=np.float64)
     if wrap is None or values.size < 2:
         return values
@@ -252,7 +267,26 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
 
     ``rate`` (Hz, optional) replaces the devices' own rate (for files without time
     stamps or header rate); with time stamps it must agree with theirs within
-    :data:`RATE_REFUSE`. Raises :class:`InputError` for unusable clocks.
+    :data:`RATE_REFUSE`. ``source`` names the recording in messages.
+
+    Returns
+    -------
+    Aligned
+        ``time`` (N,) s from 0 at the first shared grid point, ``rate`` the first
+        sensor's rate from its clock (Hz), ``data[name] = (gyr, acc)`` (N, 3) each in the
+        file's units (NaN at dropped samples), ``info`` per sensor, ``notes`` (dropped,
+        cut or interpolated samples, rate disagreements) and ``origin`` (s on the
+        devices' shared clock at the first grid point).
+
+    Raises
+    ------
+    InputError
+        Unusable clocks: a sensor with fewer than 3 samples, stamps or counters that are
+        missing, go backwards, repeat, lie off the device's straight-line clock by more
+        than a period or leave more than :data:`MAX_DROPPED_SHARE` of the span empty; no
+        rate at all, or a rate outside the plausible range or more than
+        :data:`RATE_REFUSE` from the header's or ``rate``; sensors that do not record 3
+        samples' worth of time together.
     """
     sensors = _one_wrap_cycle(sensors)
     clocks, notes = _device_clocks(sensors, source, rate)

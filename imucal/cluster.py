@@ -58,11 +58,14 @@ class Cluster:
                 on_done: Callable[[int, int], None] | None = None) -> Iterator:
         """Run ``job`` on every file on the cluster; yield the entries in input order.
 
-        Returns
-        -------
-        An iterator of :class:`imucal.study.Entry`, one per file, in the order of
-        ``files``; a recording whose task failed on the cluster (a worker that died
-        repeatedly, a worker without imucal) gets an entry with exit code 3.
+        ``on_done(done, failed)`` is called with the running counts as results arrive.
+
+        Yields
+        ------
+        imucal.study.Entry
+            One per file, in the order of ``files``, each as soon as it and all before it
+            are done; a recording whose task failed on the cluster (a worker that died
+            repeatedly, a worker without imucal) gets an entry with exit code 3.
 
         Raises
         ------
@@ -74,6 +77,10 @@ class Cluster:
 
         Examples
         --------
+        >>> from imucal.cluster import connect
+        >>> from imucal.runner import Job
+        >>> from imucal.settings import AxisSettings
+        >>> job = Job("axis", ("thigh", "shank"), AxisSettings(seed=1))
         >>> cluster = connect("tcp://127.0.0.1:8786")                 # doctest: +SKIP
         >>> [e.exit_code for e in cluster.process(job, ["a.h5"])]     # doctest: +SKIP
         [0]
@@ -193,13 +200,24 @@ def _within(ask: Callable[[], int], timeout: float) -> int | None:
 
 
 def check_address(address: str) -> str:
-    """``address`` if it has the form of a scheduler's address (HOST:PORT with an optional
-    scheme), checked before anything is read or connected.
+    """``address`` checked for the form of a scheduler's address (HOST:PORT with an
+    optional scheme) before anything is read or connected.
+
+    Returns
+    -------
+    str
+        ``address`` unchanged.
 
     Raises
     ------
     InputError
-        It has not.
+        It has not that form.
+
+    Examples
+    --------
+    >>> from imucal.cluster import check_address
+    >>> check_address("tcp://127.0.0.1:8786")
+    'tcp://127.0.0.1:8786'
     """
     if not re.fullmatch(r"(\w+://)?[^\s/]+:\d+", address):
         raise InputError(f"--scheduler {address}: not a scheduler address; expected "
@@ -224,6 +242,7 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Cluster:
 
     Examples
     --------
+    >>> from imucal.cluster import connect
     >>> cluster = connect("tcp://127.0.0.1:8786")                     # doctest: +SKIP
     >>> cluster.workers                                               # doctest: +SKIP
     2

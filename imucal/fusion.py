@@ -44,7 +44,25 @@ SMOOTHING_RANGE_S = (0.01, 600.0)
 
 
 def check_smoothing(smoothing_s) -> float:
-    """``smoothing_s`` as a float within :data:`SMOOTHING_RANGE_S`, else InputError."""
+    """``smoothing_s`` (the fusion kernel's half-width, s) checked.
+
+    Returns
+    -------
+    float
+        ``smoothing_s`` as a float, s, within :data:`SMOOTHING_RANGE_S`.
+
+    Raises
+    ------
+    InputError
+        ``smoothing_s`` is not a real number (a bool, a text) or lies outside
+        :data:`SMOOTHING_RANGE_S` (NaN and Inf included).
+
+    Examples
+    --------
+    >>> from imucal.fusion import check_smoothing
+    >>> check_smoothing(3)
+    3.0
+    """
     low, high = SMOOTHING_RANGE_S
     value = as_real(smoothing_s)
     if value is None and not isinstance(smoothing_s, float | np.floating):
@@ -75,10 +93,25 @@ MIN_INPLANE_ACC = 2.0
 
 
 def plane_basis(j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """In-plane reference directions ``x``, ``y = j x x`` of the joint plane orthogonal to
-    the unit axis ``j`` (sensor frame): ``x`` is the sensor axis least aligned with ``j``,
-    made orthogonal to it. Fixed by ``j`` alone, so the acc angle's constant is fixed by
-    the calibration (the zero convention then replaces it)."""
+    """In-plane reference directions of the joint plane orthogonal to the unit axis ``j``
+    (3,) in a sensor's frame. Fixed by ``j`` alone, so the acc angle's constant is fixed
+    by the calibration (the zero convention then replaces it).
+
+    Returns
+    -------
+    x : (3,) float64
+        The sensor axis least aligned with ``j``, made orthogonal to ``j`` and unit
+        length; same frame as ``j``.
+    y : (3,) float64
+        ``j x x`` (unit length when ``j`` is).
+
+    Examples
+    --------
+    >>> from imucal.fusion import plane_basis
+    >>> x, y = plane_basis([0.0, 0.0, 1.0])
+    >>> x.tolist(), y.tolist()
+    ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    """
     j = np.asarray(j, dtype=float)
     e = np.zeros(3)
     e[int(np.argmin(np.abs(j)))] = 1.0
@@ -88,8 +121,30 @@ def plane_basis(j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def joint_centre_acc(g: np.ndarray, a: np.ndarray, o: np.ndarray, rate: float) -> np.ndarray:
-    """``c = a - (g x (g x o) + gdot x o)`` (N, 3), m/s^2, sensor frame: the joint centre's
-    specific force, with ``o`` the vector from the joint centre to the sensor (m)."""
+    """The joint centre's specific force seen from one sensor, ``c = a - Gamma_g(o)`` with
+    ``Gamma_g(o) = g x (g x o) + gdot x o``.
+
+    Parameters
+    ----------
+    g, a
+        (N, 3) angular rate (rad/s) and specific force (m/s^2) in the sensor's frame.
+    o
+        (3,) vector from the joint centre to the sensor's origin, sensor frame, m.
+    rate
+        Sample rate, Hz (``gdot`` is an 8th-order central difference of ``g``,
+        :func:`imucal.preprocess.derivative`; no filtering here).
+
+    Returns
+    -------
+    c : (N, 3) float64
+        m/s^2, in the sensor's frame.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. II-B (eq. 3,
+    the definition of Gamma_g).
+    """
     gdot = derivative(g, rate)
     return a - (np.cross(g, np.cross(g, o)) + np.cross(gdot, o))
 
@@ -114,7 +169,36 @@ class HingeSignals:
 
 
 def hinge_signals(g1, a1, g2, a2, *, rate: float, j1, j2, o1, o2) -> HingeSignals:
-    """The gyro and acc angles of a hinge (module docstring); inputs in rad/s, m/s^2, m."""
+    """The gyro and acc angles of a hinge (module docstring).
+
+    Parameters
+    ----------
+    g1, a1, g2, a2
+        (N, 3) angular rates (rad/s) and specific forces (m/s^2) of the first (thigh)
+        and second (shank) sensor, each in its own frame, on one time grid.
+    rate
+        Sample rate, Hz. Before the acc angle, gyr and acc are low-passed at
+        min(:data:`ACC_ANGLE_CUTOFF_HZ`, 0.4 ``rate``) (4th-order zero-phase).
+    j1, j2
+        The hinge axis in each sensor's frame, pointing the same physical way
+        (normalised here).
+    o1, o2
+        (3,) vectors from the joint centre to each sensor's origin, own frame, m.
+
+    Returns
+    -------
+    HingeSignals
+        (N,) arrays: ``rate`` (j2.g2 - j1.g1, rad/s), ``theta_gyro`` (its trapezoidal
+        integral from 0, rad), ``theta_acc`` (rad, wrapped), ``inplane`` (m/s^2),
+        ``weight`` ((m/s^2)^2, 0 below :data:`MIN_INPLANE_ACC`) and ``discrepancy``
+        (rad/s); see :class:`HingeSignals`.
+
+    References
+    ----------
+    Seel, Raisch, Schauer (2014), "IMU-based joint angle measurement for gait analysis",
+    Sensors 14:6891 (the gyroscope angle and the accelerometer angle); Seel, Schauer,
+    Raisch (2012), IEEE CCA, eq. 1 (``discrepancy``) and eq. 3 (``Gamma_g``).
+    """
     j1, j2 = (np.asarray(v, float) / np.linalg.norm(v) for v in (j1, j2))
     w = j2 @ np.asarray(g2, float).T - j1 @ np.asarray(g1, float).T
     dt = 1.0 / rate
@@ -164,11 +248,36 @@ def _smooth(x: np.ndarray, sigma: float) -> np.ndarray:
 def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fusion:
     """Gyro angle plus a zero-phase local-linear estimate of the acc-minus-gyro offset.
 
+    Parameters
+    ----------
+    sig
+        The hinge's signals (:func:`hinge_signals`).
+    rate
+        Sample rate, Hz.
+    smoothing_s
+        1-sigma half-width of the Gaussian kernel, s (:data:`SMOOTHING_S`; not checked
+        here, :func:`check_smoothing`).
+
+    Returns
+    -------
+    Fusion
+        ``theta`` (N,) fused angle, rad (``theta_gyro + offset``, the sign of j2.g2 -
+        j1.g1, its zero the acc angle's arbitrary constant); ``offset`` (N,) rad;
+        ``residual`` (N,) rad, NaN where the acc angle is unused; ``sigma`` (N,) 1-sigma
+        of ``theta``, rad; ``disagreement`` weighted RMS of ``residual``, rad;
+        ``correlation_samples`` the residual's correlation length, samples (>= 1).
+
     Raises
     ------
     NotIdentifiableError
         the joint centre's acceleration never lies in the joint plane: no accelerometer
         angle corrects the gyro drift.
+
+    References
+    ----------
+    Seel, Raisch, Schauer (2014), "IMU-based joint angle measurement for gait analysis",
+    Sensors 14:6891 (fusing the drift-free acc angle with the gyro angle; the paper's
+    complementary filter is replaced here by an offline kernel regression).
     """
     n = sig.theta_gyro.shape[0]
     w = sig.weight

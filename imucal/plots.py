@@ -95,6 +95,16 @@ def axis_figure(result: AxisResult, sensors: str = "", document: dict | None = N
     (:func:`imucal.report.axis_report`), whose verdict and warnings (which count the
     loader's) and input (file, window on the recording's time axis) the figure then
     states, so that both say the same.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        12 in wide, not attached to pyplot; write it with :func:`save_figure`.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, eq. 1 and Fig. 4.
     """
     lines = _header_lines(result, document, "j", result.uncertainty_deg, result.spread_deg,
                           "deg", _axis_motion(result))
@@ -132,6 +142,16 @@ def position_figure(result: PositionResult, sensors: str = "",
     both sensors, as the estimate is, and the cost panel marks the estimate's residual
     there. ``sensors`` and ``document`` as for :func:`axis_figure`
     (:func:`imucal.report.position_report`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        12 in wide, not attached to pyplot; write it with :func:`save_figure`.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, eq. 3 and Fig. 5.
     """
     lines = _header_lines(result, document, "o", result.uncertainty_mm, result.spread_mm,
                           "mm", _position_motion(result))
@@ -162,10 +182,15 @@ def position_figure(result: PositionResult, sensors: str = "",
 
 def save_figure(fig: Figure, path, suffix: str | None = None) -> None:
     """Write ``fig`` to ``path`` in the format of ``suffix`` (default: ``path``'s), one of
-    :data:`FORMATS`; ValueError for others.
+    :data:`FORMATS`, PNG at :data:`DPI` dots per inch.
 
     The same figure gives the same bytes: no creation date in PDF and SVG, and SVG's
     element ids are hashed from a fixed salt instead of a random one.
+
+    Raises
+    ------
+    ValueError
+        The suffix is not one of :data:`FORMATS` (nothing is written).
     """
     import matplotlib
 
@@ -249,15 +274,40 @@ def _header_lines(result, document: dict | None, v: str, sigma: dict, spread: di
 
 def chars_per_line(width_in: float, points: float) -> int:
     """Characters of text ``points`` high that fit a line across ``width_in`` inches (an
-    average character is about 0.6 of the font size wide, with a margin)."""
+    average character is about 0.6 of the font size wide, with a margin).
+
+    Returns
+    -------
+    int
+        ``int(0.9 * width_in * 72 / (0.6 * points))``.
+
+    Examples
+    --------
+    >>> from imucal.plots import chars_per_line
+    >>> chars_per_line(12, 12)
+    108
+    """
     return int(0.9 * width_in * 72 / (0.6 * points))
 
 
 def wrapped_whole(texts: list[str], wrap: int, max_lines: int) -> tuple[list[list[str]], int]:
     """Each of ``texts`` wrapped to ``wrap`` characters (continuation lines indented),
     whole ones only (never cut in the middle of a sentence), as many as ``max_lines``
-    hold with one line left to say how many more there are: the lines of each text
-    shown, and how many were left out."""
+    hold with one line left to say how many more there are.
+
+    Returns
+    -------
+    shown : list of list of str
+        The wrapped lines of each text shown, the first ones of ``texts`` in order.
+    left : int
+        How many texts were left out (0: all shown).
+
+    Examples
+    --------
+    >>> from imucal.plots import wrapped_whole
+    >>> wrapped_whole(["short one", "a somewhat longer warning that wraps", "third"], 20, 4)
+    ([['short one']], 2)
+    """
     shown: list[list[str]] = []
     used = 0
     for k, text in enumerate(texts):

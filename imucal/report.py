@@ -37,7 +37,17 @@ POSITION_CONVENTION = (
 
 def axis_report(result: AxisResult, *, input_info: dict, trace: bool = False) -> dict:
     """JSON document for an axis estimate; ``input_info`` describes the recording;
-    ``trace`` adds every restart's cost per iteration (``--trace``)."""
+    ``trace`` adds every restart's cost per iteration (``--trace``).
+
+    Returns
+    -------
+    dict
+        The ``imucal axis`` document (docs/json.md), plain JSON values (:func:`clean`):
+        ``j1``, ``j2`` (unit vectors in the first / second sensor's frame), ``time_offset``
+        (s), ``gyr_bias`` (rad/s), ``quality`` (uncertainty and spread in deg, residual in
+        rad/s), ``convergence``, ``restarts``, with ``input``, ``settings``,
+        ``convention`` and ``units``.
+    """
     quality = _quality_block(
         result, input_info, "deg", result.uncertainty_deg, result.spread_deg,
         {
@@ -75,7 +85,18 @@ def axis_report(result: AxisResult, *, input_info: dict, trace: bool = False) ->
 
 
 def position_report(result: PositionResult, *, input_info: dict, trace: bool = False) -> dict:
-    """JSON document for a joint-position estimate; ``trace`` as in :func:`axis_report`."""
+    """JSON document for a joint-position estimate; ``trace`` as in :func:`axis_report`.
+
+    Returns
+    -------
+    dict
+        The ``imucal position`` document (docs/json.md), plain JSON values
+        (:func:`clean`): ``joint``, ``o1``, ``o2`` (m, from the joint centre to each
+        sensor, in its frame), ``time_offset`` (s), ``gyr_bias`` (rad/s), for a hinge
+        ``axis_line``, ``quality`` (uncertainty and spread in mm, residual in m/s^2),
+        ``convergence``, ``restarts``, with ``input``, ``settings``, ``convention`` and
+        ``units``.
+    """
     doc = {
         "imucal_version": __version__,
         "command": "position",
@@ -172,6 +193,25 @@ def dumps(doc: dict) -> str:
 
     Lists of numbers (vectors, costs, time ranges' ends) stay on one line: one number per
     line made a document of a hundred restarts 5,000 lines long.
+
+    Returns
+    -------
+    str
+        The JSON text, ending in a newline.
+
+    Raises
+    ------
+    ValueError
+        ``doc`` holds NaN or Inf (JSON has neither; :func:`clean` turns them into None).
+
+    Examples
+    --------
+    >>> from imucal.report import dumps
+    >>> print(dumps({"j1": [1.0, 0.0, 0.0], "verdict": "good"}), end="")
+    {
+      "j1": [1.0, 0.0, 0.0],
+      "verdict": "good"
+    }
     """
     return _formatted(doc, 0) + "\n"
 
@@ -195,7 +235,22 @@ def _formatted(value, level: int) -> str:
 
 
 def clean(value):
-    """Recursively turn numpy values into plain Python; NaN and Inf become None."""
+    """Recursively turn numpy values into plain Python; NaN and Inf become None.
+
+    Returns
+    -------
+    object
+        ``value`` with dicts (keys as str), lists, tuples and arrays as lists, numpy
+        booleans, integers and floats as ``bool``, ``int``, ``float``; anything else
+        unchanged.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.report import clean
+    >>> clean({"a": np.float64("nan"), "b": np.arange(2), "c": (np.bool_(True), 1.5)})
+    {'a': None, 'b': [0, 1], 'c': [True, 1.5]}
+    """
     if isinstance(value, dict):
         return {str(k): clean(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):

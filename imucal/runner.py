@@ -247,7 +247,8 @@ def parse_sensors(text: str) -> tuple[str, str]:
 
     Returns
     -------
-    The two names, stripped of spaces.
+    first, second : str
+        The two sensor names, stripped of spaces (not yet resolved against a recording).
 
     Raises
     ------
@@ -256,6 +257,7 @@ def parse_sensors(text: str) -> tuple[str, str]:
 
     Examples
     --------
+    >>> from imucal.runner import parse_sensors
     >>> parse_sensors("shank, foot")
     ('shank', 'foot')
     """
@@ -290,11 +292,17 @@ def run(job: Job, file: str) -> Outcome:
 
     Examples
     --------
+    >>> from imucal.runner import Job, run
     >>> from imucal.settings import AxisSettings
-    >>> outcome = run(Job("axis", ("thigh", "shank"), AxisSettings(seed=1)),
-    ...               "sample_data/circling.h5")                      # doctest: +SKIP
-    >>> outcome.exit_code, outcome.document["quality"]["verdict"]     # doctest: +SKIP
+    >>> job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=10, seed=1))
+    >>> outcome = run(job, "sample_data/circling.h5")
+    >>> outcome.exit_code, outcome.document["quality"]["verdict"]
     (0, 'good')
+    >>> [round(x, 2) for x in outcome.document["j1"]]  # thigh sensor's frame
+    [-0.42, -0.35, 0.84]
+    >>> missing = run(job, "no_such_file.h5")
+    >>> missing.exit_code, missing.document
+    (2, None)
     """
     outcome = Outcome(file=file, sensors=job.sensors)
     try:
@@ -316,11 +324,15 @@ def error_of(err: BaseException, file: str) -> tuple[int, str]:
 
     Returns
     -------
-    (exit_code, message): the error's own code for imucal's errors, 2 for an operating
-    system error, 3 for anything else (a bug, or memory exhausted).
+    exit_code : int
+        The error's own code for imucal's errors, 2 for an operating system error, 3 for
+        anything else (a bug, or memory exhausted).
+    message : str
+        One line, "FILE: problem".
 
     Examples
     --------
+    >>> from imucal.runner import error_of
     >>> error_of(FileNotFoundError(2, "No such file or directory", "x.h5"), "x.h5")
     (2, 'x.h5: No such file or directory')
     """

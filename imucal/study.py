@@ -93,6 +93,7 @@ def resolve_jobs(jobs: int, n_files: int) -> int:
 
     Examples
     --------
+    >>> from imucal.study import resolve_jobs
     >>> resolve_jobs(4, 2)
     2
     """
@@ -146,10 +147,20 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
 
     Examples
     --------
+    >>> import json, tempfile
+    >>> from pathlib import Path
+    >>> from imucal.runner import Job
     >>> from imucal.settings import AxisSettings
+    >>> from imucal.study import run_study
     >>> job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=10, seed=1))
-    >>> run_study(job, ["a.h5", "b.h5"], jobs=2)                 # doctest: +SKIP
-    0
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     out = Path(folder) / "study.jsonl"
+    ...     status = run_study(job, ["sample_data/circling.h5"], out=out, jobs=1,
+    ...                        quiet=True)
+    ...     lines = [json.loads(line) for line in out.read_text().splitlines()]
+    >>> status, [(e["file"], e["exit_code"], e["result"]["quality"]["verdict"])
+    ...          for e in lines]
+    (0, [('sample_data/circling.h5', 0, 'good')])
     """
     files = [str(f) for f in files]
     job = _checked_study(job, files, out, plot)
@@ -288,15 +299,25 @@ def process_recordings(
     while waiting. ``start_method`` forces a multiprocessing start method (default:
     "fork" on Linux when numpy is not yet loaded here, else "forkserver" or "spawn").
 
-    Returns
-    -------
-    An iterator of :class:`Entry`, one per file, in the order of ``files``.
+    Sets the thread variables (:data:`THREAD_VARIABLES`) not already set to 1 in this
+    process's environment, for the workers.
+
+    Yields
+    ------
+    Entry
+        One per file, in the order of ``files``, each as soon as it and all before it are
+        done; a failed recording gets its exit code and error (a worker process that died
+        on it: exit code 3), and the others go on.
 
     Examples
     --------
-    >>> entries = list(process_recordings(job, ["a.h5", "b.h5"], jobs=2))  # doctest: +SKIP
-    >>> [e.exit_code for e in entries]                                    # doctest: +SKIP
-    [0, 2]
+    >>> from imucal.runner import Job
+    >>> from imucal.settings import AxisSettings
+    >>> from imucal.study import process_recordings
+    >>> job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=10, seed=1))
+    >>> entries = list(process_recordings(job, ["sample_data/circling.h5", "missing.h5"]))
+    >>> [(e.index, e.exit_code, e.error) for e in entries]
+    [(0, 0, None), (1, 2, 'missing.h5: no such file')]
     """
     tasks = [(i, job, f) for i, f in enumerate(files)]
     _limit_threads()
@@ -472,7 +493,14 @@ class InOrder:
             self._on_done(self.done, self.failed)
 
     def release(self) -> Iterator[Entry]:
-        """The entries that are next in input order, as far as they are done."""
+        """The entries that are next in input order, as far as they are done.
+
+        Yields
+        ------
+        Entry
+            Each in input order, from the next index on, until the first one not yet
+            added (:meth:`add`); each is handed on once.
+        """
         while self.next_index in self.ready:
             yield self.ready.pop(self.next_index)
             self.next_index += 1
@@ -575,6 +603,12 @@ def work(task: tuple[int, Job, str]) -> Entry:
 
     Runs in a worker process (local or on a Dask worker) or in this one with one job;
     never raises for a failure of the recording.
+
+    Returns
+    -------
+    Entry
+        The recording's JSON line (:func:`entry`) with its exit code, error and the
+        loading warnings as stderr lines.
     """
     index, job, file = task
     outcome = run(job, file)
@@ -589,8 +623,21 @@ def entry(index: int, file: str, code: int, error: str | None, doc: dict | None,
     ``messages`` are stderr lines; the line's ``warnings`` are them without the
     ``imucal: warning: `` prefix.
 
+    Returns
+    -------
+    Entry
+        ``index``, ``file``, ``code`` as ``exit_code``, ``error``, the compact JSON line
+        (no newline; ``doc`` as its ``result``) and ``messages`` as a tuple.
+
+    Raises
+    ------
+    ValueError
+        ``doc`` holds NaN or Inf (documents are built with :func:`imucal.report.clean`,
+        which removes them).
+
     Examples
     --------
+    >>> from imucal.study import entry
     >>> entry(0, "a.h5", 2, "a.h5: no such file", None, []).line
     '{"file":"a.h5","exit_code":2,"error":"a.h5: no such file","warnings":[],"result":null}'
     """
