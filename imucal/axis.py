@@ -803,7 +803,27 @@ def _sign_warnings(decision, applied: float, pinned: bool) -> list[str]:
 
 
 def joint_plane_projection(g: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """(N, 2) coordinates of the rates ``g`` projected into the plane normal to ``j`` (eq. 6)."""
+    """The rates ``g`` (N, 3) projected into the plane normal to the unit axis ``j`` (3,),
+    both in one sensor's frame (eq. 6).
+
+    Returns
+    -------
+    (N, 2) float64
+        Coordinates of each projection in the orthonormal basis (u, j x u) of the plane,
+        u = :func:`imucal.sign.perpendicular` of ``j``; units of ``g`` (rad/s).
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. III-C, eq. 6.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.axis import joint_plane_projection
+    >>> joint_plane_projection(np.array([[1.0, 2.0, 3.0]]), np.array([0.0, 0.0, 1.0]))
+    array([[1., 2.]])
+    """
     u = perpendicular(j)
     return np.stack([g @ u, g @ np.cross(j, u)], axis=1)
 

@@ -110,6 +110,32 @@ def gauss_newton(
         with rho the ratio of the last two steps (0.5 after the first; at most 0.99).
         Restarts in flat valleys (rho near 1) then go on until they are as close as the
         rest, and quickly contracting ones stop a step or two earlier.
+
+    Returns
+    -------
+    BatchResult
+        Per restart the final state ``x`` (R, s), accepted steps ``iterations`` (R,),
+        ``converged`` and ``degenerate`` (R,), the cost after each step ``cost``
+        (R, K + 1, NaN after the restart stopped) and the states ``path`` (K + 1, R, s),
+        K the largest number of steps taken. A restart whose cost or normal equations
+        stop being finite is dropped (``degenerate``), never raised on.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.gauss_newton import gauss_newton
+    >>> target = np.array([1.0, -2.0])  # cost |x - target|^2 / 2, linear residual
+    >>> def cost(x, rows):
+    ...     return 0.5 * np.sum((x - target) ** 2, axis=1)
+    >>> def normal(x, rows):
+    ...     return cost(x, rows), np.repeat(np.eye(2)[None], len(x), 0), x - target
+    >>> r = gauss_newton(normal, cost, lambda x, step: x + step, np.zeros((3, 2)),
+    ...                  max_iterations=10, step_tolerance=1e-9, cost_tolerance=1e-12,
+    ...                  max_step=10.0)
+    >>> r.x.round(6), r.converged, r.cost.shape
+    (array([[ 1., -2.],
+           [ 1., -2.],
+           [ 1., -2.]]), array([ True,  True,  True]), (3, 3))
     """
     x = np.array(x0, dtype=np.float64, copy=True)
     n_restarts = x.shape[0]
@@ -279,7 +305,13 @@ def _descend(cost, retract, x_old, step, c_old, rows, x_full, c_full, good_full)
 
 def every_row(rows: np.ndarray, n: int) -> bool:
     """Whether ``rows`` is each of ``n`` restarts once, in order (a problem may then use
-    its per-restart tables as they are). Not the size alone: trial steps repeat rows."""
+    its per-restart tables as they are). Not the size alone: trial steps repeat rows.
+
+    Returns
+    -------
+    bool
+        True exactly when ``rows`` equals ``arange(n)``.
+    """
     return rows.size == n and bool(np.array_equal(rows, np.arange(n)))
 
 
@@ -296,6 +328,14 @@ def chain(first: BatchResult, second: BatchResult, rows: np.ndarray | None = Non
     path are its ``first`` iterations followed by its ``second`` ones; restarts not in
     ``rows`` keep their ``first`` history. Both stages must measure the same cost for the
     traces to join smoothly (a stage on other samples shows as a step).
+
+    Returns
+    -------
+    BatchResult
+        R = ``first``'s restarts: ``x``, ``converged`` from ``second`` for ``rows`` (else
+        ``first``), ``iterations`` the sum of both, ``degenerate`` in either, ``cost``
+        (R, K + 1) and ``path`` (K + 1, R, s) joined per restart (``second``'s column 0,
+        its start, not repeated), K the largest combined iteration count.
     """
     n_restarts = first.x.shape[0]
     rows = np.arange(n_restarts) if rows is None else np.asarray(rows)

@@ -107,7 +107,15 @@ class GyrBias(_Biases):
         return self.cost_ratio >= MIN_COST_RATIO and self.size > MAX_PLAUSIBLE_RAD_S
 
     def report(self) -> dict:
-        """The JSON block (rad/s)."""
+        """The JSON block (rad/s).
+
+        Returns
+        -------
+        dict
+            "applied" (:attr:`significant`), "b1_rad_s", "b2_rad_s" ((3,) lists, rad/s,
+            sensor frames), "cost_ratio", "inflation" ([j1, j2]) and the rule's
+            constants "prior_rad_s", "min_cost_ratio", "max_plausible_rad_s".
+        """
         return self._block(self.significant, inflation=list(self.inflation))
 
 
@@ -115,10 +123,24 @@ def estimate_gyr_bias(gyr1: np.ndarray, gyr2: np.ndarray, j1: np.ndarray,
                       j2: np.ndarray) -> GyrBias:
     """Fit (j1, j2, b1, b2) to eq. (1) from the axis estimate ``j1``, ``j2``.
 
-    ``gyr1``, ``gyr2`` (N, 3) are the rates the axis was fitted on, rad/s. Returns the
-    biases across the fitted axes and the gain in residual (:class:`GyrBias`). A first
-    fit on every k-th sample (at most ``SCREEN_SAMPLES``) decides; only biases that may
-    be worth removing are fitted again on all samples.
+    ``gyr1``, ``gyr2`` (N, 3) are the rates the axis was fitted on, rad/s; ``j1``, ``j2``
+    (3,) the unit axis in each sensor's frame. A first fit on every k-th sample (at most
+    ``SCREEN_SAMPLES``) decides; only biases that may be worth removing are fitted again
+    on all samples.
+
+    Returns
+    -------
+    GyrBias
+        The biases across the fitted axes (rad/s, sensor frames), the axes fitted with
+        them, the gain in mean squared residual ``cost_ratio`` and the uncertainty
+        ``inflation``; zero biases, the given axes and ratio 1 when the residual is zero
+        or not finite or the fit has fewer than 20 samples.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, eq. 1 (the constraint;
+    the bias terms and their prior are imucal's).
     """
     step = max(1, int(np.ceil(np.shape(gyr1)[0] / SCREEN_SAMPLES)))
     if step > 1:
@@ -257,7 +279,15 @@ class CentreBias(_Biases):
     cost_ratio: float
 
     def report(self, applied: bool) -> dict:
-        """The JSON block (rad/s); ``applied``: the rates were corrected by these biases."""
+        """The JSON block (rad/s); ``applied``: the rates were corrected by these biases.
+
+        Returns
+        -------
+        dict
+            "applied", "b1_rad_s", "b2_rad_s" ((3,) lists, rad/s, sensor frames),
+            "cost_ratio" and the rule's constants "prior_rad_s", "min_cost_ratio",
+            "max_plausible_rad_s".
+        """
         return self._block(applied)
 
 
@@ -266,14 +296,30 @@ def joint_centre_with_bias(data: tuple, x: np.ndarray) -> CentreBias | None:
     bias of each gyroscope (Gaussian prior ``PRIOR_RAD_S`` per component, the residual's
     own scale per sample, as for the axis); None if it cannot be fitted.
 
-    ``data`` is the position estimate's (g1, gdot1, a1, g2, gdot2, a2) (N, 3) each. A
-    bias enters eq. (3) through ``g x (g x o)`` (its derivative is 0), and the position
-    estimate has no term for it: simulated circling with 0.02-0.2 rad/s biases came out
+    ``data`` is the position estimate's (g1, gdot1, a1, g2, gdot2, a2) (N, 3) each
+    (rad/s, rad/s^2, m/s^2), ``x`` (6,) its estimate (o1, o2), m. A bias enters eq. (3)
+    through ``g x (g x o)`` (its derivative is 0), and the position estimate has no
+    term for it: simulated circling with 0.02-0.2 rad/s biases came out
     up to 3.7 sigma off, some `good` (4.2 and 5.4 sigma on one seed). Where the biases
     are worth removing (:attr:`CentreBias.significant`) the position is estimated again
     from corrected rates; otherwise how far the centre moves when biases the data cannot
     rule out are allowed (3-10 mm there, against 0.2-3 mm without bias) is a 1-sigma part
-    of its own. Fitted on every k-th sample (at most ``SCREEN_SAMPLES``)."""
+    of its own. Fitted on every k-th sample (at most ``SCREEN_SAMPLES``).
+
+    Returns
+    -------
+    CentreBias or None
+        The refitted centre ``o`` (6,), m, the biases ``b1``, ``b2`` (3,), rad/s, each in
+        its sensor's frame, and ``cost_ratio`` (the centre refitted alone over refitted
+        with the biases, same samples). None when the residual at ``x`` is zero or not
+        finite, fewer than 20 samples remain, or a fit does not stay finite.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, eq. 3 (the constraint;
+    the bias terms and their prior are imucal's).
+    """
 
     step = max(1, int(np.ceil(np.shape(data[0])[0] / SCREEN_SAMPLES)))
     g1, gd1, a1, g2, gd2, a2 = (np.asarray(d, dtype=float)[::step] for d in data)

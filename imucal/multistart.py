@@ -65,6 +65,12 @@ def one_blas_thread(estimator: Callable) -> Callable:
     not stay finite and say so in their own words (degenerate restarts, "no restart
     produced a finite result"); rates of 1e30 rad/s printed a dozen numpy lines with
     imucal's source lines before that one line.
+
+    Returns
+    -------
+    callable
+        ``estimator`` wrapped (its name, docstring and signature kept by functools.wraps),
+        returning what ``estimator`` returns.
     """
     @functools.wraps(estimator)
     def limited(*args, **kwargs):
@@ -87,6 +93,12 @@ def safe_newton(jtj: np.ndarray, hess: np.ndarray) -> np.ndarray:
     trace of J^T J, i.e. ``hess - bound I`` is positive definite: tested for the whole
     batch by one Cholesky factorisation, and where that fails row by row
     (:func:`_positive_definite`).
+
+    Returns
+    -------
+    (r, k, k) ndarray
+        Row by row ``hess`` where safe, else ``jtj`` (``hess`` itself when every row is
+        safe).
     """
     k = hess.shape[-1]
     bound = MIN_HESSIAN_EIGENVALUE * np.trace(jtj, axis1=1, axis2=2)
@@ -137,7 +149,15 @@ class BatchedProblem:
 
     def with_mask(self, mask: np.ndarray | None):
         """The same data with other subset weights, sharing the per-sample tables (the
-        refine stage reuses the subset stage's)."""
+        refine stage reuses the subset stage's).
+
+        Returns
+        -------
+        BatchedProblem
+            A shallow copy, of the same class, with ``mask`` (R, n) cast to ``dtype`` (or
+            None: every sample), ``count`` the samples per restart ((R,) float64, or float
+            ``n``) and no work buffer yet.
+        """
         other = object.__new__(type(self))  # a shallow copy
         other.__dict__.update(self.__dict__)
         other.mask = None if mask is None else mask.astype(self.dtype, copy=False)
@@ -191,7 +211,15 @@ class Stages:
 
     def solve(self, problem, x0: np.ndarray, max_iterations: int,
               step_tolerance: float) -> BatchResult:
-        """Batched Gauss-Newton / Newton on ``problem`` from every row of ``x0``."""
+        """Batched Gauss-Newton / Newton on ``problem`` from every row of ``x0`` (R, s), at
+        most ``MAX_CELLS_PER_CALL`` restarts x samples per call of its normal equations or
+        cost.
+
+        Returns
+        -------
+        BatchResult
+            :func:`imucal.gauss_newton.gauss_newton`'s result for the R restarts.
+        """
         block = max(1, MAX_CELLS_PER_CALL // max(1, problem.n))
         return gauss_newton(in_blocks(problem.normal, block), in_blocks(problem.cost, block),
                             self.retract, x0,
@@ -201,18 +229,30 @@ class Stages:
 
     def refit(self, data: tuple, mask: np.ndarray | None, x0: np.ndarray,
               max_iterations: int) -> np.ndarray:
-        """States (R, s) refitted from ``x0`` (R, s) on ``data`` with subset ``mask``, in
-        the restarts' precision and tolerance (the quality refits: they start next to
-        their minimum and are reported far more coarsely than the estimate)."""
+        """Refit from ``x0`` (R, s) on ``data`` with subset ``mask``, in the restarts'
+        precision and tolerance (the quality refits: they start next to their minimum and
+        are reported far more coarsely than the estimate).
+
+        Returns
+        -------
+        x : (R, s) float64
+            The refitted states.
+        """
         problem = self.problem(data, mask, RESTART_DTYPE, True)
         return self.solve(problem, x0, max_iterations, self.restart_step_tolerance).x
 
     def refit_each(self, datasets: list[tuple], x: np.ndarray,
                    max_iterations: int) -> np.ndarray:
-        """(D, s): the state ``x`` (s,) refitted on each of the D ``datasets`` (tuples
-        like ``data``, the same number of samples each), as one batch of D restarts, each
-        on its own block of the stacked samples: one pass of the solver's fixed costs
-        instead of D (the cut-off sensitivity refits)."""
+        """The state ``x`` (s,) refitted on each of the D ``datasets`` (tuples like ``data``,
+        the same number of samples each), as one batch of D restarts, each on its own block
+        of the stacked samples: one pass of the solver's fixed costs instead of D (the
+        cut-off sensitivity refits).
+
+        Returns
+        -------
+        x : (D, s) float64
+            Row d: ``x`` refitted on ``datasets[d]``.
+        """
         m = datasets[0][0].shape[0]
         own = np.zeros((len(datasets), len(datasets) * m))
         for k in range(len(datasets)):
@@ -224,7 +264,14 @@ class Stages:
 
 def in_blocks(fn: Callable, block: int) -> Callable:
     """``fn(x, rows)`` (a problem's ``normal`` or ``cost``) called on at most ``block``
-    restarts at a time, its results joined: the same values, bounded memory."""
+    restarts at a time, its results joined: the same values, bounded memory.
+
+    Returns
+    -------
+    callable
+        ``(x, rows) -> result`` for all rows: ``fn``'s blocks concatenated along the
+        restarts' axis (a tuple's entries each).
+    """
     def call(x, rows):
         if x.shape[0] <= block:
             return fn(x, rows)
@@ -267,6 +314,24 @@ def multistart(stages: Stages, data: tuple, mask: np.ndarray | None, x0: np.ndar
     ``data`` is the tuple of per-sample arrays ``stages.problem`` takes, ``mask`` the
     (R, N) subset weights (None: every restart sees all samples), ``rng`` draws the
     coarse stage's shared samples.
+
+    Returns
+    -------
+    Multistart
+        ``batch`` (coarse and subset stages chained), ``refined`` (every restart on all
+        samples, the best one then polished in double precision), ``finals`` (R, s) after
+        ``stages.project``, ``best`` and ``reached`` (R,).
+
+    Raises
+    ------
+    InputError
+        (from :func:`imucal.restarts.best_restart`) no restart produced a finite result.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. IV (restarts from
+    random initial values on different subsets of the data).
     """
     n = data[0].shape[0]
     batch = None

@@ -667,9 +667,29 @@ def _cutoff_sensitivity(p: Prepared, x: np.ndarray, line) -> dict:
 def closest_point_on_axis(x: np.ndarray, line: np.ndarray) -> np.ndarray:
     """Move each (o1, o2) row of ``x`` along the hinge axis to the point closest to both sensors.
 
-    ``line`` is (j1, j2), unit and pointing the same physical way. Moving the joint
-    point by lambda along the axis changes o_i to o_i + lambda j_i; the sum of squared
-    distances to both sensor origins is smallest at lambda = -(o1.j1 + o2.j2) / 2.
+    ``x`` (..., 6) holds o1, o2 (joint point to each sensor's origin, m, sensor frames);
+    ``line`` (6,) is (j1, j2), unit and pointing the same physical way. Moving the joint
+    point along the axis changes o_i to o_i + lambda j_i (the point moves by -lambda); the
+    sum of squared distances to both sensor origins, |o1|^2 + |o2|^2, is smallest at
+    lambda = -(o1.j1 + o2.j2) / 2.
+
+    Returns
+    -------
+    (..., 6) ndarray
+        ``x`` + lambda ``line`` per row, m.
+
+    References
+    ----------
+    Seel, Raisch, Schauer (2014), "IMU-based joint angle measurement for gait analysis",
+    Sensors 14:6891 (the point of the axis closest to both sensors).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.position import closest_point_on_axis
+    >>> x = np.array([0.0, 0.0, 0.1, 0.0, 0.0, -0.3])  # o1, o2 on the z axis, m
+    >>> closest_point_on_axis(x, np.array([0.0, 0.0, 1.0, 0.0, 0.0, 1.0]))
+    array([ 0. ,  0. ,  0.2,  0. ,  0. , -0.2])
     """
     j1, j2 = line[:3], line[3:]
     lam = -(x[..., :3] @ j1 + x[..., 3:] @ j2) / 2

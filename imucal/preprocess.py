@@ -52,12 +52,32 @@ STILL_RATE_DEG_S = 5.0
 
 
 def rms_rate_deg_s(gyr: np.ndarray) -> float:
-    """RMS of the angular-rate norm of ``gyr`` (N, 3) rad/s, in deg/s."""
+    """RMS of the angular-rate norm of ``gyr`` (N, 3) rad/s, in deg/s.
+
+    Returns
+    -------
+    float
+        sqrt(mean |g|^2) over the N samples, deg/s (NaN for N = 0).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.preprocess import rms_rate_deg_s
+    >>> rms_rate_deg_s(np.tile([0.0, 0.0, np.pi], (10, 1)))  # pi rad/s about z
+    180.0
+    """
     return float(np.degrees(np.sqrt(np.mean(np.sum(gyr * gyr, axis=1)))))
 
 
 def stillness_warning(gyr1: np.ndarray, gyr2: np.ndarray) -> list[str]:
-    """A warning when either sensor barely rotates (nothing to estimate from), else []."""
+    """A warning when either sensor barely rotates (nothing to estimate from), else [].
+
+    Returns
+    -------
+    list of str
+        One warning giving both RMS rates (deg/s) when either is below
+        ``STILL_RATE_DEG_S``, else [].
+    """
     rates = (rms_rate_deg_s(gyr1), rms_rate_deg_s(gyr2))
     if min(rates) >= STILL_RATE_DEG_S:
         return []
@@ -68,12 +88,30 @@ def stillness_warning(gyr1: np.ndarray, gyr2: np.ndarray) -> list[str]:
 
 
 def default_cutoff(rate: float) -> float:
-    """Default low-pass cut-off in Hz for a sample rate ``rate`` in Hz."""
+    """Default low-pass cut-off in Hz for a sample rate ``rate`` in Hz.
+
+    Returns
+    -------
+    float
+        ``DEFAULT_CUTOFF_HZ`` (10 Hz), at most ``MAX_CUTOFF_FRACTION`` (0.4) x ``rate``, Hz.
+
+    Examples
+    --------
+    >>> from imucal.preprocess import default_cutoff
+    >>> default_cutoff(100.0), default_cutoff(20.0)
+    (10.0, 8.0)
+    """
     return min(DEFAULT_CUTOFF_HZ, MAX_CUTOFF_FRACTION * rate)
 
 
 def default_joint_cutoff(rate: float) -> float:
-    """Highest cut-off of the joint-centre fit's filter, Hz (:data:`JOINT_CUTOFF_HZ`)."""
+    """Highest cut-off of the joint-centre fit's filter, Hz (:data:`JOINT_CUTOFF_HZ`).
+
+    Returns
+    -------
+    float
+        ``JOINT_CUTOFF_HZ`` (12 Hz), at most ``MAX_CUTOFF_FRACTION`` (0.4) x ``rate``, Hz.
+    """
     return min(JOINT_CUTOFF_HZ, MAX_CUTOFF_FRACTION * rate)
 
 
@@ -90,10 +128,16 @@ MIN_JOINT_CUTOFF_HZ = 4.0
 def spectral_cutoff(gyr: tuple, rate: float) -> float:
     """Cut-off for the joint-centre filter from the recording's spectrum, Hz.
 
-    ``gyr``: the sensors' (N, 3) rates, rad/s (N may differ). Welch power
-    spectra of all components are summed; the frequency below which :data:`MOTION_POWER`
-    of the power lies, times :data:`CUTOFF_PER_MOTION_FREQUENCY`, clipped to
-    [:data:`MIN_JOINT_CUTOFF_HZ`, :func:`default_joint_cutoff`].
+    ``gyr``: the sensors' (N, 3) rates, rad/s (N may differ); ``rate`` in Hz. Welch power
+    spectra of all components (mean removed) are summed.
+
+    Returns
+    -------
+    float
+        The frequency below which :data:`MOTION_POWER` of the power lies, times
+        :data:`CUTOFF_PER_MOTION_FREQUENCY`, clipped to [:data:`MIN_JOINT_CUTOFF_HZ`,
+        :func:`default_joint_cutoff`], Hz; :func:`default_joint_cutoff` itself when the
+        shortest signal has fewer than 64 samples or no power.
     """
     top = default_joint_cutoff(rate)
     n = min(g.shape[0] for g in gyr)
@@ -115,7 +159,26 @@ def spectral_cutoff(gyr: tuple, rate: float) -> float:
 
 
 def default_subsample(rate: float, cutoff: float | None) -> int:
-    """Default step k (use every k-th sample) for ``rate`` Hz after a ``cutoff`` Hz low-pass."""
+    """Default step k (use every k-th sample) for ``rate`` Hz after a ``cutoff`` Hz low-pass.
+
+    Returns
+    -------
+    int
+        floor(``rate`` / (``SAMPLES_PER_CUTOFF_PERIOD`` x ``cutoff``)), at least 1; 1 when
+        ``cutoff`` is None or <= 0 (no filter).
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. III-B (every third
+    to tenth sample suffices).
+
+    Examples
+    --------
+    >>> from imucal.preprocess import default_subsample
+    >>> default_subsample(100.0, 10.0), default_subsample(100.0, None)
+    (4, 1)
+    """
     if cutoff is None or cutoff <= 0:
         return 1
     return max(1, int(rate // (SAMPLES_PER_CUTOFF_PERIOD * cutoff)))
@@ -123,6 +186,11 @@ def default_subsample(rate: float, cutoff: float | None) -> int:
 
 def resolve_subsample(rate: float, cutoff: float | None, subsample: int | None) -> int:
     """``subsample`` checked, or :func:`default_subsample` when it is None.
+
+    Returns
+    -------
+    int
+        The step k >= 1 (use every k-th sample).
 
     Raises
     ------
@@ -143,7 +211,21 @@ def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
     refused with their sample: passed straight to an estimator (a recording treats them
     as missing), one corrupt 1e20 reading overflowed the single-precision restarts into
     "no restart produced a finite result", and one of 1e3 rad/s made a good axis "not
-    identifiable"."""
+    identifiable".
+
+    Returns
+    -------
+    a, b : (N, 3) float64
+        The two arrays, converted (new arrays).
+
+    Raises
+    ------
+    InputError
+        An array is ragged, not real numbers (complex, text, booleans, objects), not
+        (N, 3), holds NaN or Inf or a reading beyond any body-worn sensor's range
+        (:data:`imucal.sensor_checks.SENSOR_RANGE`; the first one and its sample named),
+        or the two differ in length.
+    """
     arrays = []
     for name, arr in (("first", a), ("second", b)):
         try:
@@ -188,16 +270,29 @@ MIN_CUTOFF_FRACTION = 1e-6
 
 def lowpass(x: np.ndarray, rate: float, cutoff: float | None,
             order: int = FILTER_ORDER) -> np.ndarray:
-    """Zero-phase Butterworth low-pass of ``x`` (N, ...) along time; ``cutoff`` None or 0: none.
-    ``order`` is that of one pass (filtfilt doubles it).
+    """Zero-phase Butterworth low-pass of ``x`` (N, ...) along time (axis 0), sampled at
+    ``rate`` Hz; ``cutoff`` in Hz, None or 0: none. ``order`` is that of one pass
+    (filtfilt doubles it).
 
     Short signals are padded less, so any N >= 2 works.
+
+    Returns
+    -------
+    ndarray, float64, the shape of ``x``
+        The filtered signal (scipy's ``sosfiltfilt``), in the units of ``x``; ``x`` as
+        float64 when there is no filter.
 
     Raises
     ------
     InputError
         ``cutoff`` is negative or NaN, not below half of ``rate``, or too low to filter at
         ``rate``.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. III-B (a
+    non-causal low-pass before the derivative).
     """
     if cutoff is None or cutoff == 0:
         return np.asarray(x, dtype=np.float64)
@@ -233,8 +328,22 @@ def _butterworth(order: int, cutoff: float, rate: float) -> np.ndarray:
 
 
 def derivative(x: np.ndarray, rate: float) -> np.ndarray:
-    """Time derivative of ``x`` (N, ...) by an 8th-order central difference
-    (:data:`DERIVATIVE_STENCIL`; np.gradient's differences within 4 samples of the ends)."""
+    """Time derivative of ``x`` (N, ...) sampled at ``rate`` Hz, by an 8th-order central
+    difference (:data:`DERIVATIVE_STENCIL`; np.gradient's differences within 4 samples of
+    the ends).
+
+    Returns
+    -------
+    ndarray, float64, the shape of ``x``
+        d``x``/dt in the units of ``x`` per second (rad/s -> rad/s^2).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.preprocess import derivative
+    >>> derivative(0.5 * np.arange(20.0), rate=100.0)[:3]  # 0.5 per sample at 100 Hz
+    array([50., 50., 50.])
+    """
     out = np.gradient(x, 1.0 / rate, axis=0)
     n = x.shape[0]
     if n > 8:
@@ -254,6 +363,13 @@ def unit_doubts(gyr: tuple, acc: tuple = ()) -> list[str]:
     specific force is about 1 g = 9.81 m/s^2, not 1 (g read as m/s^2), nor below 0.5 or
     above 50 m/s^2 (:data:`imucal.sensor_checks.ACC_PLAUSIBLE`: a unit 100-1000 x off). The
     rates' scale does not change a hinge axis, but both scales enter the joint position.
+
+    Returns
+    -------
+    list of str
+        One plain-language doubt per sensor and signal that looks mis-scaled, naming the
+        sensor ("the first sensor", "the second sensor") and the number; [] when all look
+        right.
     """
     doubts = []
     which = ("the first sensor", "the second sensor")  # as --sensors names them
@@ -345,11 +461,27 @@ def prepare(first: tuple, second: tuple, rate: float, settings, *,
     has no filter transients), subsampled and the informative samples selected
     (:mod:`imucal.selection`, on the gyroscopes: the first array of each sensor's tuple).
 
-    ``first``, ``second``: each sensor's full-length (N, 3) signals; ``settings``: an
-    :class:`imucal.settings.AxisSettings` with a number for ``time_offset``; ``cutoff``:
-    the cut-off to use, Hz, or a rule giving it from both gyroscopes' windows (after the
-    offset). Raises InputError when fewer than ``min_samples`` samples are
-    left (``what`` names the estimate in the message).
+    ``first``, ``second``: each sensor's full-length (N, 3) signals; ``rate``: Hz;
+    ``settings``: an :class:`imucal.settings.AxisSettings` or
+    :class:`imucal.settings.PositionSettings` with a number for ``time_offset`` (s);
+    ``cutoff``: the cut-off to use, Hz, or a rule giving it from both gyroscopes' windows
+    (after the offset); ``min_samples``: the fewest samples the estimate needs; ``what``
+    names the estimate in messages.
+
+    Returns
+    -------
+    Prepared
+        The fit's samples ``data`` (the first sensor's arrays, then the second's, (M, 3)
+        each), the full-length signals ``first``, ``second`` (the second's read at t +
+        the offset), ``cutoff`` (Hz), ``step``, the ``window`` slice and the
+        ``selection``.
+
+    Raises
+    ------
+    InputError
+        Fewer than ``min_samples`` samples given, or left after window, offset edges,
+        subsampling and selection; also (from the helpers) a window outside the recording
+        or an invalid ``subsample``.
     """
     if settings.time_offset:  # the second sensor read at t + offset, over the whole recording
         second = tuple(None if x is None else shifted(x, rate, settings.time_offset)

@@ -18,6 +18,11 @@ from .errors import InputError
 def resolve_seed(seed: int | None) -> int:
     """``seed`` itself, or a fresh one (recorded in results so the run can be repeated).
 
+    Returns
+    -------
+    seed : int
+        ``seed`` as an int, or a random one in [0, 2^32) when ``seed`` is None.
+
     Raises
     ------
     InputError
@@ -38,14 +43,26 @@ MASK_DRAW_VALUES = 1 << 22
 def subset_mask(
     n: int, restarts: int, fraction: float, rng: np.random.Generator
 ) -> np.ndarray | None:
-    """(restarts, n) 0/1 weights: row r marks restart r's random subset, each sample in
-    with probability ``fraction`` (independently: an exact count would need a sort per
-    row and buys nothing). None when every restart sees all samples (``fraction`` 1).
+    """Each restart's random subset of the ``n`` samples, drawn with ``rng``: each sample
+    in with probability ``fraction`` (independently: an exact count would need a sort per
+    row and buys nothing).
+
+    Returns
+    -------
+    mask : (restarts, n) float32 or None
+        0/1 weights, row r marking restart r's subset; a row that came out empty gets one
+        random sample. None when every restart sees all samples (``fraction`` 1).
 
     Raises
     ------
     InputError
         ``fraction`` is not in (0, 1].
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA, Sec. IV (restarts on
+    different subsets of the data).
     """
     if not 0 < fraction <= 1:
         raise InputError(f"subset fraction must be in (0, 1], got {fraction}")
@@ -77,6 +94,14 @@ def best_restart(
     the costs are comparable: the lowest one is the least-squares answer, however few
     restarts found it. Non-finite restarts never win and never agree.
 
+    Returns
+    -------
+    best : int
+        Row of the finite restart with the lowest cost.
+    reached : (R,) bool
+        Finite restarts whose ``distance`` to ``finals[best]`` is <= ``tolerance`` (best
+        included).
+
     Raises
     ------
     InputError
@@ -95,7 +120,14 @@ def agreeing(
     distance: Callable[[np.ndarray, np.ndarray], np.ndarray],
     tolerance: float,
 ) -> np.ndarray:
-    """(R,) which finite restarts ended within ``tolerance`` of restart ``best``."""
+    """Which finite restarts ended within ``tolerance`` of restart ``best``.
+
+    Returns
+    -------
+    reached : (R,) bool
+        True where the row of ``finals`` (R, s) is finite and ``distance`` to
+        ``finals[best]`` (units of ``tolerance``) is <= ``tolerance``.
+    """
     finite = np.isfinite(finals).all(axis=1)
     return finite & (distance(finals, finals[best]) <= tolerance)
 
@@ -108,8 +140,15 @@ COMPETING_RMS_FACTOR = 1.25
 
 
 def competing_agreement(costs: np.ndarray, reached: np.ndarray) -> float:
-    """Fraction of the competing restarts (RMS residual within ``COMPETING_RMS_FACTOR`` of
-    the best; ``costs`` are mean squares on all samples) that reached the estimate."""
+    """How many of the competing restarts reached the estimate.
+
+    Returns
+    -------
+    fraction : float
+        In [0, 1]: of the restarts whose RMS residual (sqrt of ``costs`` (R,), mean
+        squares on all samples) is within ``COMPETING_RMS_FACTOR`` of the lowest, the
+        share marked in ``reached`` (R,).
+    """
     rms = _rms(costs)
     competing = rms <= COMPETING_RMS_FACTOR * rms.min()
     return float(np.sum(reached & competing) / max(np.sum(competing), 1))
@@ -123,6 +162,12 @@ def settled(subset_costs: np.ndarray, reached: np.ndarray) -> np.ndarray:
     refined on all samples. Its subset result says nothing about how much the answer
     depends on the data, so the spread leaves it out: kept are the restarts whose subset
     RMS residual is within ``COMPETING_RMS_FACTOR`` of the median of those that reached.
+
+    Returns
+    -------
+    settled : (R,) bool
+        ``reached`` and sqrt(``subset_costs``) <= ``COMPETING_RMS_FACTOR`` x the median of
+        the reached ones' (``reached`` itself when none reached).
     """
     rms = _rms(subset_costs)
     if not reached.any():
@@ -148,10 +193,19 @@ def equal_minima(
     reached: np.ndarray,
     distance: Callable[[np.ndarray, np.ndarray], np.ndarray],
 ) -> tuple[int, float, float]:
-    """Restarts that ended away from the estimate at an equally low cost.
+    """Restarts that ended away from the estimate at an equally low cost: not in
+    ``reached``, finite, RMS residual (sqrt of ``costs``) within ``EQUAL_RMS_FACTOR`` of
+    restart ``best``'s.
 
-    Returns their count, the largest distance of one of them from the estimate (units of
-    ``distance``; 0 when none) and the largest RMS ratio to the best among them.
+    Returns
+    -------
+    count : int
+        How many such restarts there are.
+    distance : float
+        The largest distance of one of them from ``finals[best]``, units of
+        ``distance`` (deg or m); 0 when none.
+    rms_ratio : float
+        The largest RMS residual ratio to the best among them; 1 when none.
     """
     rms = _rms(costs)
     equal = ~reached & np.isfinite(finals).all(axis=1) & (rms <= EQUAL_RMS_FACTOR * rms[best])
@@ -171,7 +225,14 @@ MIN_AGREEING_FRACTION = 0.8
 def disagreement_warning(agreement: float, why: str = "") -> list[str]:
     """The "restarts disagree" warning when fewer than ``MIN_AGREEING_FRACTION`` of the
     competing restarts (:func:`competing_agreement`) reached the estimate; ``why`` adds
-    the estimator's likely reason."""
+    the estimator's likely reason.
+
+    Returns
+    -------
+    warnings : list of str
+        The one warning (``why`` appended), or [] when ``agreement`` reaches
+        ``MIN_AGREEING_FRACTION``.
+    """
     if agreement >= MIN_AGREEING_FRACTION:
         return []
     return [f"restarts disagree: of the restarts that fit almost as well as the best, only "
@@ -183,7 +244,14 @@ def equal_minima_blocking(minima: tuple[int, float, float], sigma: float, floor:
                           unit: str, answers: str, answer: str) -> list[str]:
     """The blocking reason for an equally good answer (:func:`equal_minima`) farther from
     the estimate than both the reported 1-sigma ``sigma`` and ``floor`` (``unit``): the
-    sigma cannot cover it. ``answers`` / ``answer`` name them ("different axes", "axis")."""
+    sigma cannot cover it. ``answers`` / ``answer`` name them ("different axes", "axis").
+
+    Returns
+    -------
+    blocking : list of str
+        The one blocking reason, or [] when there is no equal minimum or it lies within
+        max(``sigma``, ``floor``).
+    """
     count, far, ratio = minima
     if not count or far <= max(sigma, floor):
         return []

@@ -114,7 +114,16 @@ def shared_fields(p: Prepared, fit: Multistart, q: dict, *, unit: str, settings:
     ``p`` the prepared data, ``fit`` the multistart, ``q`` the estimator's quality
     block (keys "rms", "relative", "singular_ratio", "singular_values", "components",
     "excitation", "sensitivity", "fraction", "agreement", "minima"), ``unit`` of the
-    equal minima's distance ("deg" or "mm") and ``time_offset`` the offset applied, s."""
+    equal minima's distance ("deg" or "mm") and ``time_offset`` the offset applied, s.
+
+    Returns
+    -------
+    fields : dict
+        Keyword arguments for the result class: every :class:`EstimateResult` field, with
+        ``equal_minima`` as {"count", "max_distance_<unit>", "max_rms_ratio"} and
+        ``time_offset`` as {"mode": "given", "time_offset_s"} (with the automatic
+        offset, later replaced by :func:`imucal.time_offset.offset_report`'s block).
+    """
     count, apart, ratio = q["minima"]
     return {
         "rms_residual": q["rms"],
