@@ -987,3 +987,13 @@ def test_dot_devices_far_apart_in_one_clock_cycle_stay_where_they_are():
     assert apart.origin == pytest.approx(2400.0) and apart.time.size == 13000
     wrapped = align([device("A", 4200, 600), device("B", 4300, 500)], "x")  # B after it
     assert wrapped.origin == pytest.approx(4300.0) and wrapped.time.size == 5000
+
+
+@pytest.mark.parametrize("line, sep", [("sep=;\n", ";"), ('"sep=;"\n', ";"), ("'sep=;'\n", ";"),
+                                       ("sep=\t\n", "\t"), ('"sep=\t"', "\t"),
+                                       ("SEP=,", ","), ("PacketCounter;Acc_X", None)])
+def test_an_excel_separator_line_in_any_quoting(line, sep):
+    # single quotes read '=' as the separator: every column then merged into one
+    from imucal.formats import sep_line
+
+    assert sep_line(line) == sep

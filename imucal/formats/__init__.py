@@ -268,10 +268,10 @@ def sep_line(line: str) -> str | None:
     >>> sep_line("sep=;\\n"), sep_line("PacketCounter,Acc_X")
     (';', None)
     """
+    # (a tab as the separator is stripped with the line's whitespace: "sep=" alone)
     text = line.strip().strip('"').strip("'")
-    if text.lower().startswith("sep=") and len(line.strip().strip('"')) >= 4:
-        raw = line.strip().strip('"')[4:5]
-        return raw or "\t"
+    if text.lower().startswith("sep="):
+        return text[4:5] or "\t"
     return None
 
 
