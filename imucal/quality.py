@@ -58,24 +58,62 @@ class Verdict:
 
 def sensitivity_cutoffs(cutoff: float, default: float, top: float,
                         factors: tuple[float, float] = (0.5, 2.0)) -> tuple[float, float]:
-    """The two cut-offs, Hz, of the cut-off sensitivity refits of every estimator:
-    ``cutoff`` times ``factors`` (down, up), or without a filter (``cutoff`` 0) the
-    ``default`` and ``default`` times the upper factor; never above ``top``."""
+    """The two cut-offs of the cut-off sensitivity refits of every estimator.
+
+    Returns
+    -------
+    down, up : float
+        Hz: ``cutoff`` times ``factors`` (down, up), or without a filter (``cutoff`` 0)
+        ``default`` and ``default`` times the upper factor; ``up`` never above ``top``.
+
+    Examples
+    --------
+    >>> from imucal.quality import sensitivity_cutoffs
+    >>> sensitivity_cutoffs(6.0, 10.0, 40.0), sensitivity_cutoffs(0.0, 10.0, 15.0)
+    ((3.0, 12.0), (10.0, 15.0))
+    """
     down, up = factors
     base = cutoff if cutoff else default
     return (down * base, min(up * base, top)) if cutoff else (base, min(up * base, top))
 
 
 def newey_west_lags(m: int) -> int:
-    """Newey-West rule-of-thumb number of lags for ``m`` samples: floor(4 (m / 100)^(2/9))."""
+    """Newey-West rule-of-thumb number of lags for ``m`` samples.
+
+    Returns
+    -------
+    lags : int
+        floor(4 (m / 100)^(2/9)), ``m`` taken as at least 1.
+
+    Examples
+    --------
+    >>> from imucal.quality import newey_west_lags
+    >>> newey_west_lags(100), newey_west_lags(1500)
+    (4, 7)
+    """
     return int(np.floor(4 * (max(m, 1) / 100) ** (2 / 9)))
 
 
 def robust_covariance(e: np.ndarray, jac: np.ndarray, lags: int | None = None) -> np.ndarray:
-    """(k, k) covariance of a least-squares estimate from residuals ``e`` (M,) and Jacobian
-    ``jac`` (M, k) at the solution, in the squared units of the Jacobian's step coordinates.
+    """Heteroscedasticity- and autocorrelation-consistent covariance of a least-squares
+    estimate from residuals ``e`` (M,) and Jacobian ``jac`` (M, k) at the solution:
+    (J^T J)^-1 S (J^T J)^-1, S with Bartlett weights over ``lags`` lags (None:
+    :func:`newey_west_lags`) and the small-sample factor M / (M - k).
 
-    ``lags`` None: :func:`newey_west_lags`. Infinite where J^T J is singular.
+    Returns
+    -------
+    cov : ndarray
+        (k, k) float64, in the squared units of the Jacobian's step coordinates (rad^2
+        for the axis's tangent steps, m^2 for a joint centre). All infinite where J^T J is
+        singular (condition number above 1e14) or ``e`` or ``jac`` is not finite.
+
+    References
+    ----------
+    Newey, West (1987), "A simple, positive semi-definite, heteroskedasticity and
+    autocorrelation consistent covariance matrix", Econometrica 55:703-708 (S);
+    Olsson, Kok, Seel, Halvorsen (2020), "Robust plug-and-play joint axis estimation
+    using inertial sensors", Sensors 20:3534 (the white-noise form sigma^2 (J^T J)^-1
+    this reduces to).
     """
     m, k = jac.shape
     if not (np.isfinite(e).all() and np.isfinite(jac).all()):
@@ -99,8 +137,15 @@ def robust_covariance(e: np.ndarray, jac: np.ndarray, lags: int | None = None) -
 
 
 def singular_values(jac: np.ndarray) -> np.ndarray:
-    """Singular values of the Jacobian (M, k) over sqrt(M), largest first: the RMS
-    sensitivity of the residual to a unit step along each principal direction."""
+    """Singular values of the Jacobian ``jac`` (M, k) over sqrt(M).
+
+    Returns
+    -------
+    sv : ndarray
+        (min(M, k),) float64, largest first: the RMS sensitivity of the residual to a
+        unit step along each principal direction (residual units per step unit). All 0
+        when ``jac`` is not finite or the SVD fails.
+    """
     m = max(jac.shape[0], 1)
     if not np.isfinite(jac).all():
         return np.zeros(min(jac.shape))
@@ -118,8 +163,27 @@ JACKKNIFE_BLOCKS = 10
 
 
 def block_masks(n: int, blocks: int = JACKKNIFE_BLOCKS) -> np.ndarray:
-    """(K, n) 0/1 weights: row k leaves out the k-th of K contiguous, equally long runs of
-    the ``n`` time-ordered samples (K = min(blocks, n // 2))."""
+    """Sample weights of the delete-one-block jackknife over ``n`` time-ordered samples.
+
+    Returns
+    -------
+    masks : ndarray
+        (K, n) float64 of 0 and 1, K = max(2, min(``blocks``, n // 2)): row k leaves out
+        the k-th of K contiguous, (nearly) equally long runs of samples.
+
+    References
+    ----------
+    Kuensch (1989), "The jackknife and the bootstrap for general stationary
+    observations", Annals of Statistics 17:1217-1241 (delete-one-block jackknife).
+
+    Examples
+    --------
+    >>> from imucal.quality import block_masks
+    >>> block_masks(6, blocks=3)
+    array([[0., 0., 1., 1., 1., 1.],
+           [1., 1., 0., 0., 1., 1.],
+           [1., 1., 1., 1., 0., 0.]])
+    """
     k = max(2, min(blocks, n // 2))
     which = np.minimum((np.arange(n) * k) // max(n, 1), k - 1)
     return (which[None, :] != np.arange(k)[:, None]).astype(np.float64)
@@ -127,9 +191,28 @@ def block_masks(n: int, blocks: int = JACKKNIFE_BLOCKS) -> np.ndarray:
 
 def jackknife_sigma(deviation: np.ndarray) -> float:
     """1-sigma from the delete-one-block estimates' distances ``deviation`` (K,) to the
-    estimate: sqrt((K - 1) / K * sum d^2). Distances to the full estimate rather than to
-    the estimates' mean: slightly larger, never smaller. NaN distances (a refit that
-    failed) make the answer infinite."""
+    estimate (deg, mm or s: the answer has the same unit).
+
+    Distances to the full estimate rather than to the estimates' mean: slightly larger,
+    never smaller.
+
+    Returns
+    -------
+    sigma : float
+        sqrt((K - 1) / K * sum d^2); infinite for K < 2 or a non-finite distance (a
+        refit that failed).
+
+    References
+    ----------
+    Kuensch (1989), "The jackknife and the bootstrap for general stationary
+    observations", Annals of Statistics 17:1217-1241 (delete-one-block jackknife).
+
+    Examples
+    --------
+    >>> from imucal.quality import jackknife_sigma
+    >>> round(jackknife_sigma([0.3, -0.4, 0.0, 0.0]), 3)
+    0.433
+    """
     deviation = np.asarray(deviation, dtype=np.float64)
     k = deviation.size
     if k < 2 or not np.isfinite(deviation).all():
@@ -170,6 +253,13 @@ def smooth_residual_rms(e: np.ndarray, rate: float) -> float:
     (simulated protocol, 2 deg / 3 mm: 0, with the axis 5.6 deg off at 11 sigma and
     "good"). At low rates no octave may be quiet (``FLOOR_FALSE_RATE``): at 40 Hz the
     ringing's aliases made the term 0 again, "good" at up to 16 sigma.
+
+    Returns
+    -------
+    smooth : float
+        RMS of the smooth part, in the unit of ``e`` (rad/s for eq. (1)'s residual);
+        0.0 for fewer than 20 samples, a non-finite residual, or where the white noise's
+        share is at least the low band's power.
     """
     e = np.asarray(e, dtype=np.float64)
     nyquist = rate / 2
@@ -223,7 +313,20 @@ def total_sigma(curvature: float, blocks: float, cutoff_shift: float,
     shift, the two halves of the shared real recording's hip disagreed by 4.8 combined
     sigma; with all of it, every split of the real recording agrees within 3. ``model``
     is a bias bound from systematic residuals (see the estimators), added in quadrature:
-    neither the curvature nor time blocks see an error that every block shares."""
+    neither the curvature nor time blocks see an error that every block shares.
+
+    Returns
+    -------
+    sigma : float
+        sqrt(max(curvature, blocks)^2 + cutoff_shift^2 + model^2), in the inputs' unit
+        (deg for an axis, mm for a joint centre).
+
+    Examples
+    --------
+    >>> from imucal.quality import total_sigma
+    >>> round(total_sigma(0.3, 0.4, 1.2), 3)  # deg: max(0.3, 0.4) and 1.2 in quadrature
+    1.265
+    """
     sampling = max(curvature, blocks)
     return float(np.sqrt(sampling**2 + cutoff_shift**2 + model**2))
 
@@ -233,8 +336,18 @@ UNCERTAIN_PREFIX = "the estimate is uncertain"
 
 
 def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
-    """The warning for a large reported 1-sigma, naming the component that dominates it
-    (``components`` as in the results' ``uncertainty_components``)."""
+    """The warning for a large reported 1-sigma, naming the component that dominates it.
+
+    ``total`` is {name: 1-sigma} (the results' ``uncertainty_deg`` / ``uncertainty_mm``),
+    ``components`` {kind: {name: value}} as in the results' ``uncertainty_components``,
+    ``unit`` "deg" (axis) or "mm" (joint centre).
+
+    Returns
+    -------
+    warning : str
+        Begins with ``UNCERTAIN_PREFIX``; gives the largest 1-sigma and its vector, the
+        dominating component's cause and every component's value in ``unit``.
+    """
     name = max(total, key=total.get)
     parts = {kind: values[name] for kind, values in components.items()}
     main = max(parts, key=parts.get)
@@ -267,17 +380,33 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
 
 
 def cutoff_shifts(sensitivity: dict, names: tuple[str, str], unit: str) -> dict:
-    """{name: the larger of the two cut-off refits' shifts} (``unit`` "deg" or "mm")."""
+    """The larger of the two cut-off refits' shifts of each vector in ``names``.
+
+    Returns
+    -------
+    shifts : dict
+        {name: float}: the larger of ``sensitivity["<name>_shift_<unit>"]`` (``unit``
+        "deg" or "mm").
+    """
     return {k: max(sensitivity[f"{k}_shift_{unit}"]) for k in names}
 
 
 def uncertainty_totals(components: dict) -> dict:
-    """{name: :func:`total_sigma`} of each vector from its uncertainty ``components``
-    ("curvature", "time_blocks", "cutoff_shift" and, where there is one, "model"), with
-    "gyr_bias" (the axis's widening by a removed gyroscope bias; a joint centre's move
-    when gyroscope biases are fitted with it) and "time_offset" (the
+    """The reported 1-sigma of each vector from its uncertainty ``components``.
+
+    :func:`total_sigma` of "curvature", "time_blocks", "cutoff_shift" and, where there is
+    one, "model", with "gyr_bias" (the axis's widening by a removed gyroscope bias; a
+    joint centre's move when gyroscope biases are fitted with it), "acc_error" (a joint
+    centre's response to accelerometer offset and scale errors) and "time_offset" (the
     part due to the automatic clock offset's uncertainty,
-    :func:`imucal.time_offset.fit_with_offset`) added in quadrature where present."""
+    :func:`imucal.time_offset.fit_with_offset`) added in quadrature where present.
+
+    Returns
+    -------
+    totals : dict
+        {name: float} for every name of ``components["curvature"]`` (deg for j1, j2; mm
+        for o1, o2).
+    """
     model = components.get("model", {})
     extra = [components.get(kind, {}) for kind in ("gyr_bias", "acc_error", "time_offset")]
     return {k: float(np.linalg.norm([total_sigma(components["curvature"][k],
@@ -289,5 +418,12 @@ def uncertainty_totals(components: dict) -> dict:
 
 
 def rms(values: np.ndarray) -> float:
-    """RMS of ``values``; NaN when there are none (e.g. no restart settled)."""
+    """RMS of ``values`` (ndarray).
+
+    Returns
+    -------
+    rms : float
+        sqrt(mean(values^2)) in the unit of ``values``; NaN when there are none (e.g. no
+        restart settled).
+    """
     return float(np.sqrt(np.mean(values**2))) if values.size else float("nan")

@@ -39,9 +39,17 @@ LOCAL_GRAVITY_SPREAD_M_S2 = 0.03
 
 
 def norm_at_rest(gyr, acc, rate: float) -> float | None:
-    """Median over the sensor's own still periods (:func:`still_periods` of ``gyr`` alone)
-    of the magnitude of its mean specific force, m/s^2; None without a still period. An
-    exact accelerometer reads 1 g there; an offset or scale error shows along gravity."""
+    """What one sensor's accelerometer reads at rest: ``gyr`` (N, 3) rad/s, ``acc`` (N, 3)
+    m/s^2, ``rate`` Hz. An exact accelerometer reads 1 g there; an offset or scale error
+    shows along gravity.
+
+    Returns
+    -------
+    norm : float or None
+        m/s^2: the median over the sensor's own still periods (:func:`still_periods` of
+        ``gyr`` alone) of the magnitude of its mean specific force in each; None without
+        a still period.
+    """
     periods = still_periods([gyr], rate)
     if not periods:
         return None
@@ -50,9 +58,23 @@ def norm_at_rest(gyr, acc, rate: float) -> float | None:
 
 
 def still_periods(gyrs, rate: float, min_s: float = STILL_MIN_S) -> list[tuple[int, int]]:
-    """Runs ``[i0, i1)`` of at least ``min_s`` s where every sensor in ``gyrs`` (each (N, 3),
-    rad/s) turns slower than :data:`STILL_RATE` (after a 2 Hz low-pass, so noise does not
-    break them)."""
+    """Still periods: where every sensor in ``gyrs`` (each (N, 3), rad/s, sampled at
+    ``rate`` Hz) turns slower than :data:`STILL_RATE` (after a low-pass at 2 Hz, or 0.4 x
+    ``rate`` below 5 Hz, so noise does not break them) for at least ``min_s`` s.
+
+    Returns
+    -------
+    periods : list of (int, int)
+        Sample index runs ``[i0, i1)`` in time order; empty when there is none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.rest import still_periods
+    >>> gyr = np.zeros((500, 3)); gyr[200:300, 0] = 2.0  # rad/s, 100 Hz: still, turn, still
+    >>> still_periods([gyr], 100.0)  # the low-pass widens the turn a little
+    [(0, 186), (314, 500)]
+    """
     moving = np.zeros(np.asarray(gyrs[0]).shape[0], dtype=bool)
     for g in gyrs:
         speed = np.linalg.norm(lowpass(np.asarray(g, float), rate, min(2.0, 0.4 * rate)),
@@ -84,12 +106,14 @@ def gravity_check(gyr1, acc1, gyr2, acc2, j1, j2, rate: float, *,
 
     Returns
     -------
-    dict
-        ``periods``: one entry per still period (``start_s``, ``end_s``, ``angle1_deg``,
-        ``angle2_deg``: the axis's angle to the upward vertical in each sensor, and
-        ``mismatch_deg``); ``max_mismatch_deg`` (None without still periods) and
-        ``consistent`` (None without still periods, else whether every mismatch is
-        within :data:`MAX_MISMATCH_DEG`).
+    check : dict
+        ``periods``: one entry per still period whose two accelerometer magnitudes are
+        within :data:`GRAVITY_TOLERANCE` of their medians (``start_s``, ``end_s``, s;
+        ``angle1_deg``, ``angle2_deg``: the axis's angle to the upward vertical in each
+        sensor, deg; and ``mismatch_deg``, their difference); ``max_mismatch_deg`` (None
+        without still periods), ``consistent`` (None without still periods, else whether
+        every mismatch is within :data:`MAX_MISMATCH_DEG`) and ``max_allowed_deg``
+        (:data:`MAX_MISMATCH_DEG`).
     """
     g1, a1, g2, a2 = (np.asarray(x, float) for x in (gyr1, acc1, gyr2, acc2))
     if window is not None:
@@ -123,9 +147,17 @@ def gravity_check(gyr1, acc1, gyr2, acc2, j1, j2, rate: float, *,
 
 
 def gravity_warning(check: dict, what: str = "the axis") -> str | None:
-    """The reason for a failed :func:`gravity_check`, with its evidence (it refuses the
-    axis, :func:`imucal.estimate_axis`; a warning where another reason refuses it first);
-    None if it passed or could not be made."""
+    """The reason for a failed :func:`gravity_check` ``check``, with its evidence (it
+    refuses the axis, :func:`imucal.estimate_axis`; a warning where another reason refuses
+    it first). ``what`` names the axis in the text.
+
+    Returns
+    -------
+    reason : str or None
+        The worst still period's times (s) and the axis's angles to the vertical in both
+        sensors (deg); None if the check passed or could not be made (``consistent`` not
+        False).
+    """
     if check["consistent"] is not False:
         return None
     worst = max(check["periods"], key=lambda r: r["mismatch_deg"])

@@ -86,6 +86,13 @@ class AxisSettings:
     time_origin : float
         Time of the first sample given, s on the recording's clock: the still periods
         of the gravity check (and their warning) are reported on that clock.
+
+    Raises
+    ------
+    InputError
+        A setting of the wrong type or out of its range, a window whose end is not after
+        its start, or an ``offset_search`` other than the default with a given
+        ``time_offset``.
     """
 
     restarts: int = 100
@@ -135,13 +142,33 @@ class AxisSettings:
         check_search_used(self)
 
     def as_kwargs(self) -> dict:
-        """The settings as keyword arguments of the estimator."""
+        """The settings as keyword arguments of the estimator.
+
+        Returns
+        -------
+        kwargs : dict
+            {field name: value}, every field (those of a subclass included), as checked.
+
+        Examples
+        --------
+        >>> from imucal.settings import AxisSettings
+        >>> kwargs = AxisSettings(restarts=20, seed=1).as_kwargs()
+        >>> kwargs["restarts"], kwargs["seed"], kwargs["time_offset"]
+        (20, 1, 'auto')
+        """
         return asdict(self)
 
     def at_offset(self, seconds: float) -> AxisSettings:
-        """These settings with the offset the automatic search chose, s: the refit's (no
-        search runs in it; the range searched is recorded by the search,
-        ``time_offset.search_s``)."""
+        """These settings with the offset the automatic search chose, ``seconds``: the
+        refit's (no search runs in it; the range searched is recorded by the search,
+        ``time_offset.search_s``).
+
+        Returns
+        -------
+        settings : AxisSettings
+            Of the same class (a :class:`PositionSettings` stays one), with
+            ``time_offset`` ``seconds`` (s) and ``offset_search`` the default.
+        """
         return replace(self, time_offset=seconds, offset_search=OFFSET_SEARCH_S)
 
 
@@ -160,6 +187,12 @@ class PositionSettings(AxisSettings):
         this size per axis and a scale error of ``acc_error`` / 1 g per axis, neither
         fitted; the joint centre's 1-sigma carries what the motion cannot tell from them
         (0: calibrated accelerometers).
+
+    Raises
+    ------
+    InputError
+        As :class:`AxisSettings`; also an unknown ``joint``, a ``sign`` or ``j2_sign``
+        other than "auto" with a spheroidal joint, or ``acc_error`` outside [0, 5] m/s^2.
     """
 
     joint: str = "spheroidal"
@@ -192,6 +225,12 @@ class CalibrateSettings:
     sign, j2_sign : str
         As in :class:`AxisSettings`, for every hinge's axis: pinning the relative sign
         where the mounting is known reaches the angles through the calibration.
+
+    Raises
+    ------
+    InputError
+        A joint spec that does not parse, a joint given twice, or a setting of the wrong
+        type or out of its range (as in :class:`AxisSettings`).
     """
 
     joints: tuple = ()
@@ -224,14 +263,20 @@ class CalibrateSettings:
 
 
 def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) -> AxisSettings:
-    """The settings an estimator runs with: ``settings`` itself, or ``cls(**kwargs)`` built
-    (and so checked) from the estimator's keyword arguments.
+    """The settings an estimator runs with.
+
+    Returns
+    -------
+    settings : AxisSettings
+        ``settings`` itself, or ``cls(**kwargs)`` built (and so checked) from the
+        estimator's keyword arguments when ``settings`` is None.
 
     Raises
     ------
     InputError
         ``settings`` is not a ``cls``, or it comes with keyword arguments that differ
-        from their defaults (which of the two would win is not obvious).
+        from their defaults (which of the two would win is not obvious); or ``kwargs``
+        are invalid (``cls``'s own check).
     """
     if settings is None:
         return cls(**kwargs)
@@ -269,7 +314,25 @@ def check_search_used(settings, typed: bool = False) -> None:
 
 
 def check_time_offset(value) -> float | str:
-    """``"auto"`` or a finite number of seconds within +-10 s, else InputError."""
+    """A time offset checked: ``"auto"`` (any case, surrounding spaces allowed) or a
+    finite number of seconds within +-``MAX_TIME_OFFSET_S`` (10 s), also as a string.
+
+    Returns
+    -------
+    offset : float or str
+        ``"auto"``, or the offset as a float, s.
+
+    Raises
+    ------
+    InputError
+        Neither "auto" nor a finite real number within +-10 s (a bool is no number).
+
+    Examples
+    --------
+    >>> from imucal.settings import check_time_offset
+    >>> check_time_offset(" Auto "), check_time_offset("0.02"), check_time_offset(-1)
+    ('auto', 0.02, -1.0)
+    """
     if isinstance(value, str):
         if value.strip().lower() == "auto":
             return "auto"
@@ -287,16 +350,43 @@ def check_time_offset(value) -> float | str:
 
 
 def is_bool(value) -> bool:
-    """Python's or numpy's True/False, also as a 0-d array: Python reads True as 1, so
-    no number, flag or time may be one."""
+    """Whether ``value`` is Python's or numpy's True/False, also as a 0-d array: Python
+    reads True as 1, so no number, flag or time may be one.
+
+    Returns
+    -------
+    is_bool : bool
+        True for ``bool``, ``np.bool_`` and anything with a boolean dtype.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.settings import is_bool
+    >>> is_bool(True), is_bool(np.array(False)), is_bool(1)
+    (True, True, False)
+    """
     return isinstance(value, bool | np.bool_) or getattr(value, "dtype", None) == np.bool_
 
 
 def as_real(value) -> float | None:
     """``value`` as a finite float when it is a real number (Python's or numpy's scalar,
     ``np.int64(10)`` from a notebook's arrays, a 0-d array such as ``np.load`` gives, or a
-    ``decimal.Decimal``, which Python does not count as ``numbers.Real``), never a bool;
-    else None."""
+    ``decimal.Decimal``, which Python does not count as ``numbers.Real``), never a bool.
+
+    Returns
+    -------
+    number : float or None
+        The finite float; None for a bool, a string, an array other than a 0-d integer or
+        float one, NaN, infinity or a number too large for a float.
+
+    Examples
+    --------
+    >>> import decimal
+    >>> import numpy as np
+    >>> from imucal.settings import as_real
+    >>> as_real(np.int64(10)), as_real(decimal.Decimal("0.5")), as_real(True), as_real("1")
+    (10.0, 0.5, None, None)
+    """
     if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
         value = value.item()
     if not isinstance(value, numbers.Real | decimal.Decimal) or is_bool(value):

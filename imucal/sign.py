@@ -66,9 +66,17 @@ class SignTest:
     detail: dict
 
     def report(self, applied: float) -> dict:
-        """JSON-ready: evidence, whether this test favours the sign finally ``applied``
-        to j2, and each ``detail`` pair (values for +j2, -j2 of the tested axes) as
-        ``<name>_reported`` / ``<name>_flipped`` for the reported j2."""
+        """This test as reported in a result's ``sign_tests``, for the sign finally
+        ``applied`` to j2 (+1 or -1).
+
+        Returns
+        -------
+        report : dict
+            JSON-ready: ``evidence`` (ratio >= 1), ``favours_reported`` (whether this
+            test's evidence is above 1 for the sign applied) and each ``detail`` entry;
+            a pair (values for +j2, -j2 of the tested axes) becomes
+            ``<name>_reported`` / ``<name>_flipped`` for the reported j2.
+        """
         out = {"evidence": self.evidence,
                "favours_reported": bool(self.evidence > 1.0 and self.sign == applied)}
         for name, value in self.detail.items():
@@ -96,8 +104,22 @@ def decide_relative_sign(gyr1, gyr2, j1, j2, rate, acc1=None, acc2=None, *,
                          cutoff: float, window: slice) -> SignDecision:
     """Run the sign tests on the low-passed (``cutoff`` Hz) signals inside ``window``.
 
-    ``gyr*`` rad/s, ``acc*`` m/s^2 (N, 3), full recording (the filter runs on the whole
-    signal, then the window is cut); ``j1``, ``j2`` unit (3,).
+    ``gyr*`` rad/s, ``acc*`` m/s^2 (N, 3), full recording sampled at ``rate`` Hz (the
+    filter runs on the whole signal, then the window is cut); ``j1``, ``j2`` unit (3,),
+    each in its sensor's frame.
+
+    Returns
+    -------
+    decision : SignDecision
+        :func:`combine` of the ``plane`` and ``range`` tests and, with both ``acc1`` and
+        ``acc2``, the ``acc`` test: the sign to apply to ``j2`` and its evidence.
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA,
+    Sec. II-A (eq. 1 is blind to the axes' signs) and III-C (the alignment check from
+    the joint-plane projections).
     """
     signals = [gyr1, gyr2] + ([acc1, acc2] if acc1 is not None and acc2 is not None else [])
     # one filter call for all channels (each is filtered on its own): the call's fixed
@@ -116,7 +138,15 @@ def decide_relative_sign(gyr1, gyr2, j1, j2, rate, acc1=None, acc2=None, *,
 
 
 def combine(tests: dict) -> SignDecision:
-    """Add the tests' signed log evidences; see the module docstring."""
+    """Add the tests' signed log evidences; see the module docstring.
+
+    Returns
+    -------
+    decision : SignDecision
+        ``sign`` +1.0 where the sum is >= 0, else -1.0; ``evidence`` exp(|sum|), at most
+        ``MAX_EVIDENCE``; ``tests`` as given; ``contradicting``, the names of tests for
+        the other sign with evidence >= ``CONTRADICTION_EVIDENCE``.
+    """
     score = sum(t.sign * np.log(t.evidence) for t in tests.values())
     sign = 1.0 if score >= 0 else -1.0
     contradicting = [name for name, t in tests.items()
@@ -130,7 +160,23 @@ def plane_test(gyr1, gyr2, j1, j2, rate) -> SignTest:
     each projection's angle alpha_i in a basis (u_i, j_i x u_i) of its plane. With aligned
     axes d/dt (alpha1 - alpha2) = j2.g2 - j1.g1 at every sample; with one axis flipped one
     trace is mirrored. Errors are weighted by the projections' lengths (the angle of a
-    short projection is noise)."""
+    short projection is noise).
+
+    ``gyr1``, ``gyr2`` (N, 3) rad/s at ``rate`` Hz; ``j1``, ``j2`` unit (3,).
+
+    Returns
+    -------
+    test : SignTest
+        The sign with the smaller weighted angle error, evidence the ratio of the two
+        errors (1, sign +1, when both are 0: no motion); ``detail["weighted_error_rad"]``
+        (for +j2, -j2).
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA,
+    Sec. III-C, eq. (6) and Fig. 4 (with misaligned axes one trace is mirrored).
+    """
     dt = 1.0 / rate
     a1, len1 = _plane_angle(gyr1, j1)
     # flipping j flips the plane's second basis vector (perpendicular(-j) = perpendicular(j)):
@@ -151,7 +197,18 @@ def plane_test(gyr1, gyr2, j1, j2, rate) -> SignTest:
 
 
 def range_test(gyr1, gyr2, j1, j2, rate) -> SignTest:
-    """The integrated relative angle must stay within a knee's range (module docstring)."""
+    """The integrated relative angle must stay within a knee's range (module docstring).
+
+    ``gyr1``, ``gyr2`` (N, 3) rad/s at ``rate`` Hz; ``j1``, ``j2`` unit (3,).
+
+    Returns
+    -------
+    test : SignTest
+        Evidence 1 (sign +1) unless exactly one hypothesis spans more than
+        ``MAX_KNEE_SPAN_DEG`` within a block; then the sign that stays within it, with
+        the ratio of the spans (wrong over right) as evidence. ``detail``: ``span_deg``
+        (for +j2, -j2, deg) and ``max_knee_span_deg``.
+    """
     spans = [_largest_span_deg(gyr2 @ (s * j2) - gyr1 @ j1, rate) for s in (1.0, -1.0)]
     detail = {"span_deg": tuple(spans), "max_knee_span_deg": MAX_KNEE_SPAN_DEG}
     out = [s > MAX_KNEE_SPAN_DEG for s in spans]
@@ -163,7 +220,25 @@ def range_test(gyr1, gyr2, j1, j2, rate) -> SignTest:
 
 
 def acc_test(g1, gdot1, a1, g2, gdot2, a2, j1, j2) -> SignTest:
-    """The joint centre's acceleration along the axis is the same in both frames."""
+    """The joint centre's acceleration along the axis is the same in both frames.
+
+    ``g*`` (N, 3) rad/s, ``gdot*`` (N, 3) rad/s^2 and ``a*`` (N, 3) m/s^2 of each sensor;
+    ``j1``, ``j2`` unit (3,). At most ``ACC_MAX_SAMPLES`` evenly spaced samples are used.
+
+    Returns
+    -------
+    test : SignTest
+        The sign whose linear least-squares fit of (o1, o2) leaves the smaller RMS
+        residual, evidence the ratio of the two; ``detail["rms_residual_m_s2"]`` (for
+        +j2, -j2). Evidence 1, sign +1, when both residuals are 0 or the fit fails
+        (residuals None then).
+
+    References
+    ----------
+    Seel, Schauer, Raisch (2012), "Joint axis and position estimation from inertial
+    measurement data by exploiting kinematic constraints", IEEE CCA,
+    Sec. II-B, eq. (3) (Gamma_g, the joint centre's acceleration).
+    """
     n = g1.shape[0]
     pick = np.linspace(0, n - 1, min(n, ACC_MAX_SAMPLES)).astype(int)
     rows1 = _axis_row(g1[pick], gdot1[pick], j1)
@@ -228,7 +303,23 @@ def _plane_angle(g: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def perpendicular(j: np.ndarray) -> np.ndarray:
     """A unit vector perpendicular to each unit ``j`` (..., 3), smooth away from axes:
-    Gram-Schmidt of the coordinate axis least aligned with ``j``."""
+    Gram-Schmidt of the coordinate axis least aligned with ``j``.
+
+    Returns
+    -------
+    u : ndarray
+        (..., 3) float64, unit, perpendicular to ``j``; the same for ``j`` and ``-j``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.sign import perpendicular
+    >>> perpendicular(np.array([0.0, 0.0, 1.0]))
+    array([1., 0., 0.])
+    >>> perpendicular(np.array([[0.6, 0.8, 0.0], [1.0, 0.0, 0.0]]))
+    array([[0., 0., 1.],
+           [0., 1., 0.]])
+    """
     j = np.asarray(j, dtype=np.float64)
     helper = (np.abs(j).argmin(axis=-1)[..., None] == np.arange(3)).astype(np.float64)
     u = helper - np.sum(helper * j, axis=-1, keepdims=True) * j

@@ -149,7 +149,14 @@ def _raise_again(signum, frame) -> None:
 
 def unreported() -> KeyboardInterrupt | None:
     """The interruption :func:`raise_on_signals` raised, if :func:`report` has not
-    written its line yet."""
+    written its line yet.
+
+    Returns
+    -------
+    err : KeyboardInterrupt or None
+        The :class:`Interrupted` or :class:`Terminated` raised first; None when none was
+        raised or its line was written.
+    """
     return _unreported[0] if _unreported else None
 
 
@@ -166,6 +173,11 @@ def held():
 
     The mask holds them in this thread; one that another thread takes is held by
     :func:`_raise` until the block ends.
+
+    Yields
+    ------
+    None
+        Once: the block runs (with the signals held under :func:`raise_on_signals`).
 
     Raises
     ------
@@ -212,7 +224,16 @@ def restore_defaults() -> None:
 
 
 def report(err: KeyboardInterrupt) -> int:
-    """Write the one stderr line for an interruption; return the exit status."""
+    """Write the one stderr line for an interruption ``err`` ("imucal: interrupted" or
+    "imucal: terminated (SIGTERM)"), and ignore the ending signals from then on
+    (:func:`finish`).
+
+    Returns
+    -------
+    status : int
+        The exit status: 128 + the signal's number for :class:`Terminated` (143 for
+        SIGTERM, 129 for SIGHUP), else 130 (Ctrl-C).
+    """
     _unreported.clear()
     if isinstance(err, Terminated):
         line, code = f"imucal: terminated ({err})", err.exit_code

@@ -128,15 +128,29 @@ class Offset:
     cost_ratio: float
 
     def significant(self, rate: float) -> bool:
-        """Worth applying: inside the search, larger than ``MIN_APPLIED_SAMPLES`` of a
-        sample and than twice its 1-sigma, and aligning lowers the mean squared residual
-        by at least ``MIN_COST_RATIO``."""
+        """Whether the offset is worth applying at ``rate`` Hz.
+
+        Returns
+        -------
+        significant : bool
+            True when not ``at_edge``, larger than ``MIN_APPLIED_SAMPLES`` of a sample
+            and than twice its 1-sigma, and aligning lowers the mean squared residual by
+            at least ``MIN_COST_RATIO``.
+        """
         size = abs(self.delta_s)
         return (not self.at_edge and size > MIN_APPLIED_SAMPLES / rate
                 and size > 2 * self.sigma_s and self.cost_ratio >= MIN_COST_RATIO)
 
     def suspicious(self, rate: float) -> bool:
-        """Found but not applied, yet large and clear enough to mention."""
+        """Whether the offset, found but not applied, is large and clear enough to mention.
+
+        Returns
+        -------
+        suspicious : bool
+            True when not :meth:`significant` at ``rate`` Hz, not ``at_edge``, aligning
+            lowers the cost at all, and the offset is at least ``SUSPICIOUS_S`` and more
+            than twice its 1-sigma.
+        """
         size = abs(self.delta_s)
         return (not self.significant(rate) and not self.at_edge and self.cost_ratio > 1.0
                 and size >= SUSPICIOUS_S and size > 2 * self.sigma_s)
@@ -144,7 +158,20 @@ class Offset:
 
 def shifted(x: np.ndarray, rate: float, delta: float) -> np.ndarray:
     """``x`` (N, ...) sampled at ``rate`` Hz, read at t + ``delta`` s by a cubic spline
-    (times beyond the ends are held at the ends)."""
+    (times beyond the ends are held at the ends).
+
+    Returns
+    -------
+    x_shifted : ndarray
+        (N, ...) float, in the unit of ``x``; ``x`` itself (not a copy) when ``delta`` is 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.time_offset import shifted
+    >>> shifted(np.arange(5.0), 100.0, 0.01)  # one sample later; the end is held
+    array([1., 2., 3., 4., 4.])
+    """
     if delta == 0:
         return x
     n = x.shape[0]
@@ -171,6 +198,18 @@ def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
     it. The last stage matters at low rates: the profile is a parabola only within about
     +-10 ms of its minimum, so a parabola through one-sample neighbours 25 ms apart
     (40 Hz) landed 3-6 ms off (the simulated ankle, foot 20 ms late).
+
+    Returns
+    -------
+    offset : Offset
+        The minimum ``delta_s`` (s, > 0: the second sensor's clock late), its 1-sigma
+        ``sigma_s`` (s, ``SIGMA_SCALE`` times the delete-one-block jackknife's),
+        ``at_edge``, ``search_s`` (``search``) and ``cost_ratio`` (cost at 0 over the
+        lowest mean squared residual found). With fewer than 20 samples or non-finite
+        residuals on the one-sample grid: 0 s, sigma infinite, cost ratio 1. Where the
+        one-sample grid's lowest point is an end of that grid: that point, no sub-sample
+        pass; where a sub-sample pass gives non-finite residuals: the one-sample grid's
+        three-point parabola vertex.
     """
 
     def residuals(deltas):
@@ -264,6 +303,22 @@ def delayed(x: np.ndarray, rate: float) -> Callable[[np.ndarray, np.ndarray], np
     A delay by a whole number of samples (the coarse and one-sample grids: most
     candidates) is exactly a circular shift of the extended signal and is read as one;
     only fractional delays are transformed (the whole recording, once per delay).
+
+    Returns
+    -------
+    read : callable
+        ``read(index, deltas)``: ``index`` (M,) int sample indices, ``deltas`` (D,) s;
+        gives (D, M, ...) float64 in the unit of ``x``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.time_offset import delayed
+    >>> read = delayed(np.arange(6.0), 100.0)
+    >>> read(np.array([0, 4, 5]), np.array([0.0, 0.01, 0.02]))  # the end reads its mirror
+    array([[0., 4., 5.],
+           [1., 5., 5.],
+           [2., 5., 4.]])
     """
     n = x.shape[0]
     transformed = []  # the extension's spectrum and frequencies, Hz, on the first
@@ -301,6 +356,13 @@ def profile_samples(sample_index: np.ndarray, n: int, rate: float,
     Hz, shank 13 ms late, found 9.6 ms from 1500 samples of which 3 lay within the search
     of the end, 13.02 ms without them; at 100 Hz with noise a 20 ms offset read 14.7 ms
     and was not applied, leaving a 4.5 deg axis error called good.
+
+    Returns
+    -------
+    index : ndarray
+        Sample indices into the recording, a subset of ``sample_index`` in its order:
+        every k-th of those at least ceil((``search`` + ``FINE_SPAN_S``) x ``rate``) + 1
+        samples from either end, k = max(1, their number // ``OFFSET_SAMPLES``).
     """
     margin = int(np.ceil((search + FINE_SPAN_S) * rate)) + 1
     inside = sample_index[(sample_index >= margin) & (sample_index < n - margin)]
@@ -338,6 +400,22 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     An offset found but not applied adds nothing, unless its refit would move the estimate
     by more than ``UNAPPLIED_MOVE_SIGMAS`` of its 1-sigma: then that move is the
     ``time_offset`` entry (``time_offset.unapplied_move``), with the warning that says so.
+
+    ``unit`` is "deg" (axis) or "mm" (joint centre); ``limit`` is in that unit.
+
+    Returns
+    -------
+    result : AxisResult or PositionResult
+        What ``fit`` returns: the fit at the offset applied (0 s when none is), with
+        ``time_offset`` (:func:`offset_report`, plus ``found_by``, ``sensitivity_per_ms``
+        in ``unit`` per ms, and ``moved_from_zero`` / ``unapplied_move`` where they
+        apply), ``settings["time_offset"]`` "auto", the offset's warnings and blocking
+        reason, and ``uncertainty_components["time_offset"]`` in the reported 1-sigma.
+
+    Raises
+    ------
+    InputError
+        ``search`` spans less than one sample at ``rate`` Hz (:func:`check_search`).
     """
     check_search(search, rate)
     first = fit(0.0)
@@ -470,9 +548,15 @@ def _trial(fit, profile, rate: float, search: float, first, found: Offset):
 
 
 def check_search(search: float, rate: float) -> None:
-    """InputError unless the search range ``search`` (+- s) spans at least one sample at
-    ``rate`` Hz: a shorter one has no candidate besides 0 (it used to be widened to one
-    sample silently, and reported as given)."""
+    """Check that the search range ``search`` (+- s) spans at least one sample at ``rate``
+    Hz: a shorter one has no candidate besides 0 (it used to be widened to one sample
+    silently, and reported as given).
+
+    Raises
+    ------
+    InputError
+        ``search`` x ``rate`` is below 1.
+    """
     if search * rate < 1 - 1e-9:  # (1 / rate) * rate may round below 1
         raise InputError(f"the time-offset search +-{search:g} s is shorter than one sample "
                          f"at {rate:g} Hz ({1 / rate:g} s): widen it or pass the offset")
@@ -498,7 +582,16 @@ def _widen(result, part: dict, unit: str, limit: float) -> None:
 
 
 def offset_report(found: Offset, rate: float) -> dict:
-    """The ``time_offset`` block of a result estimated with "auto"."""
+    """The ``time_offset`` block of a result estimated with "auto".
+
+    Returns
+    -------
+    block : dict
+        JSON-ready: ``mode`` "auto", ``time_offset_s`` (s, the offset applied: ``found``'s
+        when :meth:`Offset.significant` at ``rate`` Hz, else 0.0), ``estimated_s`` (s),
+        ``sigma_s`` (s; None for a minimum on the search's end that is not applied),
+        ``applied``, ``cost_ratio``, ``search_s`` (s) and ``at_edge``.
+    """
     applied = found.significant(rate)
     # a minimum on the search's end that is not applied is a bound, not an estimate: it
     # has no 1-sigma (the sub-sample pass can apply one within half a sample of the end)
@@ -511,14 +604,29 @@ def offset_report(found: Offset, rate: float) -> dict:
 
 def at_search_end(found: Offset, rate: float) -> bool:
     """Whether the profile's minimum lies on an end of the search (within half a sample):
-    the offset is then at least that large, its size and 1-sigma unknown."""
+    the offset is then at least that large, its size and 1-sigma unknown.
+
+    Returns
+    -------
+    at_end : bool
+        abs(``delta_s``) >= ``search_s`` - 0.5 / ``rate`` (``rate`` in Hz).
+    """
     return abs(found.delta_s) >= found.search_s - 0.5 / rate
 
 
 def offset_warnings(found: Offset, rate: float) -> list[str]:
     """What to say about an automatic offset that was not applied (one clearly beyond the
     search is no warning but a reason the result is not identifiable,
-    :func:`refused_at_edge`)."""
+    :func:`refused_at_edge`).
+
+    Returns
+    -------
+    warnings : list of str
+        At most one: the profile falling to the search's end (:func:`offset_edge_reason`),
+        an offset that lowers the cost by ``MIN_COST_RATIO`` but is too uncertain to
+        apply, or a :meth:`Offset.suspicious` one; empty for an applied or refused
+        offset, or where aligning lowers the cost not at all.
+    """
     if refused_at_edge(found) or found.significant(rate):
         return []
     if not found.cost_ratio > 1.0:
@@ -550,13 +658,26 @@ def refused_at_edge(found: Offset) -> bool:
     centres 0.5-1.1 m off and knee signs wrong under a usable verdict, at cost ratios
     3.5-5.4; circling with the shank 300 ms late and +-0.1 s searched: 2.04). A profile
     falling to the end by less is a warning only: on the shared real recording,
-    synchronised, a right knee's profile reached 1.67 there (calibrate, 10-30 s)."""
+    synchronised, a right knee's profile reached 1.67 there (calibrate, 10-30 s).
+
+    Returns
+    -------
+    refused : bool
+        ``found.at_edge`` and a cost ratio of at least ``EDGE_REFUSAL_RATIO``.
+    """
     return found.at_edge and found.cost_ratio >= EDGE_REFUSAL_RATIO
 
 
 def offset_edge_reason(found: Offset, refused: bool = True) -> str:
     """Why a result whose clock offset may lie beyond the search range is not identifiable
-    (``refused``), or the warning when the profile falls there less steeply."""
+    (``refused``), or the warning when the profile falls there less steeply.
+
+    Returns
+    -------
+    reason : str
+        The search range (s), the cost ratio at its edge and what to do (align the
+        recordings, ``--offset-search``, ``--time-offset``).
+    """
     consequence = ("an estimate that assumes synchronised clocks would be wrong" if refused
                    else "none was applied, and the estimate assumes synchronised clocks")
     return (f"the clock offset between the sensors may exceed the +-{found.search_s:g} s "
