@@ -77,12 +77,6 @@ IMPLAUSIBLE_SHARE = 0.01
 #: A calibration trial whose flexion (1st to 99th percentile) spans more than this, deg,
 #: measured no hinge of the body: its knee is "not identifiable" (docs/angles.md).
 PLAUSIBLE_SPAN_DEG = PLAUSIBLE_FLEXION_DEG[1] - PLAUSIBLE_FLEXION_DEG[0]
-#: Hz: below it the band misses the angle's fast parts. A new-user trial's protocol
-#: calibration and 60 s walk of one mounting (gyro noise 0.01 rad/s, acc 0.05 m/s^2):
-#: 67-69 % of the samples within 3 sigma at 20 Hz, 72 % at 25, 87 % at 30 (errors up to
-#: 1.75 deg at a median 1-sigma of 0.15 deg, a 2 % compression of the flexion), 97-100 %
-#: at 40-100 Hz.
-FULL_BAND_MIN_HZ = 40.0
 #: Walking: at least this many flexion peaks of this prominence (deg), spaced by strides
 #: of 0.6-2 s that vary by at most GAIT_MAX_CV.
 GAIT_MIN_CYCLES = 4
@@ -860,17 +854,7 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
     return JointAngles(time=rec.time.copy(), joints=joints, source=recording.source,
                        calibration=calibration.file or calibration.source, rate=rec.rate,
                        reference=reference,
-                       warnings=skipped + _rate_warning(rec.rate) + list(rec.warnings))
-
-
-def _rate_warning(rate: float) -> list[str]:
-    """The warning that the band is too narrow at this sample rate (FULL_BAND_MIN_HZ)."""
-    if rate >= FULL_BAND_MIN_HZ:
-        return []
-    return [f"at {rate:.3g} Hz (below {FULL_BAND_MIN_HZ:g}) the 1-sigma misses the flexion's "
-            "fast parts: simulated walks at 20-30 Hz had 67-87 % of the samples within 3 "
-            "sigma, errors up to 1.8 deg at a median 1-sigma of 0.15 deg; read the band as "
-            "a third of the error, or record at 40 Hz or more"]
+                       warnings=skipped + list(rec.warnings))
 
 
 def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngle:

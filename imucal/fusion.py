@@ -2,8 +2,9 @@
 14:6891): the numerics :mod:`imucal.angles` applies.
 
 * **gyro angle**: ``theta_g(t) = integral of (j2.g2 - j1.g1) dt``, the rotation of the second
-  segment relative to the first about the axis (rad). Exact up to a constant, but a gyro
-  bias makes it drift linearly (0.02 rad/s is 69 deg per minute).
+  segment relative to the first about the axis (rad), a cubic running integral
+  (:func:`integrate`). Exact up to a constant, but a gyro bias makes it drift linearly
+  (0.02 rad/s is 69 deg per minute).
 * **acc angle**: the joint centre's acceleration seen from either sensor,
   ``c_i = a_i - Gamma_gi(o_i)`` with ``Gamma_g(o) = g x (g x o) + gdot x o``, is one
   physical vector; projected into each joint plane (orthogonal to ``j_i``), the angle
@@ -25,7 +26,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 from scipy.ndimage import gaussian_filter1d
 
 from .errors import InputError, NotIdentifiableError
@@ -149,6 +149,42 @@ def joint_centre_acc(g: np.ndarray, a: np.ndarray, o: np.ndarray, rate: float) -
     return a - (np.cross(g, np.cross(g, o)) + np.cross(gdot, o))
 
 
+def integrate(x: np.ndarray, rate: float) -> np.ndarray:
+    """The running integral of samples ``x`` (N,) of a smooth signal, from 0 at the first
+    sample: each step by the cubic through the four samples around it,
+    ``(13 (x_k + x_k+1) - (x_k-1 + x_k+2)) / 24 / rate``, the two end steps by the
+    parabola through the three samples at that end (the trapezoid when there are two).
+
+    The trapezoid throughout shrinks a component of frequency f by ``u cot(u)``, u = pi f
+    / rate: 2 % at 1.6 Hz sampled at 20 Hz, enough to leave simulated walks at 20-30 Hz
+    with 67-89 % of their flexion samples within 3 sigma (1.5 % compression, 0.45 deg RMS
+    at 20 Hz); the cubic step loses 0.1 % there (99-100 % within 3 sigma, 0.15 deg RMS).
+    At 100 Hz both are within 0.1 %.
+
+    Returns
+    -------
+    (N,) float64
+        The integral, in ``x``'s unit times s (rad from rad/s).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucal.fusion import integrate
+    >>> t = np.arange(201) / 20.0                       # s, 20 Hz
+    >>> theta = integrate(2 * np.pi * np.cos(2 * np.pi * t), 20.0)   # rad
+    >>> round(float(np.max(np.abs(theta - np.sin(2 * np.pi * t)))), 4)
+    0.0002
+    """
+    x = np.asarray(x, float)
+    step = 0.5 * (x[1:] + x[:-1])
+    if x.shape[0] >= 3:
+        step[0] = (5.0 * x[0] + 8.0 * x[1] - x[2]) / 12.0
+        step[-1] = (5.0 * x[-1] + 8.0 * x[-2] - x[-3]) / 12.0
+    if x.shape[0] >= 4:
+        step[1:-1] = (13.0 * (x[1:-2] + x[2:-1]) - (x[:-3] + x[3:])) / 24.0
+    return np.concatenate([[0.0], np.cumsum(step)]) / rate
+
+
 @dataclass(frozen=True)
 class HingeSignals:
     """Per-sample ingredients of the flexion angle of one hinge (all (N,) arrays).
@@ -201,8 +237,7 @@ def hinge_signals(g1, a1, g2, a2, *, rate: float, j1, j2, o1, o2) -> HingeSignal
     """
     j1, j2 = (np.asarray(v, float) / np.linalg.norm(v) for v in (j1, j2))
     w = j2 @ np.asarray(g2, float).T - j1 @ np.asarray(g1, float).T
-    dt = 1.0 / rate
-    theta_g = cumulative_trapezoid(w, dx=dt, initial=0.0)
+    theta_g = integrate(w, rate)
     cut = min(ACC_ANGLE_CUTOFF_HZ, 0.4 * rate)
     angles, mags = [], []
     for g, a, j, o in ((g1, a1, j1, o1), (g2, a2, j2, o2)):
@@ -310,7 +345,7 @@ def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fu
     # size is estimated from the rates across the axis that a hinge would make equal:
     # their integral, less its slow part (which the fusion would absorb), local RMS.
     ones = np.ones(n)
-    walk = cumulative_trapezoid(sig.discrepancy, dx=1.0 / rate, initial=0.0)
+    walk = integrate(sig.discrepancy, rate)
     fast = walk - _local_linear(walk, ones, s)[0]
     sigma_shape = np.sqrt(_smooth(fast**2, s) / _smooth(ones, s))
     sigma = np.hypot(sigma_offset, sigma_shape)
