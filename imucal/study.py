@@ -299,8 +299,10 @@ def process_recordings(
     while waiting. ``start_method`` forces a multiprocessing start method (default:
     "fork" on Linux when numpy is not yet loaded here, else "forkserver" or "spawn").
 
-    Sets the thread variables (:data:`THREAD_VARIABLES`) not already set to 1 in this
-    process's environment, for the workers.
+    With more than one job, the thread variables (:data:`THREAD_VARIABLES`) not already
+    set are 1 in this process's environment while the workers run, and removed again
+    after (the estimators limit their own threads; a worker's filters and loaders follow
+    the variables).
 
     Yields
     ------
@@ -320,7 +322,6 @@ def process_recordings(
     [(0, 0, None), (1, 2, 'missing.h5: no such file')]
     """
     tasks = [(i, job, f) for i, f in enumerate(files)]
-    _limit_threads()
     if jobs <= 1:
         done = failed = 0
         for task in tasks:
@@ -331,7 +332,8 @@ def process_recordings(
                 on_done(done, failed)
             yield result
         return
-    yield from _parallel(tasks, jobs, on_done, start_method)
+    with _one_thread_for_workers():
+        yield from _parallel(tasks, jobs, on_done, start_method)
 
 
 def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
@@ -568,14 +570,22 @@ def _safe_path():
             os.environ["PYTHONSAFEPATH"] = before
 
 
-def _limit_threads() -> None:
-    """One BLAS/OpenMP thread per process, unless the user chose otherwise.
+@contextmanager
+def _one_thread_for_workers() -> Iterator[None]:
+    """One BLAS/OpenMP thread per worker process, unless the user chose otherwise.
 
-    Child processes inherit the environment; this process follows it only if numpy is
-    not loaded yet (the libraries read it once, when they load).
+    Child processes inherit the environment (this process follows it only if numpy is
+    not loaded yet: the libraries read it once, when they load). The variables this set
+    are removed again after: a library caller's later subprocesses kept one thread.
     """
-    for name in THREAD_VARIABLES:
-        os.environ.setdefault(name, "1")
+    added = [name for name in THREAD_VARIABLES if name not in os.environ]
+    for name in added:
+        os.environ[name] = "1"
+    try:
+        yield
+    finally:
+        for name in added:
+            os.environ.pop(name, None)
 
 
 def _pool_work(task: tuple[int, Job, str]) -> Entry:

@@ -449,3 +449,22 @@ def test_a_study_left_early_from_python_stops_only_its_own_workers(study):
     finally:
         own.kill()
         own.join()
+
+
+def test_a_library_study_leaves_the_callers_thread_variables_as_they_were(monkeypatch):
+    # it set OMP/OPENBLAS/... to 1 in the caller's environment for good, even with jobs=1
+    for name in study_module.THREAD_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")  # the user's own choice stays
+    job = Job("axis", ("thigh", "shank"), AxisSettings(restarts=5, seed=1))
+    sample = str(Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5")
+    seen = []
+    for jobs in (1, 2):
+        entries = list(study_module.process_recordings(
+            job, [sample, "missing.h5"], jobs=jobs,
+            on_done=lambda *_: seen.append(os.environ.get("OPENBLAS_NUM_THREADS"))))
+        assert [e.exit_code for e in entries] == [0, 2]
+        assert os.environ["OMP_NUM_THREADS"] == "3"
+        assert not any(name in os.environ for name in study_module.THREAD_VARIABLES
+                       if name != "OMP_NUM_THREADS")
+    assert "1" in seen  # set while the workers ran
