@@ -176,8 +176,8 @@ class Stages:
         ``cost(x, rows)`` for many restarts and ``n``, its number of samples; ``data`` is
         a tuple of per-sample arrays (first axis: samples), ``mask`` (R, N) 0/1 subset
         weights or None (all samples), ``newton`` True for exact-Hessian steps where
-        safe; it may offer ``with_mask(mask)``, the same problem with other subset
-        weights (no rebuilt tables).
+        safe; and ``with_mask(mask)``, the same problem with other subset weights (no
+        rebuilt tables; :class:`BatchedProblem` provides it).
     retract : ``(x, step) -> x``: apply local steps (R, k) to states (R, s).
     distance : ``(x, y) -> d``: distance between states (units of ``agreement``).
     agreement : two restarts within this distance found the same estimate.

@@ -44,9 +44,11 @@ class EstimateResult(Verdict):
         refit weighing the samples by (|r1| + |r2|)^2, ``position.MODEL_MOVE_FACTOR``),
         "gyr_bias" (axis: the widening by a removed gyroscope bias; position: the move
         of the centre when gyroscope biases are fitted with it,
-        :func:`imucal.gyr_bias.joint_centre_with_bias`) and, with
-        the automatic clock offset only, "time_offset" (the estimate's move per unit of
-        offset times the offset's 1-sigma, :func:`imucal.time_offset.fit_with_offset`).
+        :func:`imucal.gyr_bias.joint_centre_with_bias`), for a position "acc_error"
+        (the centre's response to the accelerometers' offset and scale errors of
+        ``settings.acc_error_m_s2``, not fitted) and, with the automatic clock offset
+        only, "time_offset" (the estimate's move per unit of offset times the offset's
+        1-sigma, :func:`imucal.time_offset.fit_with_offset`).
     excitation : how much the joint moved over the samples used (per estimator).
     sensitivity : cut-offs of the two refits from the estimate, "cutoffs_hz", and how far
         each vector moved (":math:`v`\\_shift_deg" or "..._shift_mm", and the maximum).
@@ -76,8 +78,10 @@ class EstimateResult(Verdict):
     time_offset : the second sensor's clock lateness: "time_offset_s" applied (s),
         "mode" ("auto" or "given"), and with "auto" the estimate "estimated_s", its
         "sigma_s", "applied", "cost_ratio" (cost at 0 over cost at the estimate),
-        "search_s", "at_edge" (:class:`imucal.time_offset.Offset`) and
-        "sensitivity_per_ms" (per vector, deg or mm per ms of offset).
+        "search_s", "at_edge" (:class:`imucal.time_offset.Offset`), "found_by"
+        ("profile", "followed" or "trial": how the offset was reached) and
+        "sensitivity_per_ms" (per vector, deg or mm per ms of offset); where they apply
+        also "moved_from_zero" and "unapplied_move" (docs/json.md).
     """
 
     rms_residual: float
