@@ -465,57 +465,75 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
 def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, time_offset,
                      offset_search, smoothing_s, acc_error, signs):
     """One joint; an estimate that stops leaves verdict ``failed`` and its reason."""
-    from . import estimate_axis, estimate_position
-    from .report import axis_report, position_report
-
     jc = JointCalibration(spec.name, spec.kind, (spec.first, spec.second), verdict="failed")
+    names = [spec.first, spec.second]
     try:
-        names = [spec.first, spec.second]
         used = recording.select(names, start, end)
         # the estimators get the window in its context, as the axis and position
         # commands do: their times (still periods) are then the recording's, not the
         # window's (a warning said "rest at 2-5 s" for 52-55 s)
         around, window = estimator_window(recording, names, start, end)
-        s1, s2 = around.sensors[spec.first], around.sensors[spec.second]
-        info = input_info(recording, names, around)
-        common = {"rate": used.rate, "restarts": restarts, "seed": seed,
-                  "time_offset": time_offset, "offset_search": offset_search, **window}
-        axis = None
-        if spec.kind == "hinge":
-            axis = estimate_axis(s1.gyr, s2.gyr, acc1=s1.acc, acc2=s2.acc, **common, **signs)
-            jc.axis = axis_report(axis, input_info=info)
-            jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
-        pos = estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, joint=spec.kind,
-                                axis=axis, acc_error=acc_error, **common)
-        jc.position = position_report(pos, input_info=info)
-        jc.o1, jc.o2 = np.asarray(pos.o1, float), np.asarray(pos.o2, float)
+        _estimate_joint(jc, around, spec, input_info(recording, names, around),
+                        {"rate": used.rate, "restarts": restarts, "seed": seed,
+                         "time_offset": time_offset, "offset_search": offset_search,
+                         **window}, acc_error, signs)
     except ImucalError as err:
         jc.warnings.append(f"{spec.name}: estimate stopped: {err}")
         return jc, None, err
+    _verdict_of_estimates(jc)
+    if spec.kind == "hinge":
+        _angle_reference(jc, used, around, smoothing_s)
+    return jc, (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate), None
+
+
+def _estimate_joint(jc: JointCalibration, around, spec: JointSpec, info: dict, common: dict,
+                    acc_error, signs) -> None:
+    """The hinge axis (a hinge) and the joint centre into ``jc``: their reports (the
+    calibration file's ``axis`` and ``position``) and vectors."""
+    from . import estimate_axis, estimate_position
+    from .report import axis_report, position_report
+
+    s1, s2 = around.sensors[spec.first], around.sensors[spec.second]
+    axis = None
+    if spec.kind == "hinge":
+        axis = estimate_axis(s1.gyr, s2.gyr, acc1=s1.acc, acc2=s2.acc, **common, **signs)
+        jc.axis = axis_report(axis, input_info=info)
+        jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
+    pos = estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, joint=spec.kind, axis=axis,
+                            acc_error=acc_error, **common)
+    jc.position = position_report(pos, input_info=info)
+    jc.o1, jc.o2 = np.asarray(pos.o1, float), np.asarray(pos.o2, float)
+
+
+def _verdict_of_estimates(jc: JointCalibration) -> None:
+    """The worst verdict of the joint's estimates, and their warnings named by estimate,
+    read from the reports, as :func:`load_calibration` reads them from a file."""
     docs = [d for d in (jc.axis, jc.position) if d is not None]
     jc.verdict = _worst([d["quality"]["verdict"] for d in docs])
-    for d, what in zip(docs, ("axis", "position") if spec.kind == "hinge" else ("position",),
+    for d, what in zip(docs, ("axis", "position") if jc.kind == "hinge" else ("position",),
                        strict=True):
         jc.warnings += [f"{what}: {w}" for w in d["quality"]["warnings"]]
-    if spec.kind == "hinge":
-        from .angles import implausible_range, own_check_failure, reference_statistics
 
-        try:
-            jc.angle = reference_statistics(used, jc, smoothing_s=smoothing_s,
-                                            context=around)
-        except ImucalError as err:  # e.g. a trial without acceleration across the axis
-            jc.verdict = "not identifiable"
-            jc.warnings.append(f"angle: {spec.name}: no angle calibration: {err}")
-        else:
-            if jc.angle["warnings"]:
-                jc.warnings += [f"angle: {w}" for w in jc.angle["warnings"]]
-                jc.verdict = _worst([jc.verdict, "use with care"])
-            a = jc.angle
-            if implausible_range(spec.name, a["flexion_range_deg"]) or own_check_failure(
-                    spec.name, a["acc_gyro_disagreement_deg"], a["gravity_consistent"]):
-                jc.verdict = _worst([jc.verdict, "not identifiable"])
-    window = (float(used.time[0]), float(used.time[-1]) + 1.0 / used.rate)
-    return jc, window, None
+
+def _angle_reference(jc: JointCalibration, used, around, smoothing_s) -> None:
+    """A hinge's ``angle`` block (flexion sign, zero, the fit check's reference); its
+    warnings make the joint "use with care", and a trial that fails the check itself or
+    flexes beyond any knee makes it "not identifiable"."""
+    from .angles import implausible_range, own_check_failure, reference_statistics
+
+    try:
+        jc.angle = reference_statistics(used, jc, smoothing_s=smoothing_s, context=around)
+    except ImucalError as err:  # e.g. a trial without acceleration across the axis
+        jc.verdict = "not identifiable"
+        jc.warnings.append(f"angle: {jc.name}: no angle calibration: {err}")
+        return
+    a = jc.angle
+    if a["warnings"]:
+        jc.warnings += [f"angle: {w}" for w in a["warnings"]]
+        jc.verdict = _worst([jc.verdict, "use with care"])
+    if implausible_range(jc.name, a["flexion_range_deg"]) or own_check_failure(
+            jc.name, a["acc_gyro_disagreement_deg"], a["gravity_consistent"]):
+        jc.verdict = _worst([jc.verdict, "not identifiable"])
 
 
 _ORDER = ("good", "use with care", "not identifiable", "failed")
