@@ -23,7 +23,14 @@ import numpy as np
 from .errors import InputError, NotIdentifiableError, number_text
 from .formats import HDF5_SUFFIXES
 from .fusion import SMOOTHING_S, check_smoothing, fuse, hinge_signals, plane_basis
-from .rest import STILL_MIN_S, STILL_RATE, gravity_check, gravity_warning, still_periods
+from .rest import (
+    STILL_MIN_S,
+    STILL_RATE,
+    gravity_check,
+    gravity_check_near,
+    gravity_warning,
+    still_periods,
+)
 from .settings import is_bool
 from .time_offset import shifted
 
@@ -896,7 +903,7 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
     extended = (source != "user" and (reference == "standing" or (
         reference is None and ref["zero_time_s"] is not None
         and sign == int(ref["flexion_sign"]))))
-    check = _fit_check(jc, ref, s1, s2, fus, rec.rate, flex, extended, float(rec.time[0]))
+    check = _fit_check(jc, ref, s1, s2, fus, rec, flex, extended, context)
     if not check["fits"]:
         warnings.append(check["message"])
     sigma, lagged = _sigma_with_clock(jc, fus, s2)
@@ -1056,12 +1063,26 @@ def _beyond(value: float, limit: float, decimals: int, unit: str = "") -> str:
     return f"{a}{unit} > {b}{unit}"
 
 
-def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bool,
-               origin: float) -> dict:
-    """Does the calibration still fit this recording? (docs/angles.md) ``flex``: the
-    flexion, deg; ``extended``: its zero is an extended posture and flexion positive, so
-    its range can be judged (else only its span, see ``_one_joint``); ``origin``: the time
-    of the recording's first sample, s."""
+def _gravity(jc, s1, s2, rec, context) -> dict:
+    """The gravity check of the calibration's axes over this window's still periods, or,
+    where it has none, over the recording's within NEAR_REST_S of it (as the axis
+    estimate does, :func:`imucal.rest.gravity_check_near`)."""
+    if context is None or context.n_samples <= rec.n_samples:
+        check = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rec.rate,
+                              origin=float(rec.time[0]))
+        return {**check, "scope": "window" if check["periods"] else None}
+    c1, c2 = context.sensor(jc.sensors[0]), context.sensor(jc.sensors[1])
+    return gravity_check_near(c1.gyr, c1.acc, c2.gyr, c2.acc, jc.j1, jc.j2, rec.rate,
+                              window=slice(*context.window), origin=float(context.time[0]))
+
+
+def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
+               context=None) -> dict:
+    """Does the calibration still fit this recording ``rec``? (docs/angles.md) ``flex``:
+    the flexion, deg; ``extended``: its zero is an extended posture and flexion positive,
+    so its range can be judged (else only its span, see ``_one_joint``); ``context``:
+    ``rec``'s sensors with the samples around it, whose still periods near the window
+    check the axes when it has none of its own."""
     res = hinge_residual(s1.gyr, s2.gyr, jc.j1, jc.j2)
     dis = math.degrees(fus.disagreement)
     # A calibration trial that never moved has no residual (NaN, null in its file): no
@@ -1074,11 +1095,12 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bo
     if res > res_lim:  # NaN (never moved, here or there) is no evidence against
         bad.append(f"hinge residual {_beyond(res, res_lim, 3)} (calibration trial "
                    f"{number_text(ref_res, 3)})")
-    gravity = gravity_check(s1.gyr, s1.acc, s2.gyr, s2.acc, jc.j1, jc.j2, rate,
-                            origin=origin)
+    gravity = _gravity(jc, s1, s2, rec, context)
     if gravity["consistent"] is False:
         worst = gravity["max_mismatch_deg"]
-        bad.append(f"at rest the axis makes angles with the vertical that differ by "
+        where = (" (outside the window, which has no rest of its own)"
+                 if gravity["scope"] == "around the window" else "")
+        bad.append(f"at rest{where} the axis makes angles with the vertical that differ by "
                    f"{worst:.0f} deg between the sensors (one hinge axis: within "
                    f"{gravity['max_allowed_deg']:g} deg)")
     if dis > dis_lim:
@@ -1103,6 +1125,7 @@ def _fit_check(jc, ref, s1, s2, fus, rate: float, flex: np.ndarray, extended: bo
            "acc_gyro_disagreement_deg": dis, "acc_gyro_disagreement_limit_deg": dis_lim,
            "calibration_acc_gyro_disagreement_deg": ref["acc_gyro_disagreement_deg"],
            "gravity_mismatch_deg": gravity["max_mismatch_deg"],
+           "gravity_scope": gravity["scope"],
            "implausible_flexion_share": outside,
            "tolerance": f"{FIT_FACTOR:g} x the calibration trial's value + "
                         f"{FIT_FLOOR_RESIDUAL:g} (residual) / {FIT_FLOOR_DEG:g} deg (at most "

@@ -61,7 +61,7 @@ from .quality import (
     uncertainty_totals,
     uncertainty_warning,
 )
-from .rest import MAX_MISMATCH_DEG, gravity_check, gravity_warning
+from .rest import MAX_MISMATCH_DEG, gravity_check_near, gravity_warning
 from .restarts import (
     MIN_AGREEING_FRACTION,
     competing_agreement,
@@ -424,29 +424,15 @@ def _with_gyr_bias(g1, g2, acc1, acc2, rate, s: AxisSettings, bias: GyrBias) -> 
     return _refuse_if_uninformative(result)
 
 
-#: s: a window without a rest of its own is checked against the rests this close to it.
-NEAR_REST_S = 60.0
-
-
 def _gravity(p: Prepared, j1, j2, origin: float) -> dict:
-    """The gravity check of the axes at rest, when accelerometers came with the rates;
-    ``origin``: the first sample's time, s on the recording's clock. Over the window's
-    still periods, or, where it has none, over those within ``NEAR_REST_S`` of it (the
-    same mounting assumed): 16 of 20 walking windows of 10-20 s of the real recording gave
-    knee axes `use with care` that its rests outside them put 40-89 deg beyond the limit
-    (a real-data audit)."""
+    """The gravity check of the axes at rest (:func:`imucal.rest.gravity_check_near`: the
+    window's still periods, else those near it), when accelerometers came with the rates;
+    ``origin``: the first sample's time, s on the recording's clock."""
     if p.first[1] is None:
         return {"periods": [], "max_mismatch_deg": None, "consistent": None,
                 "max_allowed_deg": MAX_MISMATCH_DEG, "scope": None}
-    args = (p.first[0], p.first[1], p.second[0], p.second[1], j1, j2, p.rate)
-    check = gravity_check(*args, window=p.window, origin=origin)
-    if check["periods"]:
-        return {**check, "scope": "window"}
-    # only rests near the window: far from it the sensors may have been re-strapped
-    near = int(round(NEAR_REST_S * p.rate))
-    around = slice(max(0, p.window.start - near), min(p.first[0].shape[0], p.window.stop + near))
-    nearby = gravity_check(*args, window=around, origin=origin)
-    return {**nearby, "scope": "around the window" if nearby["periods"] else None}
+    return gravity_check_near(p.first[0], p.first[1], p.second[0], p.second[1], j1, j2,
+                              p.rate, window=p.window, origin=origin)
 
 
 def _fit(p: Prepared, s: AxisSettings) -> Multistart:

@@ -153,7 +153,7 @@ def test_a_window_without_a_rest_is_checked_against_the_rests_around_it(consiste
                            restarts=20, seed=1)
     assert inside.gravity["scope"] is None and inside.gravity["consistent"] is None
     # a rest more than NEAR_REST_S away may be of another mounting: not used
-    from imucal.axis import NEAR_REST_S
+    from imucal.rest import NEAR_REST_S
 
     reps = int(np.ceil((NEAR_REST_S + 5) * rec.rate / th.gyr.shape[0]))
     gap = slice(0, reps * th.gyr.shape[0])
@@ -176,3 +176,27 @@ def test_the_real_right_knee_while_walking_is_refused_by_the_rests_before(real_r
                       start=61.0, end=76.0)
     assert r.gravity["scope"] == "around the window" and r.gravity["max_mismatch_deg"] > 60.0
     assert r.verdict == "not identifiable"
+
+
+@pytest.mark.parametrize("consistent", [True, False])
+def test_angles_of_a_window_without_a_rest_are_checked_against_the_rests_around_it(
+        consistent):
+    # as the axis estimate (above): the fit check's gravity part ran on the window's own
+    # rests only, so a walking window never had one
+    from imucal import calibrate, joint_angles, make_recording
+
+    rec, th, sh, (r1, a1), (r2, a2), rest = _circling_and_rest(consistent)
+    cal = calibrate(rec, joints=["knee=hinge:thigh,shank"], seed=1, restarts=10,
+                    time_offset=0.0)
+    both = make_recording({"thigh": {"gyr": np.concatenate([r1, th.gyr]),
+                                     "acc": np.concatenate([a1, th.acc])},
+                           "shank": {"gyr": np.concatenate([r2, sh.gyr]),
+                                     "acc": np.concatenate([a2, sh.acc])}}, rate=rec.rate)
+    angles = joint_angles(both, cal, start=4.0)
+    check = angles.joints["knee"].check
+    assert check["gravity_scope"] == "around the window"
+    assert check["gravity_mismatch_deg"] > (80.0 if not consistent else -1.0)
+    assert angles.fits == consistent
+    if not consistent:
+        assert "at rest (outside the window, which has no rest of its own)" in \
+            angles.joints["knee"].warnings[-1]
