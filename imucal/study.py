@@ -84,7 +84,8 @@ def resolve_jobs(jobs: int, n_files: int) -> int:
     Returns
     -------
     int
-        At least 1, at most ``n_files``.
+        ``jobs`` (or the cores) capped at ``n_files``, and at least 1 (also for no
+        files).
 
     Raises
     ------
@@ -299,10 +300,9 @@ def process_recordings(
     while waiting. ``start_method`` forces a multiprocessing start method (default:
     "fork" on Linux when numpy is not yet loaded here, else "forkserver" or "spawn").
 
-    With more than one job, the thread variables (:data:`THREAD_VARIABLES`) not already
-    set are 1 in this process's environment while the workers run, and removed again
-    after (the estimators limit their own threads; a worker's filters and loaders follow
-    the variables).
+    Each worker process runs its BLAS/OpenMP libraries with one thread, unless its
+    environment sets :data:`THREAD_VARIABLES` otherwise; this process's environment is
+    left as it is.
 
     Yields
     ------
@@ -332,8 +332,7 @@ def process_recordings(
                 on_done(done, failed)
             yield result
         return
-    with _one_thread_for_workers():
-        yield from _parallel(tasks, jobs, on_done, start_method)
+    yield from _parallel(tasks, jobs, on_done, start_method)
 
 
 def _parallel(tasks, jobs, on_done, start_method) -> Iterator[Entry]:
@@ -435,6 +434,7 @@ def _worker_start(command_pid: int) -> None:
     their pool's pipes stay open in the workers themselves, and the fork server and
     resource tracker live as long as they do, all idle for good."""
     restore_defaults()
+    _one_thread_here()
     watch = _command_watch(command_pid)
     if watch is not None:
         threading.Thread(target=watch, daemon=True).start()
@@ -544,8 +544,9 @@ def _context(start_method):
         start_method = "spawn"  # see _safe_path: spawn takes this process's sys.path
     context = multiprocessing.get_context(start_method)
     if start_method == "fork":
-        for module in WORKER_MODULES:
-            importlib.import_module(module)
+        with _one_thread_env():  # no BLAS thread pool may exist when forking
+            for module in WORKER_MODULES:
+                importlib.import_module(module)
     elif start_method == "forkserver":
         context.set_forkserver_preload(list(WORKER_MODULES))
     return context
@@ -571,13 +572,9 @@ def _safe_path():
 
 
 @contextmanager
-def _one_thread_for_workers() -> Iterator[None]:
-    """One BLAS/OpenMP thread per worker process, unless the user chose otherwise.
-
-    Child processes inherit the environment (this process follows it only if numpy is
-    not loaded yet: the libraries read it once, when they load). The variables this set
-    are removed again after: a library caller's later subprocesses kept one thread.
-    """
+def _one_thread_env() -> Iterator[None]:
+    """The thread variables not already set are 1 for the duration (libraries loaded then
+    start with one thread), and removed again after."""
     added = [name for name in THREAD_VARIABLES if name not in os.environ]
     for name in added:
         os.environ[name] = "1"
@@ -586,6 +583,24 @@ def _one_thread_for_workers() -> Iterator[None]:
     finally:
         for name in added:
             os.environ.pop(name, None)
+
+
+def _one_thread_here() -> None:
+    """One BLAS/OpenMP thread in this worker process, unless its environment chose
+    otherwise: the variables for libraries it loads later, threadpoolctl for those loaded
+    (preloaded by the fork server, or inherited). Set in the worker, not in the study's
+    process: there they leaked into the caller's later subprocesses, through the fork
+    server that outlives the study too (an independent review)."""
+    from threadpoolctl import threadpool_limits
+
+    blas_chosen = any(name in os.environ for name in THREAD_VARIABLES[1:5])
+    openmp_chosen = "OMP_NUM_THREADS" in os.environ
+    for name in THREAD_VARIABLES:
+        os.environ.setdefault(name, "1")
+    if not blas_chosen:
+        threadpool_limits(1, user_api="blas")
+    if not openmp_chosen:
+        threadpool_limits(1, user_api="openmp")
 
 
 def _pool_work(task: tuple[int, Job, str]) -> Entry:
