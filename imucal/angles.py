@@ -365,8 +365,8 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S,
 
     References
     ----------
-    Seel, Ruppin, Raisch (2014), "IMU-based joint angle measurement for gait analysis",
-    Sensors 14(4): the gyroscope angle with its accelerometer-based drift correction.
+    Seel, Raisch, Schauer (2014), "IMU-based joint angle measurement for gait analysis",
+    Sensors 14(4):6891-6909: the gyroscope angle with its accelerometer-based drift correction.
     """
     s1, s2, sig, fus, _ = _fused(rec, jc, smoothing_s, context)
     raw = np.degrees(fus.theta)
