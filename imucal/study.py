@@ -44,14 +44,13 @@ __all__ = ["Entry", "run_study", "process_recordings", "resolve_jobs", "entry"]
 
 #: Environment variables that size the thread pools of the BLAS and OpenMP libraries
 #: numpy and scipy may be linked against; they are read once, when the library loads.
-THREAD_VARIABLES = (
-    "OMP_NUM_THREADS",
+BLAS_THREAD_VARIABLES = (
     "OPENBLAS_NUM_THREADS",
     "MKL_NUM_THREADS",
     "BLIS_NUM_THREADS",
     "VECLIB_MAXIMUM_THREADS",
-    "NUMEXPR_NUM_THREADS",
 )
+THREAD_VARIABLES = ("OMP_NUM_THREADS", *BLAS_THREAD_VARIABLES, "NUMEXPR_NUM_THREADS")
 #: Modules every worker needs; imported once before the workers start (fork) or in the
 #: fork server, so that no worker pays their import time (about a second) again.
 WORKER_MODULES = ("imucal.runner", "imucal.axis", "imucal.position", "imucal.report",
@@ -593,7 +592,7 @@ def _one_thread_here() -> None:
     server that outlives the study too (an independent review)."""
     from threadpoolctl import threadpool_limits
 
-    blas_chosen = any(name in os.environ for name in THREAD_VARIABLES[1:5])
+    blas_chosen = any(name in os.environ for name in BLAS_THREAD_VARIABLES)
     openmp_chosen = "OMP_NUM_THREADS" in os.environ
     for name in THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
