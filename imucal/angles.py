@@ -237,15 +237,17 @@ def clock_offset_sigma(jc) -> float:
 def unapplied_clock_offset(jc) -> float:
     """The clock offset, s, the calibration's axis found where its residual was lowest but
     did not apply (too little gain to tell it from soft tissue), when clear of twice its
-    1-sigma and inside the search; else 0. The angles read the sensors as in sync, so
-    such an offset, if real, makes them lag: a calibration that found a 30 ms shank 16 ms
-    late and left it gave a simulated walk 12 deg of error at a 1-sigma of 2 deg, "fits"
-    (an honesty audit).
+    1-sigma and inside the search; or, with an offset given, how far from it the data put
+    the clocks where they contradict it (:func:`imucal.time_offset.check_given`); else 0.
+    The angles read the sensors at the offset applied, so such an offset, if real, makes
+    them lag: a calibration that found a 30 ms shank 16 ms late and left it gave a
+    simulated walk 12 deg of error at a 1-sigma of 2 deg, "fits" (an honesty audit).
 
     Returns
     -------
     float
-        The offset found and not applied, s (positive: the second sensor late), or 0.
+        The offset found and not applied (beyond the one given), s (positive: the second
+        sensor later), or 0.
     """
     found, sigma = _unapplied_search(jc)
     return found if abs(found) > 2 * sigma else 0.0
@@ -253,12 +255,13 @@ def unapplied_clock_offset(jc) -> float:
 
 def unapplied_offset_spread(jc) -> float:
     """How far, s (root mean square), the clocks may differ where the calibration's axis
-    searched for an offset and applied none: ``sqrt(estimated_s^2 + sigma_s^2)``; 0 when
-    an offset was applied or given (the angles then carry :func:`clock_offset_sigma`) or
-    when the search ended at its edge. The angles read such sensors as in sync; a 10 ms
-    shank found at 14 +- 8 ms (not clear of twice its 1-sigma, so no warning) left a
-    simulated walk 1.8 deg RMS off at a median 1-sigma of 0.8 deg, 80 % of the samples
-    within 3 sigma (an honesty audit).
+    searched for an offset and applied none: ``sqrt(estimated_s^2 + sigma_s^2)``, or
+    where its data contradicted the offset given, with ``estimated_s`` less that offset;
+    0 when an offset was applied (the angles then carry :func:`clock_offset_sigma`), or
+    given and not contradicted, or when the search ended at its edge. The angles read
+    such sensors as in sync; a 10 ms shank found at 14 +- 8 ms (not clear of twice its
+    1-sigma, so no warning) left a simulated walk 1.8 deg RMS off at a median 1-sigma of
+    0.8 deg, 80 % of the samples within 3 sigma (an honesty audit).
 
     Returns
     -------
@@ -270,13 +273,20 @@ def unapplied_offset_spread(jc) -> float:
 
 def _unapplied_search(jc) -> tuple[float, float]:
     """(estimated_s, sigma_s) of the calibration axis's clock-offset search where it ran
-    (mode auto), applied nothing and did not end at its edge; else (0, 0)."""
+    (mode auto), applied nothing and did not end at its edge; (estimated_s minus the
+    offset given, sigma_s) where its check contradicted a given offset; else (0, 0)."""
     block = jc.axis.get("time_offset") if isinstance(jc.axis, dict) else None
-    if not isinstance(block, dict) or block.get("mode") != "auto" or block.get("applied") \
-            or block.get("at_edge"):
+    if not isinstance(block, dict):
+        return 0.0, 0.0
+    if block.get("mode") == "given":
+        if block.get("contradicted") is not True:
+            return 0.0, 0.0
+    elif block.get("mode") != "auto" or block.get("applied") or block.get("at_edge"):
         return 0.0, 0.0
     found, sigma = _offset_number(jc, "estimated_s"), _offset_number(jc, "sigma_s")
-    return (0.0, 0.0) if found is None or sigma is None else (found, sigma)
+    if found is None or sigma is None:
+        return 0.0, 0.0
+    return found - clock_offset(jc), sigma
 
 
 def clock_offset(jc) -> float:
@@ -994,14 +1004,19 @@ def _sigma_with_clock(jc, fus, s2) -> tuple[np.ndarray, str | None]:
                      rate2 * unapplied_offset_spread(jc))
     if not lag:
         return sigma, None
+    given = jc.axis["time_offset"].get("mode") == "given"
+    found = (f"the calibration's data put the second sensor's clock {abs(1000 * lag):.0f} ms "
+             f"{'later' if lag > 0 else 'earlier'} than the offset it was given"
+             if given else
+             f"the calibration found the second sensor's clock {abs(1000 * lag):.0f} ms "
+             f"{'late' if lag > 0 else 'early'} but did not apply it (too little gain to "
+             "tell it from soft tissue)")
     return sigma, (
-        f"{jc.name}: the calibration found the second sensor's clock "
-        f"{abs(1000 * lag):.0f} ms {'late' if lag > 0 else 'early'} but did not apply it "
-        "(too little gain to tell it from soft tissue); if the clocks differ by that, the "
-        f"angles {'lag' if lag > 0 else 'lead'} by up to "
+        f"{jc.name}: {found}; if the clocks differ by that, the angles "
+        f"{'lag' if lag > 0 else 'lead'} by up to "
         f"{float(np.max(rate2, initial=0.0)) * abs(lag):.1f} deg "
         "where the knee turns fastest, which their 1-sigma carries. Calibrate with "
-        "--time-offset SECONDS if the offset is known")
+        + ("--time-offset auto" if given else "--time-offset SECONDS if the offset is known"))
 
 
 def _sign_doubt(raw: np.ndarray, evidence: float, rate: float) -> str | None:

@@ -84,6 +84,7 @@ from .sign import (
 )
 from .time_offset import (
     OFFSET_STEPS,
+    check_given,
     delayed,
     fit_with_offset,
     profile_samples,
@@ -340,7 +341,10 @@ def estimate_axis(
     acc1, acc2 = _check_acc(g1, acc1, acc2)
     if s.time_offset == "auto":
         return _with_auto_offset(g1, g2, acc1, acc2, rate, s)
-    return _estimate(g1, g2, acc1, acc2, rate, replace(s, seed=resolve_seed(s.seed)))
+    result = _estimate(g1, g2, acc1, acc2, rate, replace(s, seed=resolve_seed(s.seed)))
+    check_given(result, _offset_profile(g1, g2, rate, s.offset_search), rate,
+                s.offset_search, s.time_offset)
+    return result
 
 
 def _estimate(g1, g2, acc1, acc2, rate, s: AxisSettings, bias_removed: bool = False
@@ -386,9 +390,8 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
     (:func:`imucal.time_offset.fit_with_offset`)."""
     s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
 
-    def again(seconds):
-        return estimate_axis(g1, g2, rate=rate, acc1=acc1, acc2=acc2,
-                             settings=s.at_offset(seconds))
+    def again(seconds):  # (the search's own fits: no check of their offset)
+        return _estimate(g1, g2, acc1, acc2, rate, s.at_offset(seconds))
     return _refuse_if_uninformative(fit_with_offset(
         again, _offset_profile(g1, g2, rate, s.offset_search), rate, s.offset_search,
         _offset_moved, "deg", MAX_UNCERTAINTY_DEG, lambda r: np.concatenate([r.j1, r.j2])))

@@ -170,12 +170,13 @@ TimeOffset = Annotated[str, typer.Option(
     "--time-offset", help="Clock offset of the second sensor, s (positive: its clock is "
     "late): auto (estimated from the constraint itself within +-0.2 s, see "
     "--offset-search, and applied when it clearly improves the fit; reported in "
-    "time_offset), 0 (clocks in sync) or a number of seconds to apply.")]
+    "time_offset), 0 (clocks in sync) or a number of seconds to apply (checked against "
+    "the data: a warning where they clearly put it elsewhere).")]
 OffsetSearch = Annotated[float, typer.Option(
     "--offset-search", metavar="SECONDS", help="How far --time-offset auto searches, +- s "
-    "(at most 10; with --time-offset auto only). Widen it when the sensors' clocks may "
-    "differ by more than 0.2 s; a motion that repeats (gait, circling) can then show "
-    "minima that are not the clock's (docs/method.md).")]
+    "(at most 10; with a given offset, how far its check looks). Widen it when the "
+    "sensors' clocks may differ by more than 0.2 s; a motion that repeats (gait, "
+    "circling) can then show minima that are not the clock's (docs/method.md).")]
 AccError = Annotated[float, typer.Option(
     "--acc-error", metavar="M/S^2", help="1-sigma of each accelerometer's error at 1 g, "
     "m/s^2: an offset of this size and a scale error of this / 1 g per axis, carried "
@@ -767,16 +768,8 @@ def convert(
 def _settings(ctx: typer.Context, cls, **values):
     """The estimator's settings object from the options, before any file is read; a bad
     value is a usage error naming its option (exit 2)."""
-    from .settings import check_search_used
-
     try:
         settings = cls(**values)
-        if "offset_search" in values:
-            # the settings object cannot tell the default range from the same range
-            # typed (--offset-search 0.2), which no search would use either
-            # (typer carries its own copy of click: compare the source by name)
-            source = ctx.get_parameter_source("offset_search")
-            check_search_used(settings, typed=getattr(source, "name", "") == "COMMANDLINE")
     except InputError as err:
         raise _usage_error(ctx, str(err)) from None
     return settings

@@ -87,6 +87,7 @@ from .settings import (
 from .settings import resolve as resolve_settings
 from .time_offset import (
     OFFSET_STEPS,
+    check_given,
     delayed,
     fit_with_offset,
     profile_samples,
@@ -331,7 +332,10 @@ def estimate_position(
     rate = check_rate(rate)
     if s.time_offset == "auto":
         return _with_auto_offset(g1, a1, g2, a2, rate, axis, s)
-    return _estimate(g1, a1, g2, a2, rate, axis, replace(s, seed=resolve_seed(s.seed)))
+    result = _estimate(g1, a1, g2, a2, rate, axis, replace(s, seed=resolve_seed(s.seed)))
+    check_given(result, _offset_profile((g1, a1, g2, a2), rate, s.offset_search), rate,
+                s.offset_search, s.time_offset)
+    return result
 
 
 def _estimate(g1, a1, g2, a2, rate, axis, s: PositionSettings, bias_removed: bool = False
@@ -372,9 +376,8 @@ def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> Positi
     (:func:`imucal.time_offset.fit_with_offset`)."""
     s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
 
-    def again(seconds):
-        return estimate_position(g1, a1, g2, a2, rate=rate, axis=axis,
-                                 settings=s.at_offset(seconds))
+    def again(seconds):  # (the search's own fits: no check of their offset)
+        return _estimate(g1, a1, g2, a2, rate, axis, s.at_offset(seconds))
     # No offset's choice in the 1-sigma (``state``), unlike the axis: 20 ms move a joint
     # centre by hundreds of mm, so a choice capped at 3 x the model term would always add
     # all of that to every clean fit with a real offset (simulated, 20 ms late: 8 of 10

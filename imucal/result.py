@@ -81,7 +81,9 @@ class EstimateResult(Verdict):
         "search_s", "at_edge" (:class:`imucal.time_offset.Offset`), "found_by"
         ("profile", "followed" or "trial": how the offset was reached) and
         "sensitivity_per_ms" (per vector, deg or mm per ms of offset); where they apply
-        also "moved_from_zero" and "unapplied_move" (docs/json.md).
+        also "moved_from_zero" and "unapplied_move"; with "given", the check of the offset
+        given: "estimated_s", "sigma_s", "cost_ratio" (cost at the offset given over the
+        cost at "estimated_s"), "search_s", "at_edge" and "contradicted" (docs/json.md).
     """
 
     rms_residual: float

@@ -81,8 +81,9 @@ class AxisSettings:
         The second sensor's clock lateness, s, or "auto".
     offset_search : float
         Search range of the automatic time offset, +- s, > 0; at least one sample (an
-        estimate refuses a shorter one). Only with ``time_offset="auto"``: a range other
-        than the default with a given offset is an InputError (no search would run).
+        estimate refuses a shorter one). With a given offset, the range over which the
+        data are searched to check it (:func:`imucal.time_offset.check_given`; widened
+        to reach the offset given).
     time_origin : float
         Time of the first sample given, s on the recording's clock: the still periods
         of the gravity check (and their warning) are reported on that clock.
@@ -90,9 +91,8 @@ class AxisSettings:
     Raises
     ------
     InputError
-        A setting of the wrong type or out of its range, a window whose end is not after
-        its start, or an ``offset_search`` other than the default with a given
-        ``time_offset``.
+        A setting of the wrong type or out of its range, or a window whose end is not
+        after its start.
     """
 
     restarts: int = 100
@@ -139,7 +139,6 @@ class AxisSettings:
             raise InputError(f"select must be True or False, got {self.select!r}")
         object.__setattr__(self, "select", bool(self.select))
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
-        check_search_used(self)
 
     def as_kwargs(self) -> dict:
         """The settings as keyword arguments of the estimator.
@@ -257,7 +256,6 @@ class CalibrateSettings:
             _check_int(self, "seed", 0)
         object.__setattr__(self, "time_offset", check_time_offset(self.time_offset))
         _check_number(self, "offset_search", low=0.0, open_low=True, high=MAX_TIME_OFFSET_S)
-        check_search_used(self)
         _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
         _check_signs(self)
 
@@ -296,21 +294,6 @@ def _check_signs(settings) -> None:
         if not isinstance(getattr(settings, name), str) or getattr(settings, name) not in SIGNS:
             raise InputError(f"{name} must be one of {', '.join(SIGNS)}, got "
                              f"'{getattr(settings, name)}'")
-
-
-def check_search_used(settings, typed: bool = False) -> None:
-    """A search range set with a given time offset would be ignored: no search runs.
-    ``typed``: the range was given explicitly, also when it equals the default.
-
-    Raises
-    ------
-    InputError
-        a range other than the default (or typed) with a time offset other than auto.
-    """
-    if settings.time_offset != "auto" and (typed or settings.offset_search != OFFSET_SEARCH_S):
-        raise InputError(f"offset_search applies to time offset auto only (no search runs "
-                         f"with a given offset), got {float(settings.offset_search)!r} s with a "
-                         f"time offset of {float(settings.time_offset)!r} s")
 
 
 def check_time_offset(value) -> float | str:

@@ -286,13 +286,10 @@ def test_numbers_in_other_containers(pair, rec, cal):
     settings = json.loads(json.dumps(cal0.to_document()))["settings"]
     assert settings["restarts"] == 3 and settings["offset_search_s"] == 0.4
     assert settings["acc_error_m_s2"] == 0.05 and settings["start"] == 0.0
-    # a search range with a given offset: no search runs, so it was ignored silently
-    for call in (lambda: imucal.estimate_axis(g1, g2, rate=100.0, time_offset=0,
-                                              offset_search=0.5),
-                 lambda: imucal.calibrate(rec, time_offset=0.02, offset_search=np.array(1.0))):
-        with pytest.raises(InputError, match="offset_search applies to time offset auto "
-                                             "only .*got 0?[.0-9]+ s with a time offset of"):
-            call()
+    # a search range with a given offset is the range its check looks over
+    checked = imucal.estimate_axis(g1, g2, rate=100.0, time_offset=0,
+                                   offset_search=np.array(0.05))
+    assert checked.time_offset["search_s"] == 0.05
     with pytest.raises(InputError, match="sample rate must be a positive number"):
         imucal.estimate_axis(g1, g2, rate=10**400)
     with pytest.raises(InputError, match="flexion sign must be auto"):

@@ -104,14 +104,6 @@ def test_no_module_imports_the_command_line():
          "Invalid value for '--acc-error': acc_error must be in [0, 5], got -0.1"),
         (["axis", "--offset-search", "0"],
          "Invalid value for '--offset-search': offset_search must be in (0, 10], got 0"),
-        # no search runs with a given offset: the range was ignored silently
-        (["axis", "--time-offset", "0", "--offset-search", "0.5"],
-         "Invalid value for '--offset-search': offset_search applies to time offset auto"),
-        (["calibrate", "--time-offset", "0.02", "--offset-search", "1"],
-         "Invalid value for '--offset-search': offset_search applies to time offset auto"),
-        # also the default range typed out, which the settings cannot tell from unset
-        (["position", "--time-offset", "0.02", "--offset-search", "0.2"],
-         "Invalid value for '--offset-search': offset_search applies to time offset auto"),
         (["calibrate", "--offset-search", "20"],
          "Invalid value for '--offset-search': offset_search must be in (0, 10], got 20"),
         (["calibrate", "--acc-error", "50"],
