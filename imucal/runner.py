@@ -207,6 +207,20 @@ class Job:
         if self.start is not None and self.end is not None and self.end <= self.start:
             raise InputError(f"--end must be after --start ({self.start:g} s), got "
                              f"{self.end:g} s")
+        # (a library caller's mix-up failed deep inside as "internal error, report it")
+        from .settings import AxisSettings, CalibrateSettings, PositionSettings
+
+        wanted = {"axis": AxisSettings, "position": PositionSettings,
+                  "calibrate": CalibrateSettings}[self.command]
+        job = f"{'an' if self.command == 'axis' else 'a'} {self.command} job"
+        if type(self.settings) is not wanted:
+            raise InputError(f"{job} takes {wanted.__name__}, got "
+                             f"{type(self.settings).__name__}")
+        if len(self.sensors) != (0 if self.command == "calibrate" else 2):
+            raise InputError(f"{job} takes "
+                             + ("no sensors (its joints are in the settings)"
+                                if self.command == "calibrate" else "two sensors")
+                             + f", got {tuple(self.sensors)!r}")
 
 
 @dataclass

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from conftest import axis_error_deg, run_imucal, simulated
 
+from imucal.errors import InputError
 from imucal.runner import COMMANDS, Command, Job, Outcome, parse_sensors, run
 from imucal.settings import AxisSettings, PositionSettings
 from imucal.writers import save_recording
@@ -77,6 +78,12 @@ def test_job_and_sensor_checks():
         Job("axis", ("a", "b"), AxisSettings(), start=5.0, end=5.0)
     with pytest.raises(Exception, match="unknown command"):
         Job("knee", ("a", "b"), AxisSettings())
+    # a library caller's mix-up ran into "internal error ... report it" (exit 3)
+    with pytest.raises(InputError, match="a position job takes PositionSettings, got "
+                                         "AxisSettings"):
+        Job("position", ("shank", "foot"), AxisSettings())
+    with pytest.raises(InputError, match=r"an axis job takes two sensors, got \('thigh',\)"):
+        Job("axis", ("thigh",), AxisSettings())
     assert set(COMMANDS) == {"axis", "position", "calibrate"}
 
 
