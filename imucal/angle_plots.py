@@ -224,7 +224,7 @@ def _cycle_panel(cyc, j) -> None:
     if j.gait is None:
         cyc.set_axis_off()
         return
-    cyc.set_xlabel("% of cycle (from peak swing flexion)")
+    cyc.set_xlabel("% of cycle (from peak flexion)")
     cyc.set_ylabel("flexion (deg)")
     cyc.grid(alpha=0.3)
     if not j.fits:  # an average would make angles that are not the knee's look regular
