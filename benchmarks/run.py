@@ -258,7 +258,8 @@ def bench_solver():
 
     # The solver comparisons run with synchronised clocks (time_offset=0): the clock-offset
     # search is a fixed cost per estimate, not per restart, and a loop of 100 single
-    # restarts would pay it 100 times. "default" below times the command line's default.
+    # restarts would pay it 100 times (a given offset's check, one profile, is paid in
+    # both). "default" below times the command line's default.
     def axis100():
         return estimate_axis(th.gyr[sl], sh.gyr[sl], rate=rec.rate, restarts=100, seed=1,
                              time_offset=0)
