@@ -274,19 +274,40 @@ def unapplied_offset_spread(jc) -> float:
 def _unapplied_search(jc) -> tuple[float, float]:
     """(estimated_s, sigma_s) of the calibration axis's clock-offset search where it ran
     (mode auto), applied nothing and did not end at its edge; (estimated_s minus the
-    offset given, sigma_s) where its check contradicted a given offset; else (0, 0)."""
+    offset given, sigma_s) where the check of the axis or of the knee centre contradicted
+    a given offset (the one with the larger cost ratio: with soft tissue on gait the
+    centre's caught a 20 ms shank the axis's missed, an independent review); else
+    (0, 0)."""
     block = jc.axis.get("time_offset") if isinstance(jc.axis, dict) else None
     if not isinstance(block, dict):
         return 0.0, 0.0
     if block.get("mode") == "given":
-        if block.get("contradicted") is not True:
-            return 0.0, 0.0
-    elif block.get("mode") != "auto" or block.get("applied") or block.get("at_edge"):
+        return _contradicted_given(jc)
+    if block.get("mode") != "auto" or block.get("applied") or block.get("at_edge"):
         return 0.0, 0.0
     found, sigma = _offset_number(jc, "estimated_s"), _offset_number(jc, "sigma_s")
     if found is None or sigma is None:
         return 0.0, 0.0
     return found - clock_offset(jc), sigma
+
+
+def _contradicted_given(jc) -> tuple[float, float]:
+    """(estimated_s minus the offset given, sigma_s) of the contradicted check (axis or
+    knee centre) with the larger cost ratio, else (0, 0)."""
+    found = []
+    for doc in (jc.axis, jc.position):
+        block = doc.get("time_offset") if isinstance(doc, dict) else None
+        if not isinstance(block, dict) or block.get("contradicted") is not True:
+            continue
+        values = [block.get(k) for k in ("estimated_s", "sigma_s", "time_offset_s",
+                                          "cost_ratio")]
+        if all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+               for v in values):
+            found.append(values)
+    if not found:
+        return 0.0, 0.0
+    estimated, sigma, given, _ = max(found, key=lambda v: v[3])
+    return estimated - given, sigma
 
 
 def clock_offset(jc) -> float:

@@ -87,6 +87,7 @@ from .time_offset import (
     check_given,
     delayed,
     fit_with_offset,
+    given_search,
     profile_samples,
 )
 from .timing import check_rate
@@ -342,8 +343,8 @@ def estimate_axis(
     if s.time_offset == "auto":
         return _with_auto_offset(g1, g2, acc1, acc2, rate, s)
     result = _estimate(g1, g2, acc1, acc2, rate, replace(s, seed=resolve_seed(s.seed)))
-    check_given(result, _offset_profile(g1, g2, rate, s.offset_search), rate,
-                s.offset_search, s.time_offset)
+    search = given_search(s.offset_search, s.time_offset, rate)
+    check_given(result, _offset_profile(g1, g2, rate, search), rate, search, s.time_offset)
     return result
 
 

@@ -742,3 +742,26 @@ def test_angles_from_a_given_offset_the_data_contradict_warn_and_cover_the_error
     assert cal.joints["knee"].verdict == "use with care"
     assert any(w.startswith("axis: the clock offset given (+0.0 ms) is not the data's")
                for w in cal.joints["knee"].warnings)
+
+
+def test_angles_read_the_knee_centres_check_of_a_given_offset_too():
+    # soft tissue on a gait calibration: the axis's check missed a 20 ms shank given as
+    # 0, the knee centre's caught it, and the angles read only the axis's: 4.1 deg RMS,
+    # 80 % within 3 sigma, "fits", no word (an independent review)
+    from imucal.angles import joint_angles
+    from imucal.calibration import calibrate
+
+    kw = dict(soft_tissue_deg=2, soft_tissue_mm=3, gyr_bias=0.01, clock_offset={"shank": 0.02})
+    trial, _ = simulate(seed=8, duration=20.0, motion="gait", **kw)
+    walk, truth = simulate(seed=308, mounting_seed=8, duration=30.0, motion="gait", **kw)
+    cal = calibrate(trial, joints=["knee=hinge:thigh,shank"], seed=1, restarts=30,
+                    time_offset=0.0)
+    jc = cal.joints["knee"]
+    assert not jc.axis["time_offset"]["contradicted"]
+    assert jc.position["time_offset"]["contradicted"]
+    knee = joint_angles(walk, cal).joints["knee"]
+    err = knee.flexion_deg - np.asarray(truth["knee_flexion_deg"])
+    err -= np.median(err)
+    assert np.mean(np.abs(err) < 3 * knee.sigma_deg) > 0.95
+    assert any("the calibration's data put the second sensor's clock 17 ms later" in w
+               for w in knee.warnings)
