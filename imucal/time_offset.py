@@ -627,8 +627,9 @@ def check_given(result, profile, rate: float, search: float, given: float) -> No
         at_zero, at_given = np.square(refit(np.array([0.0, given]))[0]).mean(axis=1)
         ratio = float(ratio * at_given / max(at_zero, 1e-300))
     versus = Offset(found.delta_s - given, found.sigma_s, found.at_edge, search, ratio)
+    elsewhere = versus.significant(rate)
     edge = checked and found.at_edge and ratio >= MIN_COST_RATIO
-    contradicted = (versus.significant(rate) or edge) if checked else None
+    contradicted = (elsewhere or edge) if checked else None
     result.time_offset.update({
         "estimated_s": found.delta_s if checked else None,
         "sigma_s": found.sigma_s if checked else None,
@@ -637,7 +638,7 @@ def check_given(result, profile, rate: float, search: float, given: float) -> No
     if contradicted:
         lag = found.delta_s
         where = (f"beyond {'+' if lag > 0 else '-'}{1000 * search:.0f} ms (the search's end)"
-                 if edge and not versus.significant(rate) else
+                 if edge and not elsewhere else
                  f"{abs(1000 * lag):.1f} +- {1000 * found.sigma_s:.1f} ms "
                  f"{'late' if lag >= 0 else 'early'}")
         result.warnings.append(
