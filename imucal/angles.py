@@ -210,10 +210,11 @@ def detect_gait(flexion_deg: np.ndarray, rate: float) -> dict | None:
 # ----------------------------------------------------------------------------- calibration
 
 
-def _offset_number(jc, key: str) -> float | None:
-    """``key`` of the calibration axis's ``time_offset`` block, if a finite number."""
-    axis = jc.axis if isinstance(jc.axis, dict) else {}
-    offset = axis.get("time_offset")
+def _offset_number(jc, key: str, doc=None) -> float | None:
+    """``key`` of the ``time_offset`` block of ``doc`` (default: the calibration's axis),
+    if a finite number."""
+    doc = jc.axis if doc is None else doc
+    offset = doc.get("time_offset") if isinstance(doc, dict) else None
     value = offset.get(key) if isinstance(offset, dict) else None
     ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
     return float(value) if ok else None
@@ -299,10 +300,9 @@ def _contradicted_given(jc) -> tuple[float, float]:
         block = doc.get("time_offset") if isinstance(doc, dict) else None
         if not isinstance(block, dict) or block.get("contradicted") is not True:
             continue
-        values = [block.get(k) for k in ("estimated_s", "sigma_s", "time_offset_s",
-                                          "cost_ratio")]
-        if all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-               for v in values):
+        values = [_offset_number(jc, k, doc) for k in ("estimated_s", "sigma_s",
+                                                        "time_offset_s", "cost_ratio")]
+        if None not in values:
             found.append(values)
     if not found:
         return 0.0, 0.0

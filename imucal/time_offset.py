@@ -596,7 +596,8 @@ def given_search(search: float, given: float, rate: float) -> float:
 def check_given(result, profile, rate: float, search: float, given: float) -> None:
     """Check a given clock offset against the data: the profile around ``result`` (fitted
     with the second sensor read at t + ``given`` s; ``profile`` as for
-    :func:`fit_with_offset`, built for :func:`given_search`) over +-``search`` s. Where
+    :func:`fit_with_offset`) over +-``search`` s, :func:`given_search`'s (the profile built
+    for that range, which reaches the offset given). Where
     it finds another offset by the rule that applies one in "auto"
     (:meth:`Offset.significant`, here of the difference to ``given`` and of the cost at
     ``given`` over the cost at the minimum), or the cost falls to the search's end by the
@@ -618,7 +619,6 @@ def check_given(result, profile, rate: float, search: float, given: float) -> No
         ``contradicted``; ``result.warnings`` the warning when contradicted.
     """
     check_search(search, rate)
-    search = given_search(search, given, rate)
     refit = profile(result)
     found = estimate_offset(refit, rate, search)
     checked = bool(np.isfinite(found.sigma_s))
