@@ -600,7 +600,11 @@ def test_the_shipped_sample_data_are_what_make_sample_data_makes():
         shipped = load_recording(sample / f"{name}.h5")
         for sensor in ("thigh", "shank", "foot"):
             for kind in ("gyr", "acc"):
-                np.testing.assert_array_equal(getattr(shipped.sensor(sensor), kind),
-                                              getattr(rec.sensor(sensor), kind))
+                # not bit-equal: another CPU's vector kernels round the simulator's
+                # products differently (3e-14 on an AVX-512 machine), far below the
+                # 4e-10 the older simulator left
+                np.testing.assert_allclose(getattr(shipped.sensor(sensor), kind),
+                                           getattr(rec.sensor(sensor), kind), rtol=0,
+                                           atol=1e-12)
         written = json.loads((sample / f"{name}.truth.json").read_text())
         assert set(written) == set(truth) and written["settings"] == truth["settings"]
