@@ -84,6 +84,7 @@ from .sign import (
 )
 from .time_offset import (
     OFFSET_STEPS,
+    adopt,
     check_given,
     delayed,
     fit_with_offset,
@@ -344,7 +345,7 @@ def estimate_axis(
         return _with_auto_offset(g1, g2, acc1, acc2, rate, s)
     result = _estimate(g1, g2, acc1, acc2, rate, replace(s, seed=resolve_seed(s.seed)))
     search = given_search(s.offset_search, s.time_offset, rate)
-    check_given(result, _offset_profile(g1, g2, rate, search), rate, search, s.time_offset)
+    check_given(result, offset_profile(g1, g2, rate, search), rate, search, s.time_offset)
     return result
 
 
@@ -386,6 +387,42 @@ def _check_acc(g1, acc1, acc2):
     return acc1, acc2
 
 
+def adopt_offset(own: AxisResult, source: dict, found_by: str, gyr1, gyr2, *, acc1=None,
+                 acc2=None, rate: float, **options) -> AxisResult:
+    """The axis fitted again at the clock offset another "auto" search of the same two
+    sensors applied (a knee's centre: :func:`imucal.calibration.calibrate` keeps one
+    offset per joint, :func:`imucal.time_offset.choose`).
+
+    Parameters
+    ----------
+    own
+        This axis as estimated with ``time_offset="auto"`` (its own search).
+    source
+        The other search's ``time_offset`` block (docs/json.md), whose ``time_offset_s``
+        (s) is applied.
+    found_by
+        Which estimate found it, for the block's ``found_by`` (e.g. "knee centre").
+    gyr1, gyr2, acc1, acc2, rate, options
+        As given to :func:`estimate_axis` for ``own`` (``time_offset`` is replaced).
+
+    Returns
+    -------
+    AxisResult
+        The fit at that offset; ``time_offset`` is ``source``'s block with ``found_by``,
+        ``own`` (this axis's own search) and ``moved_from_own`` (deg), and the offset's
+        1-sigma and that move (capped at ``OFFSET_MODEL_CAP`` x the model term) are in
+        the 1-sigma (:func:`imucal.time_offset.adopt`).
+    """
+    result = estimate_axis(gyr1, gyr2, acc1=acc1, acc2=acc2, rate=rate,
+                           **{**options, "time_offset": float(source["time_offset_s"])})
+    g1, g2 = check_pair(gyr1, gyr2)
+    search = float(own.time_offset["search_s"])
+    adopt(result, own, offset_profile(g1, g2, check_rate(rate), search), rate, source,
+          found_by, _offset_moved, "deg", MAX_UNCERTAINTY_DEG,
+          lambda r: np.concatenate([r.j1, r.j2]))
+    return _refuse_if_uninformative(result)
+
+
 def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
     """The estimate with the clock offset found from eq. (1) itself
     (:func:`imucal.time_offset.fit_with_offset`)."""
@@ -394,7 +431,7 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
     def again(seconds):  # (the search's own fits: no check of their offset)
         return _estimate(g1, g2, acc1, acc2, rate, s.at_offset(seconds))
     return _refuse_if_uninformative(fit_with_offset(
-        again, _offset_profile(g1, g2, rate, s.offset_search), rate, s.offset_search,
+        again, offset_profile(g1, g2, rate, s.offset_search), rate, s.offset_search,
         _offset_moved, "deg", MAX_UNCERTAINTY_DEG, lambda r: np.concatenate([r.j1, r.j2])))
 
 
@@ -596,7 +633,7 @@ def _cutoff_sensitivity(p: Prepared, x: np.ndarray) -> dict:
             "max_shift_deg": max(shifts["j1"] + shifts["j2"])}
 
 
-def _offset_profile(g1, g2, rate, search):
+def offset_profile(g1, g2, rate, search):
     """``result -> refit(deltas)``: eq. (1) over candidate offsets, the axis refitted
     from ``result`` at each: (D, M) residuals and (D, 6) axes
     (:func:`imucal.time_offset.fit_with_offset`).
@@ -609,7 +646,14 @@ def _offset_profile(g1, g2, rate, search):
     (3 fits); soft tissue without an offset: the shifts that gained 1.5-1.75 unfiltered
     gain 1.1-1.2. A gyroscope bias the fit removed is removed here too: left in, a shift of the
     low-passed rates mimics part of it (simulated circling, 0.02 rad/s: +24 ms applied
-    at a cost ratio of 1.6)."""
+    at a cost ratio of 1.6).
+
+    Returns
+    -------
+    profile : callable
+        ``result -> refit``, where ``refit(deltas)`` (D,) s gives the (D, M) residuals,
+        rad/s, and the (D, 6) refitted axes.
+    """
     def profile(first):
         cutoff = first.settings["cutoff_hz"] or default_cutoff(rate)
         bias = first.gyr_bias if first.gyr_bias.get("applied") else {}

@@ -87,6 +87,7 @@ from .settings import (
 from .settings import resolve as resolve_settings
 from .time_offset import (
     OFFSET_STEPS,
+    adopt,
     check_given,
     delayed,
     fit_with_offset,
@@ -335,7 +336,7 @@ def estimate_position(
         return _with_auto_offset(g1, a1, g2, a2, rate, axis, s)
     result = _estimate(g1, a1, g2, a2, rate, axis, replace(s, seed=resolve_seed(s.seed)))
     search = given_search(s.offset_search, s.time_offset, rate)
-    check_given(result, _offset_profile((g1, a1, g2, a2), rate, search), rate, search,
+    check_given(result, offset_profile((g1, a1, g2, a2), rate, search), rate, search,
                 s.time_offset)
     return result
 
@@ -373,6 +374,42 @@ def _estimate(g1, a1, g2, a2, rate, axis, s: PositionSettings, bias_removed: boo
     return result
 
 
+def adopt_offset(own: PositionResult | None, source: dict, found_by: str, gyr1, acc1, gyr2, acc2, *,
+                 rate: float, **options) -> PositionResult:
+    """The joint position fitted again at the clock offset another "auto" search of the
+    same two sensors applied (a knee's axis: :func:`imucal.calibration.calibrate` keeps
+    one offset per joint, :func:`imucal.time_offset.choose`).
+
+    Parameters
+    ----------
+    own
+        This position as estimated with ``time_offset="auto"`` (its own search), or None
+        where ``source`` is its own search, made on another axis.
+    source
+        The other search's ``time_offset`` block (docs/json.md), whose ``time_offset_s``
+        (s) is applied.
+    found_by
+        Which estimate found it, for the block's ``found_by`` (e.g. "axis").
+    gyr1, acc1, gyr2, acc2, rate, options
+        As given to :func:`estimate_position` for ``own`` (``time_offset`` is replaced).
+
+    Returns
+    -------
+    PositionResult
+        The fit at that offset; ``time_offset`` is ``source``'s block with ``found_by``
+        and ``own`` (this position's own search, with ``own``), and the offset's 1-sigma is in the
+        1-sigma (:func:`imucal.time_offset.adopt`; no move from its own choice, as for
+        an applied offset in "auto").
+    """
+    result = estimate_position(gyr1, acc1, gyr2, acc2, rate=rate,
+                               **{**options, "time_offset": float(source["time_offset_s"])})
+    g1, g2 = check_pair(gyr1, gyr2)
+    a1, a2 = check_pair(acc1, acc2, "acc")
+    search = float(source["search_s"])
+    return adopt(result, own, offset_profile((g1, a1, g2, a2), check_rate(rate), search),
+                 rate, source, found_by, _offset_moved, "mm", MAX_UNCERTAINTY_MM)
+
+
 def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> PositionResult:
     """The estimate with the clock offset found from eq. (3) itself
     (:func:`imucal.time_offset.fit_with_offset`)."""
@@ -385,7 +422,7 @@ def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> Positi
     # all of that to every clean fit with a real offset (simulated, 20 ms late: 8 of 10
     # `good` before, 5 with it), and soft tissue has never had an offset applied to a
     # joint centre (docs/accuracy.md: 0 of 80 fits).
-    return fit_with_offset(again, _offset_profile((g1, a1, g2, a2), rate, s.offset_search), rate,
+    return fit_with_offset(again, offset_profile((g1, a1, g2, a2), rate, s.offset_search), rate,
                            s.offset_search, _offset_moved, "mm", MAX_UNCERTAINTY_MM)
 
 
@@ -861,10 +898,17 @@ class _SpheroidalProblem(BatchedProblem):
         return cost, safe_newton(jtj, hess), jte
 
 
-def _offset_profile(signals, rate, search):
+def offset_profile(signals, rate, search):
     """``result -> refit(deltas)``: eq. (3) over candidate offsets, the joint position
     refitted from ``result`` at each: (D, M) residuals and (D, 6) positions, m
-    (:func:`imucal.time_offset.fit_with_offset`)."""
+    (:func:`imucal.time_offset.fit_with_offset`).
+
+    Returns
+    -------
+    profile : callable
+        ``result -> refit``, where ``refit(deltas)`` (D,) s gives the (D, M) residuals,
+        m/s^2, and the (D, 6) refitted positions, m.
+    """
     g1, a1, g2, a2 = signals
 
     def profile(first):

@@ -79,9 +79,11 @@ class EstimateResult(Verdict):
         "mode" ("auto" or "given"), and with "auto" the estimate "estimated_s", its
         "sigma_s", "applied", "cost_ratio" (cost at 0 over cost at the estimate),
         "search_s", "at_edge" (:class:`imucal.time_offset.Offset`), "found_by"
-        ("profile", "followed" or "trial": how the offset was reached) and
-        "sensitivity_per_ms" (per vector, deg or mm per ms of offset); where they apply
-        also "moved_from_zero" and "unapplied_move"; with "given", the check of the offset
+        ("profile", "followed" or "trial": how the offset was reached; in a calibration
+        also "knee centre" or "axis", the other estimate of the joint, with "own": this
+        estimate's own search) and "sensitivity_per_ms" (per vector, deg or mm per ms of
+        offset); where they apply also "moved_from_zero", "moved_from_own" and
+        "unapplied_move"; with "given", the check of the offset
         given: "estimated_s", "sigma_s", "cost_ratio" (cost at the offset given over the
         cost at "estimated_s"), "search_s", "at_edge" and "contradicted" (docs/json.md).
     """

@@ -765,3 +765,96 @@ def _parabola_minimum(cost: np.ndarray, deltas: np.ndarray) -> tuple[float, bool
     step = deltas[1] - deltas[0]
     shift = 0.5 * (c0 - c2) / curvature if curvature > 0 else 0.0
     return float(deltas[k] + np.clip(shift, -0.5, 0.5) * step), False
+
+
+# ----------------------------------------------------------------- one offset per joint
+
+
+def disagree(first: dict, second: dict) -> bool:
+    """Whether two "auto" searches of the same two sensors (``time_offset`` blocks, e.g.
+    a knee's axis and centre) applied different offsets: more than ``FOLLOW_STEP_S`` and
+    twice their combined 1-sigma apart (an offset not applied counts as exactly 0), with
+    neither search ended at its edge (that one is refused or warned already).
+
+    Returns
+    -------
+    bool
+        True when the two applied offsets differ by more than that.
+    """
+    blocks = (first, second)
+    if any(b.get("mode") != "auto" or b.get("at_edge") for b in blocks):
+        return False
+    sigmas = [float(b["sigma_s"]) if b.get("applied") and b.get("sigma_s") is not None
+              else 0.0 for b in blocks]
+    gap = abs(float(first["time_offset_s"]) - float(second["time_offset_s"]))
+    return gap > max(FOLLOW_STEP_S, 2.0 * float(np.hypot(*sigmas)))
+
+
+def choose(deltas: np.ndarray, *refits) -> int:
+    """Index of the candidate offset (``deltas`` (D,), s) both constraints fit best:
+    each ``refit`` (:func:`estimate_offset`'s, around its own estimate) gives its mean
+    squared residual at every candidate, and the lowest sum of their logarithms wins
+    (the product of the two cost ratios between candidates; for Gaussian residuals and
+    equal sample counts, the joint profile likelihood: both profiles read at most
+    ``OFFSET_SAMPLES``). A sharp profile thereby outweighs a flat one: on simulated gait with
+    soft tissue the centre's (eq. 3) gains 7-110x between the candidates, the axis's
+    (eq. 1) 0.8-4.3x (imucal.calibration).
+
+    Returns
+    -------
+    int
+        The winning candidate's index.
+    """
+    score = sum(np.log(np.maximum(np.square(refit(deltas)[0]).mean(axis=1), 1e-300))
+                for refit in refits)
+    return int(np.argmin(score))
+
+
+def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
+          unit: str, limit: float, state=None):
+    """``result``, an estimator's fit with the offset another search of the same two
+    sensors applied (``source``, that search's ``time_offset`` block, chosen by
+    :func:`choose`), made an "auto" result: the block is ``source``'s with ``found_by``
+    (which estimate found it) and ``own`` (this estimator's own search: ``own``'s block's
+    offset, estimate, 1-sigma and cost ratio; none where ``own`` is None: the search that
+    found it was this estimator's, on another fit); the given-offset check of ``result``, whose
+    profile is this estimator's own, is replaced by that, and its warning dropped. The
+    offset's 1-sigma enters the estimate's as in :func:`fit_with_offset` (sensitivity
+    times 1-sigma), and with ``state`` the move from the estimator's own choice
+    (``moved_from_own``, capped as ``moved_from_zero`` is). ``profile``, ``moved``,
+    ``unit``, ``limit``: as for :func:`fit_with_offset`.
+
+    Returns
+    -------
+    result
+        ``result``, changed in place.
+    """
+    if result.time_offset.get("contradicted"):
+        # check_given's warning is the given path's last: the disagreement it reports is
+        # the reason for this offset, recorded in ``own``
+        dropped = result.warnings.pop()
+        assert dropped.startswith("the clock offset given"), dropped
+    delta = float(source["time_offset_s"])
+    sigma = source.get("sigma_s") if source.get("applied") else None
+    result.time_offset = {
+        **{k: source.get(k) for k in ("mode", "time_offset_s", "estimated_s", "sigma_s",
+                                       "applied", "cost_ratio", "search_s", "at_edge")},
+        "found_by": found_by}
+    if own is not None:
+        result.time_offset["own"] = {k: own.time_offset.get(k) for k in (
+            "time_offset_s", "estimated_s", "sigma_s", "cost_ratio", "found_by")}
+    result.settings["time_offset"] = "auto"
+    states = profile(result)(delta + SENSITIVITY_STEP_S * np.array([-1.0, 1.0]))[1]
+    per_s = {k: v / (2 * SENSITIVITY_STEP_S)
+             for k, v in moved(result, states[0], states[1]).items()}
+    result.time_offset["sensitivity_per_ms"] = {k: v / 1000 for k, v in per_s.items()}
+    part = {k: v * (sigma if sigma is not None and np.isfinite(sigma) else 0.0)
+            for k, v in per_s.items()}
+    model = result.uncertainty_components.get("model")
+    if model is not None and state is not None and own is not None:
+        shift = moved(result, state(own), state(result))
+        result.time_offset["moved_from_own"] = shift
+        part = {k: float(np.hypot(v, min(shift[k], OFFSET_MODEL_CAP * model[k])))
+                for k, v in part.items()}
+    _widen(result, part, unit, limit)
+    return result

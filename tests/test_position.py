@@ -84,7 +84,7 @@ def test_offset_profile_refits_all_candidates_as_lstsq_one_at_a_time():
     # the batched refits of the position's clock-offset profile against the plain loop
     # they replaced (five lstsq Gauss-Newton steps per candidate), on a hinge, where
     # the position along the axis is free (minimum-norm steps), and on an ankle
-    from imucal.position import _filtered_sensors, _offset_profile, _SpheroidalProblem
+    from imucal.position import _filtered_sensors, _SpheroidalProblem, offset_profile
     from imucal.time_offset import OFFSET_STEPS, delayed, profile_samples
 
     rec, _ = simulated(3)
@@ -93,7 +93,7 @@ def test_offset_profile_refits_all_candidates_as_lstsq_one_at_a_time():
         result = estimate_position(a.gyr, a.acc, b.gyr, b.acc, rate=rec.rate, restarts=10,
                                    seed=1, time_offset=0)
         deltas = np.array([-0.05, 0.0, 0.0123, 0.04])
-        e, y = _offset_profile((a.gyr, a.acc, b.gyr, b.acc), rec.rate, 0.2)(result)(deltas)
+        e, y = offset_profile((a.gyr, a.acc, b.gyr, b.acc), rec.rate, 0.2)(result)(deltas)
         cutoff = result.settings["cutoff_hz"]
         index = profile_samples(result.sample_index, a.gyr.shape[0], rec.rate, 0.2)
         # each sensor filtered on its own (the profile filters both in one call)

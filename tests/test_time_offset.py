@@ -524,3 +524,96 @@ def test_a_given_offset_with_the_clocks_beyond_the_search_is_warned_too():
     short = estimate_axis(thigh.gyr[:60], g2[:60], rate=100.0, seed=1, time_offset=0.0,
                           select=False)
     assert short.time_offset["contradicted"] is None
+
+
+# ------------------------------------------------------------ one offset per knee (calibrate)
+
+GAIT_TISSUE = {"soft_tissue_deg": 1.0, "soft_tissue_mm": 2.0, "gyr_noise": 0.01,
+               "acc_noise": 0.05}
+
+
+def _knee_session(mounting: int, clock_offset):
+    """A 40 s gait calibration trial with soft tissue and its knee calibration, and a
+    walk of the same mounting (the same clock offset)."""
+    from imucal.calibration import calibrate
+
+    clock = {"shank": clock_offset} if clock_offset else None
+    cal, truth = simulate(seed=100 + mounting, mounting_seed=mounting, motion="gait",
+                          duration=40.0, clock_offset=clock, **GAIT_TISSUE)
+    walk, walk_truth = simulate(seed=200 + mounting, mounting_seed=mounting, motion="gait",
+                                duration=40.0, clock_offset=clock, **GAIT_TISSUE)
+    calibration = calibrate(cal, restarts=50, seed=1, joints=["knee=hinge:thigh,shank"])
+    return cal, truth, calibration, walk, walk_truth
+
+
+def _angle_errors(calibration, walk, walk_truth):
+    from imucal.angles import joint_angles
+
+    knee = joint_angles(walk, calibration).joints["knee"]
+    err = knee.flexion_deg - np.asarray(walk_truth["knee_flexion_deg"])
+    err -= err.mean()  # the zero's convention
+    return (float(np.sqrt(np.mean(err**2))),
+            float(np.mean(np.abs(err) <= 3 * knee.sigma_deg)), knee.check["fits"])
+
+
+def test_a_knee_keeps_the_centres_offset_where_soft_tissue_misled_the_axis():
+    # clocks in sync: soft tissue on gait made the axis's own search apply 21 ms, and the
+    # angles read the shank 21 ms early: 3.9 deg RMS off, 70 % within 3 sigma, "fits"
+    cal, truth, calibration, walk, walk_truth = _knee_session(5, None)
+    th, sh = cal.sensor("thigh"), cal.sensor("shank")
+    alone = estimate_axis(th.gyr, sh.gyr, acc1=th.acc, acc2=sh.acc, rate=cal.rate,
+                          restarts=50, seed=1)
+    assert alone.time_offset["applied"] and abs(alone.time_offset["time_offset_s"]) > 0.015
+    knee = calibration.joints["knee"]
+    block = knee.axis["time_offset"]
+    assert block["found_by"] == "knee centre" and block["time_offset_s"] == 0.0
+    assert block["own"]["time_offset_s"] == alone.time_offset["time_offset_s"]
+    assert block["moved_from_own"]["j1"] > 0.5  # the overruled choice is in the 1-sigma
+    assert "clock offset given" not in " ".join(knee.warnings)
+    assert knee.position["time_offset"]["time_offset_s"] == 0.0
+    rmse, within, fits = _angle_errors(calibration, walk, walk_truth)
+    assert rmse < 1.0 and within > 0.97 and fits, (rmse, within)
+    # the axis stays honest about the choice
+    errors = axis_error_deg(knee.j1, knee.j2, truth["j1"], truth["j2"])
+    quality = knee.axis["quality"]
+    assert errors[0] < 3 * quality["j1_uncertainty_deg"]
+    assert errors[1] < 3 * quality["j2_uncertainty_deg"]
+
+
+def test_a_late_shank_the_axis_misread_under_soft_tissue_takes_the_centres_offset():
+    # shank 20 ms late: the axis's own search applied 40.7 ms (angles 3.9 deg RMS off,
+    # 69 % within 3 sigma, "fits"); the centre's found 20.5 ms
+    _, truth, calibration, walk, walk_truth = _knee_session(5, 0.02)
+    knee = calibration.joints["knee"]
+    axis_block, centre_block = knee.axis["time_offset"], knee.position["time_offset"]
+    assert axis_block["found_by"] == "knee centre" and axis_block["own"]["time_offset_s"] > 0.03
+    assert axis_block["time_offset_s"] == pytest.approx(0.02, abs=0.002)
+    assert centre_block["time_offset_s"] == axis_block["time_offset_s"]
+    assert "own" not in centre_block  # its own search, on the axis refitted at it
+    rmse, within, fits = _angle_errors(calibration, walk, walk_truth)
+    assert rmse < 1.0 and within > 0.97 and fits, (rmse, within)
+
+
+def test_one_offset_per_joint_needs_a_disagreement_beyond_both_sigmas():
+    from imucal.time_offset import choose, disagree
+
+    def block(offset, sigma=0.0005, **more):
+        return {"mode": "auto", "time_offset_s": offset, "sigma_s": sigma,
+                "applied": offset != 0.0, "at_edge": False, **more}
+
+    assert not disagree(block(0.020), block(0.0215))  # within 2 ms
+    assert disagree(block(0.020), block(0.025))
+    assert not disagree(block(0.020, sigma=0.003), block(0.025))  # within 2 x 1-sigma
+    assert disagree(block(0.0), block(0.021))
+    assert not disagree(block(0.0, at_edge=True), block(0.021))  # refused or warned already
+    assert not disagree({**block(0.0), "mode": "given"}, block(0.021))
+    deltas = np.array([0.0, 0.02])
+    # the axis gains 3x at 20 ms, the centre loses 30x there: 0 wins
+    def axis_refit(d):
+        return np.sqrt([[3.0] * 50, [1.0] * 50]), None
+
+    def centre_refit(d):
+        return np.sqrt([[1.0] * 50, [30.0] * 50]), None
+
+    assert choose(deltas, axis_refit, centre_refit) == 0
+    assert choose(deltas, axis_refit) == 1
