@@ -85,7 +85,9 @@ class EstimateResult(Verdict):
         offset); where they apply also "moved_from_zero", "moved_from_own" and
         "unapplied_move"; with "given", the check of the offset
         given: "estimated_s", "sigma_s", "cost_ratio" (cost at the offset given over the
-        cost at "estimated_s"), "search_s", "at_edge" and "contradicted" (docs/json.md).
+        cost at "estimated_s"), "search_s", "at_edge" and "contradicted" (in a
+        calibration also "overruled_by": the other estimate of the knee, whose check
+        withdrew this one's contradiction) (docs/json.md).
     """
 
     rms_residual: float

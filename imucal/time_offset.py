@@ -103,6 +103,8 @@ UNAPPLIED_MOVE_SIGMAS = 3.0
 #: profile around the fit at it moves it by more than its 1-sigma and ``FOLLOW_STEP_S``.
 MAX_FOLLOW = 3
 FOLLOW_STEP_S = 0.002
+#: How :func:`check_given`'s warning begins.
+GIVEN_WARNING = "the clock offset given"
 
 
 @dataclass(frozen=True)
@@ -642,7 +644,7 @@ def check_given(result, profile, rate: float, search: float, given: float) -> No
                  f"{abs(1000 * lag):.1f} +- {1000 * found.sigma_s:.1f} ms "
                  f"{'late' if lag >= 0 else 'early'}")
         result.warnings.append(
-            f"the clock offset given ({1000 * given:+.1f} ms) is not the data's: they put the "
+            f"{GIVEN_WARNING} ({1000 * given:+.1f} ms) is not the data's: they put the "
             f"second sensor's clock {where}, and reading it so lowers the residual "
             f"{ratio:.2f}x; check the sensors' synchronisation, or use --time-offset auto "
             "(a given offset is otherwise taken as exact)")
@@ -830,10 +832,9 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
         ``result``, changed in place.
     """
     if result.time_offset.get("contradicted"):
-        # check_given's warning is the given path's last: the disagreement it reports is
-        # the reason for this offset, recorded in ``own``
-        dropped = result.warnings.pop()
-        assert dropped.startswith("the clock offset given"), dropped
+        # the disagreement check_given reports is the reason for this offset, recorded
+        # in ``own``
+        _drop_given_warning(result)
     delta = float(source["time_offset_s"])
     sigma = source.get("sigma_s") if source.get("applied") else None
     result.time_offset = {
@@ -858,3 +859,28 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
                 for k, v in part.items()}
     _widen(result, part, unit, limit)
     return result
+
+
+def withdraw(result, by: str) -> str:
+    """Withdraw the contradiction :func:`check_given` reported for ``result`` (its
+    ``time_offset.contradicted`` and warning), overruled by the other estimate of the
+    same two sensors (``by``, e.g. "knee centre"), whose constraint together with this
+    one's fits the offset given better than this check's estimate
+    (:func:`choose`).
+
+    Returns
+    -------
+    str
+        The warning removed from ``result.warnings`` (a joint centre estimated on this
+        axis carries a copy); ``result.time_offset`` gets ``contradicted`` False and
+        ``overruled_by`` ``by``.
+    """
+    result.time_offset.update({"contradicted": False, "overruled_by": by})
+    return _drop_given_warning(result)
+
+
+def _drop_given_warning(result) -> str:
+    """Remove :func:`check_given`'s warning, the given path's last, and return it."""
+    dropped = result.warnings.pop()
+    assert dropped.startswith(GIVEN_WARNING), dropped
+    return dropped

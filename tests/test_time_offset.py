@@ -617,3 +617,45 @@ def test_one_offset_per_joint_needs_a_disagreement_beyond_both_sigmas():
 
     assert choose(deltas, axis_refit, centre_refit) == 0
     assert choose(deltas, axis_refit) == 1
+
+
+def test_a_given_offset_the_axis_alone_doubts_is_checked_with_the_knee_centre():
+    # clocks in sync, calibrated with 0: soft tissue made the axis's check put the shank
+    # 21 ms early (cost ratio 3.0), the centre's 0.5 ms; the angles' band grew to a median
+    # 3.0 deg with a warning to use auto, where 0.6 deg covered their error
+    from imucal.calibration import calibrate
+
+    cal, _ = simulate(seed=105, mounting_seed=5, motion="gait", duration=40.0, **GAIT_TISSUE)
+    walk, walk_truth = simulate(seed=205, mounting_seed=5, motion="gait", duration=40.0,
+                                **GAIT_TISSUE)
+    calibration = calibrate(cal, restarts=50, seed=1, joints=["knee=hinge:thigh,shank"],
+                            time_offset=0.0)
+    knee = calibration.joints["knee"]
+    block = knee.axis["time_offset"]
+    assert block["cost_ratio"] > 2.0 and block["estimated_s"] > 0.015  # what the axis saw
+    assert block["contradicted"] is False and block["overruled_by"] == "knee centre"
+    assert knee.position["time_offset"]["contradicted"] is False
+    assert not any("clock offset given" in w for w in knee.warnings)
+    from imucal.angles import joint_angles
+
+    angle = joint_angles(walk, calibration).joints["knee"]
+    assert not any("clock" in w for w in angle.warnings)
+    assert np.median(angle.sigma_deg) < 1.0
+    rmse, within, fits = _angle_errors(calibration, walk, walk_truth)
+    assert rmse < 1.0 and within > 0.97 and fits
+
+
+def test_a_late_shank_given_as_in_sync_stays_contradicted_by_the_knee_centre():
+    # the axis's check saw nothing (cost ratio 1.13), the centre's caught it (26x): the
+    # centre's contradiction stands, and the angles carry it
+    from imucal.calibration import calibrate
+
+    cal, _ = simulate(seed=100, mounting_seed=0, motion="gait", duration=40.0,
+                      clock_offset={"shank": 0.02}, **GAIT_TISSUE)
+    knee = calibrate(cal, restarts=50, seed=1, joints=["knee=hinge:thigh,shank"],
+                     time_offset=0.0).joints["knee"]
+    assert knee.axis["time_offset"]["contradicted"] is False
+    assert "overruled_by" not in knee.axis["time_offset"]
+    centre = knee.position["time_offset"]
+    assert centre["contradicted"] is True and abs(centre["estimated_s"] - 0.02) < 0.002
+    assert any("clock offset given" in w for w in knee.warnings)
