@@ -81,7 +81,8 @@ class EstimateResult(Verdict):
         "search_s", "at_edge" (:class:`imucal.time_offset.Offset`), "found_by"
         ("profile", "followed" or "trial": how the offset was reached; in a calibration
         also "knee centre" or "axis", the other estimate of the joint, with "own": this
-        estimate's own search) and "sensitivity_per_ms" (per vector, deg or mm per ms of
+        estimate's own search, "disagreement_s" and "sampling_sigma_s", and "sigma_s"
+        widened by half that disagreement) and "sensitivity_per_ms" (per vector, deg or mm per ms of
         offset); where they apply also "moved_from_zero", "moved_from_own" and
         "unapplied_move"; with "given", the check of the offset
         given: "estimated_s", "sigma_s", "cost_ratio" (cost at the offset given over the
