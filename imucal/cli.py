@@ -33,7 +33,6 @@ from .atomic import (
 from .errors import (
     ImucalError,
     InputError,
-    NotIdentifiableError,
     exit_code_of,
     number_text,
     one_line,
@@ -416,11 +415,16 @@ def calibrate(
         "imucal angles walk.h5 --calibration cal.json --out knee.csv --plot knee.png",
         "imucal angles walk.h5 -c cal.json --reference standing --out knee.h5",
         "imucal angles walk.h5 -c cal.json --reference 3.5 --flexion-sign +",
+        "imucal angles walk_*.h5 -c cal.json --tables knee/ --jobs 2 > walks.jsonl",
     )
 )
 def angles(
     ctx: typer.Context,
-    rec: Rec,
+    rec: Annotated[list[str], typer.Argument(
+        metavar="REC", show_default=False,
+        help="Recording(s): files or folders, imucal's HDF5/CSV or vendor exports "
+        "(Xsens MT Manager, Movella DOT, APDM, x-IMU3, Shimmer, BIDS-motion; "
+        "docs/formats.md); - reads CSV from stdin. Several RECs need --tables.")],
     calibration: Annotated[Path, typer.Option(
         "--calibration", "-c", metavar="CAL.json", show_default=False, parser=_input_file,
         help="Calibration file written by imucal calibrate (same sensors, same mounting).")],
@@ -429,11 +433,12 @@ def angles(
         callback=_dash_is_stdout,
         help="Write the table here instead of CSV on stdout (- : stdout): .csv, or .h5/.hdf5 (one "
         "dataset per column with its units and, for a joint, its sensors and frame as "
-        "attributes; the JSON summary as the root attribute 'imucal').")] = None,
+        "attributes; the JSON summary as the root attribute 'imucal'). With --tables: the "
+        "JSON Lines file.")] = None,
     plot: Annotated[Path | None, typer.Option(
         metavar="FILE", show_default=False, parser=_output_file, help="Write the figure "
         "(flexion over time with its 2-sigma band; the mean cycle when the flexion repeats "
-        "regularly, as in walking): .png, .pdf or .svg.")] = None,
+        "regularly, as in walking): .png, .pdf or .svg. One REC, without --tables.")] = None,
     reference: Annotated[str | None, typer.Option(
         metavar="standing|SECONDS", show_default=False,
         help="What 0 deg means. Default: the calibration's zero (its trial's most extended "
@@ -453,52 +458,55 @@ def angles(
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
     sensor_map: SensorMap = None,
+    tables: Annotated[Path | None, typer.Option(
+        "--tables", metavar="DIR", show_default=False, parser=_output_file,
+        help="A study (of one REC or several): write each recording's table as DIR/NAME.csv "
+        "(NAME: its file or folder name without suffix; DIR is created) and print one JSON "
+        "line per recording {file, exit_code, error, warnings, result}, result the angles' "
+        "summary with its 'table' (docs/angles.md); a recording whose angles do not fit "
+        "gets exit_code 1 and no table (--force writes it).")] = None,
     force: Annotated[bool, typer.Option(
         "--force", help="Write the angles even when the calibration does not fit this "
         "recording or a knee in it is not identifiable (exit 0, the warnings on stderr). "
         "Without it such a run writes nothing and exits 1. A window where no angle can be "
         "measured at all (the joint never moves) exits 1 even with it.")] = False,
+    jobs: Annotated[int, typer.Option(
+        "--jobs", "-j", min=0, help="With --tables: recordings processed at once, in "
+        "separate processes (0: one per CPU core); the lines stay in input order, a failed "
+        "recording gets an error line and the others go on; exit status: the highest of "
+        "the recordings' codes.")] = 1,
+    scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
     """Flexion of every hinge (knee) of a calibration over a recording, deg: a table with
     `time` (s), `<joint>_flexion_deg` and `<joint>_flexion_sigma_deg` (1-sigma) per
-    joint (docs/angles.md). Data on stdout or --out, messages on stderr."""
+    joint (docs/angles.md). Data on stdout or --out, messages on stderr; with --tables,
+    a study: one table per recording in DIR and JSON Lines on stdout."""
     with _errors(debug):
-        ref = _reference(ctx, reference)
-        if flexion_sign not in ("auto", "+", "-"):
-            raise typer.BadParameter(f"must be auto, + or -, got '{flexion_sign}'", ctx=ctx,
-                                     param_hint="'--flexion-sign'")
-        if start is not None and end is not None and end <= start:
-            raise typer.BadParameter(f"must be after --start ({start:g} s), got {end:g} s",
-                                     ctx=ctx, param_hint="'--end'")
+        job = _angles_job(ctx, calibration, reference, flexion_sign, tables, start=start,
+                          end=end, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
+                          sensor_map=sensor_map, force=force)
+        if tables is not None or len(rec) > 1:
+            raise typer.Exit(_angles_study(ctx, job, rec, out=out, plot=plot, jobs=jobs,
+                                           scheduler=scheduler, quiet=quiet))
+        _one_or_study(rec, scheduler, quiet)
         from .formats import HDF5_SUFFIXES
 
         if out is not None and out.suffix.lower() not in {".csv", *HDF5_SUFFIXES}:
             raise typer.BadParameter(f"{out}: unknown table format "
                                      f"'{out.suffix or out.name}'; use .csv, .h5 or .hdf5",
                                      ctx=ctx, param_hint="'--out'")
-        _check_outputs(out, plot, rec, sensor_map)
+        _check_outputs(out, plot, rec[0], sensor_map)
         check_not_inputs([("--out", out), ("--plot", plot)], [calibration])
-        from .angles import joint_angles
-        from .calibration import load_calibration
-        from .loaders import load_recording
+        from .runner import run
 
-        cal = load_calibration(calibration)
-        recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
-                                   names=sensor_map)
-        result = joint_angles(recording, cal, reference=ref, flexion_sign=flexion_sign,
-                              start=start, end=end)
-        for w in result.warnings:
-            say(f"imucal: warning: {recording.source}: {w}")
-        for j in result.joints.values():
-            for w in j.warnings:  # (in a loop over trials, which trial it is)
-                say(f"imucal: warning: {recording.source}: {w}")
-        problems = result.problems()
-        if problems and not force:
-            raise NotIdentifiableError(
-                f"{recording.source} with {calibration}: {'; '.join(problems)}; nothing "
-                "written (--force writes the angles with these warnings)")
+        outcome = run(job, rec[0])
+        for w in outcome.warnings:  # (in a loop over trials, they say which trial)
+            say(f"imucal: warning: {w}")
+        if outcome.exception is not None:
+            raise outcome.exception
+        result = outcome.result
         figure = contextlib.nullcontext()
         if plot is not None:
             from .angle_plots import staged_angles_figure
@@ -511,6 +519,57 @@ def angles(
                 result.write(out)
         if not quiet:
             _angles_summary(result, out)
+
+
+def _angles_job(ctx: typer.Context, calibration, reference, flexion_sign, tables, **options):
+    """The runner's angles job; bad options are usage errors before any file is read."""
+    from .settings import AnglesSettings
+
+    start, end = options["start"], options["end"]
+    if start is not None and end is not None and end <= start:
+        raise typer.BadParameter(f"must be after --start ({start:g} s), got {end:g} s",
+                                 ctx=ctx, param_hint="'--end'")
+    ref = _reference(ctx, reference)
+    if flexion_sign not in ("auto", "+", "-"):
+        raise typer.BadParameter(f"must be auto, + or -, got '{flexion_sign}'", ctx=ctx,
+                                 param_hint="'--flexion-sign'")
+    settings = _settings(ctx, AnglesSettings, calibration=str(calibration), reference=ref,
+                         flexion_sign=flexion_sign,
+                         tables=None if tables is None else str(tables))
+    return _job(ctx, "angles", None, settings, **options)
+
+
+def _angles_study(ctx: typer.Context, job, recs, *, out, plot, jobs, scheduler,
+                  quiet) -> int:
+    """``imucal angles`` over several recordings (or one with --tables): each table into
+    the --tables folder, JSON Lines on stdout or --out; the exit status."""
+    from .runner import table_name
+    from .study import run_study
+
+    if job.settings.tables is None:
+        raise typer.BadParameter("several RECs need --tables DIR (one table per recording)",
+                                 ctx=ctx, param_hint="'--tables'")
+    tables = Path(job.settings.tables)
+    names: dict[str, str] = {}
+    for rec in recs:
+        name = table_name(rec)
+        if name in names and names[name] != rec:
+            raise typer.BadParameter(f"{names[name]} and {rec} would both write "
+                                     f"{tables / (name + '.csv')}; give the recordings "
+                                     "different names", ctx=ctx, param_hint="'--tables'")
+        names[name] = rec
+    check_not_inputs([("--tables", tables)], [Path(job.settings.calibration)])
+    from .calibration import load_calibration
+
+    load_calibration(job.settings.calibration)  # a broken one: one error, not one per line
+    if tables.exists() and not tables.is_dir():
+        raise InputError(f"{tables}: --tables names a folder, and this is a file")
+    tables.mkdir(parents=True, exist_ok=True)
+    _one_or_study(recs, scheduler, quiet)
+    if len(recs) == 1:
+        scheduler = None  # (said so: one recording runs here)
+    return run_study(job, recs, out=out, plot=plot, jobs=jobs, scheduler=scheduler,
+                     quiet=quiet)
 
 
 def _reference(ctx: typer.Context, text: str | None):

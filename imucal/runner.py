@@ -1,8 +1,9 @@
 """The headless runner: one recording through load -> window -> estimate -> report.
 
-Everything the ``axis``, ``position`` and ``calibrate`` commands do with a recording, as
-plain functions that print nothing and return an :class:`Outcome`. The single-file command prints an
-outcome (:mod:`imucal.cli`), a study turns each outcome into one JSON line
+Everything the ``axis``, ``position``, ``calibrate`` and ``angles`` commands do with a
+recording, as plain functions that print nothing and return an :class:`Outcome`. The
+single-file command prints an outcome (:mod:`imucal.cli`), a study turns each outcome
+into one JSON line
 (:mod:`imucal.study`); neither the runner nor the study imports the command line.
 
 A command is one entry of :data:`COMMANDS`: how to estimate from two sensors, how to
@@ -37,7 +38,7 @@ from .errors import (
 from .recording import estimator_window, input_info
 from .signals import unreported
 
-__all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors"]
+__all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors", "table_name"]
 
 @dataclass(frozen=True)
 class Command:
@@ -55,9 +56,9 @@ class Command:
         "first - second", ``document`` is the report's JSON document, whose verdict,
         warnings and input the figure then states.
     process : for a command that works on the whole recording rather than on two sensors
-        (``calibrate``): ``(job, recording, outcome) -> None`` fills the outcome (document,
-        result, headline, warnings, and exit code and error for a result that is not
-        usable); ``estimate``, ``report`` and ``figure`` are then None.
+        (``calibrate``, ``angles``): ``(job, recording, outcome) -> None`` fills the
+        outcome (document, result, headline, warnings, and exit code and error for a
+        result that is not usable); ``estimate``, ``report`` and ``figure`` are then None.
     """
 
     estimate: Callable[..., Any] | None
@@ -133,6 +134,53 @@ def _process_calibrate(job, recording, outcome) -> None:
         outcome.exception = NotIdentifiableError(outcome.error)
 
 
+def _process_angles(job, recording, outcome) -> None:
+    """``imucal angles``: the knee flexion of the calibration's hinges over the recording.
+    Angles a joint of which does not fit (or is not identifiable in the calibration) make
+    the outcome exit code 1 with nothing reported, unless ``job.force``; with
+    ``settings.tables`` the table is written there (``<name>.csv``) and named in the
+    document's ``table``."""
+    from .angles import joint_angles
+    from .calibration import load_calibration
+
+    s = job.settings
+    cal = load_calibration(s.calibration)
+    result = joint_angles(recording, cal, reference=s.reference,
+                          flexion_sign=s.flexion_sign, start=job.start, end=job.end)
+    # (the recording's own warnings are among the result's)
+    outcome.warnings.extend(f"{recording.source}: {w}" for w in (
+        *result.warnings, *(w for j in result.joints.values() for w in j.warnings)))
+    problems = result.problems()
+    if problems and not job.force:
+        raise NotIdentifiableError(
+            f"{recording.source} with {s.calibration}: {'; '.join(problems)}; nothing "
+            "written (--force writes the angles with these warnings)")
+    doc = result.to_document()
+    if s.tables is not None:
+        table = Path(s.tables) / f"{table_name(outcome.file)}.csv"
+        result.write(table)
+        doc["table"] = str(table)
+    outcome.document, outcome.result = doc, result
+
+
+def table_name(file: str) -> str:
+    """The name a study gives a recording's angle table: its file's (or vendor export
+    folder's) name without suffix.
+
+    Returns
+    -------
+    str
+        ``"walk_01"`` for ``"session/walk_01.h5"`` or ``"session/walk_01/"``.
+
+    Examples
+    --------
+    >>> from imucal.runner import table_name
+    >>> table_name("session/walk_01.h5"), table_name("session/walk_01/")
+    ('walk_01', 'walk_01')
+    """
+    return Path(file).stem
+
+
 def _window_text(job: Job, window) -> str:
     """", window A-B s" for a headline when a window was asked for: the header describes
     the file as a whole, and then the part fitted."""
@@ -160,6 +208,7 @@ COMMANDS: dict[str, Command] = {
     "axis": Command(_estimate_axis, _report("axis"), _figure("axis")),
     "position": Command(_estimate_position, _report("position"), _figure("position")),
     "calibrate": Command(None, None, None, process=_process_calibrate),
+    "angles": Command(None, None, None, process=_process_angles),
 }
 
 
@@ -171,10 +220,12 @@ class Job:
     ----------
     command : a key of :data:`COMMANDS`.
     sensors : the (first, second) sensor names; empty for a command that works on the
-        whole recording (``calibrate``: its joints are in the settings).
+        whole recording (``calibrate``: its joints are in the settings; ``angles``: in
+        the calibration).
     settings : the estimator's settings object (:class:`imucal.settings.AxisSettings`,
         :class:`~imucal.settings.PositionSettings`,
-        :class:`~imucal.settings.CalibrateSettings`); its own ``start``/``end`` and
+        :class:`~imucal.settings.CalibrateSettings`,
+        :class:`~imucal.settings.AnglesSettings`); its own ``start``/``end`` and
         ``time_origin`` are replaced by the window below and the recording's clock.
     start, end : window, s on the recording's time axis; None: from the first / to the
         last sample.
@@ -208,18 +259,20 @@ class Job:
             raise InputError(f"--end must be after --start ({self.start:g} s), got "
                              f"{self.end:g} s")
         # (a library caller's mix-up failed deep inside as "internal error, report it")
-        from .settings import AxisSettings, CalibrateSettings, PositionSettings
+        from .settings import AnglesSettings, AxisSettings, CalibrateSettings, PositionSettings
 
         wanted = {"axis": AxisSettings, "position": PositionSettings,
-                  "calibrate": CalibrateSettings}[self.command]
-        job = f"{'an' if self.command == 'axis' else 'a'} {self.command} job"
+                  "calibrate": CalibrateSettings, "angles": AnglesSettings}[self.command]
+        job = f"{'an' if self.command[0] == 'a' else 'a'} {self.command} job"
         if type(self.settings) is not wanted:
             raise InputError(f"{job} takes {wanted.__name__}, got "
                              f"{type(self.settings).__name__}")
-        if len(self.sensors) != (0 if self.command == "calibrate" else 2):
+        whole = self.command in ("calibrate", "angles")
+        if len(self.sensors) != (0 if whole else 2):
             raise InputError(f"{job} takes "
-                             + ("no sensors (its joints are in the settings)"
-                                if self.command == "calibrate" else "two sensors")
+                             + ("no sensors (its joints are in the "
+                                + ("settings)" if self.command == "calibrate"
+                                   else "calibration)") if whole else "two sensors")
                              + f", got {tuple(self.sensors)!r}")
 
 

@@ -17,6 +17,7 @@ import decimal
 import math
 import numbers
 from dataclasses import asdict, dataclass, fields, replace
+from os import PathLike
 
 import numpy as np
 
@@ -258,6 +259,52 @@ class CalibrateSettings:
         _check_number(self, "offset_search", low=0.0, open_low=True, high=MAX_TIME_OFFSET_S)
         _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
         _check_signs(self)
+
+
+@dataclass(frozen=True)
+class AnglesSettings:
+    """Settings of ``imucal angles`` (:func:`imucal.joint_angles` with a calibration file),
+    the same for every recording of a study.
+
+    Attributes
+    ----------
+    calibration : str
+        The calibration file (``imucal calibrate``'s JSON), read by each run.
+    reference : None, "standing" or float
+        What 0 deg means, as in :func:`imucal.joint_angles` (a float: a time in s on
+        each recording's time axis).
+    flexion_sign : str
+        "auto", "+" or "-", as in :func:`imucal.joint_angles`.
+    tables : str or None
+        A folder: each recording's table is written there as ``<name>.csv`` (its file or
+        folder name without suffix) and named in its document (``table``); a study's
+        recordings need it, one ``--out`` cannot hold their tables. None: no table is
+        written (a single recording's command line writes its own).
+
+    Raises
+    ------
+    InputError
+        An empty calibration name, a reference or flexion sign :func:`imucal.joint_angles`
+        refuses, or an empty tables name.
+    """
+
+    calibration: str
+    reference: object = None
+    flexion_sign: str = "auto"
+    tables: str | None = None
+
+    def __post_init__(self) -> None:
+        from .angles import _check_reference, _check_sign
+
+        if not isinstance(self.calibration, str | PathLike) or not str(self.calibration):
+            raise InputError(f"calibration must be a file name, got {self.calibration!r}")
+        object.__setattr__(self, "calibration", str(self.calibration))
+        object.__setattr__(self, "reference", _check_reference(self.reference))
+        _check_sign(self.flexion_sign)
+        if self.tables is not None:
+            if not isinstance(self.tables, str | PathLike) or not str(self.tables):
+                raise InputError(f"tables must be a folder name, got {self.tables!r}")
+            object.__setattr__(self, "tables", str(self.tables))
 
 
 def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) -> AxisSettings:

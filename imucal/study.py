@@ -54,7 +54,7 @@ THREAD_VARIABLES = ("OMP_NUM_THREADS", *BLAS_THREAD_VARIABLES, "NUMEXPR_NUM_THRE
 #: Modules every worker needs; imported once before the workers start (fork) or in the
 #: fork server, so that no worker pays their import time (about a second) again.
 WORKER_MODULES = ("imucal.runner", "imucal.axis", "imucal.position", "imucal.report",
-                  "imucal.loaders", "imucal.calibration")
+                  "imucal.loaders", "imucal.calibration", "imucal.angles")
 #: The progress bar redraws at least this often, s (its clock and estimate keep moving).
 PROGRESS_REFRESH_S = 0.5
 #: How often a worker process checks that its study's command still runs, s.
@@ -110,8 +110,8 @@ def resolve_jobs(jobs: int, n_files: int) -> int:
 def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
               plot: Path | None = None, jobs: int = 1, scheduler: str | None = None,
               quiet: bool = False) -> int:
-    """``imucal axis``/``position``/``calibrate`` with several RECs; writes JSON Lines,
-    returns the status.
+    """``imucal axis``/``position``/``calibrate``/``angles`` with several RECs; writes JSON
+    Lines, returns the status.
 
     Lines go to stdout as soon as they are ready in input order, or, with ``out``, into
     that file, which appears complete (atomically) at the end. Errors and warnings go to

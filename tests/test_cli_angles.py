@@ -357,3 +357,66 @@ def test_calibrate_pins_the_knee_axis_signs_and_records_them(tmp_path):
     assert np.sign(auto["j1"][0]) == np.sign(auto["j2"][0])
     run = cli("calibrate", SAMPLE / "circling.h5", "--j2-sign", "q")
     assert run.returncode == 2 and "Invalid value for '--j2-sign'" in run.stderr
+
+
+def test_angles_study_writes_one_table_per_recording_and_json_lines(cal_file, tmp_path):
+    # a session's walks against one calibration: before, one command per walk
+    path, _ = cal_file
+    other = tmp_path / "walk_b.h5"
+    other.write_bytes((SAMPLE / "walking.h5").read_bytes())
+    restrapped = tmp_path / "restrapped.h5"
+    recording, _ = simulate(seed=8, mounting_seed=9, rate=100.0, duration=10.0,
+                            motion="gait", gyr_noise=0.01, acc_noise=0.05)
+    save_recording(recording, restrapped)
+    missing = tmp_path / "missing.h5"
+    files = [SAMPLE / "walking.h5", other, restrapped, missing]
+    tables = tmp_path / "knee"
+    runs = [cli("angles", *files, "-c", path, "--tables", tables, "--jobs", jobs)
+            for jobs in ("2", "1")]
+    assert runs[0].stdout == runs[1].stdout and runs[0].returncode == 2
+    lines = [json.loads(line) for line in runs[0].stdout.splitlines()]
+    assert [o["file"] for o in lines] == [str(f) for f in files]
+    assert [o["exit_code"] for o in lines] == [0, 0, 1, 2]
+    assert all(list(o) == ["file", "exit_code", "error", "warnings", "result"] for o in lines)
+    single = cli("angles", SAMPLE / "walking.h5", "-c", path, "-q")
+    for o, name in zip(lines[:2], ("walking", "walk_b"), strict=True):
+        assert o["result"]["command"] == "angles" and o["result"]["fits"] is True
+        assert o["result"]["table"] == str(tables / f"{name}.csv")
+        assert Path(o["result"]["table"]).read_text() == single.stdout
+    # the walk of another mounting: no table, its reason in the line
+    assert lines[2]["result"] is None and "does not fit" in lines[2]["error"]
+    assert "no such file" in lines[3]["error"]
+    assert sorted(p.name for p in tables.iterdir()) == ["walk_b.csv", "walking.csv"]
+    forced = cli("angles", restrapped, "-c", path, "--tables", tables, "--force", "-q")
+    assert forced.returncode == 0 and json.loads(forced.stdout)["result"]["fits"] is False
+    assert (tables / "restrapped.csv").exists()
+
+
+@pytest.mark.parametrize(("extra", "phrase"), [
+    ([], "several RECs need --tables DIR"),
+    (["--tables", "out", "--plot", "a.png"], "--plot draws one recording"),
+])
+def test_angles_study_usage_errors(cal_file, extra, phrase):
+    path, _ = cal_file
+    run = cli("angles", SAMPLE / "walking.h5", SAMPLE / "circling.h5", "-c", path, *extra)
+    assert run.returncode == 2 and run.stdout == "" and phrase in run.stderr
+
+
+def test_angles_study_refuses_two_recordings_writing_one_table(cal_file, tmp_path):
+    path, _ = cal_file
+    (tmp_path / "a").mkdir()
+    twin = tmp_path / "a" / "walking.h5"
+    twin.write_bytes((SAMPLE / "walking.h5").read_bytes())
+    run = cli("angles", SAMPLE / "walking.h5", twin, "-c", path, "--tables", tmp_path / "t")
+    assert run.returncode == 2 and "would both write" in run.stderr
+    assert not (tmp_path / "t").exists()
+
+
+def test_angles_study_reads_a_broken_calibration_once(tmp_path):
+    cal = tmp_path / "cal.json"
+    cal.write_text("{")
+    run = cli("angles", SAMPLE / "walking.h5", SAMPLE / "circling.h5", "-c", cal, "--tables",
+              tmp_path / "t")
+    assert run.returncode == 2 and run.stdout == ""
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "not a calibration file" in lines[0]

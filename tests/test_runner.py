@@ -84,7 +84,15 @@ def test_job_and_sensor_checks():
         Job("position", ("shank", "foot"), AxisSettings())
     with pytest.raises(InputError, match=r"an axis job takes two sensors, got \('thigh',\)"):
         Job("axis", ("thigh",), AxisSettings())
-    assert set(COMMANDS) == {"axis", "position", "calibrate"}
+    from imucal.settings import AnglesSettings, CalibrateSettings
+
+    with pytest.raises(InputError, match="an angles job takes AnglesSettings, got "
+                                         "CalibrateSettings"):
+        Job("angles", (), CalibrateSettings())
+    with pytest.raises(InputError, match=r"an angles job takes no sensors \(its joints are in "
+                                         r"the calibration\), got \('thigh', 'shank'\)"):
+        Job("angles", ("thigh", "shank"), AnglesSettings("cal.json"))
+    assert set(COMMANDS) == {"axis", "position", "calibrate", "angles"}
 
 
 def test_no_module_imports_the_command_line():
