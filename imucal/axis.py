@@ -409,9 +409,10 @@ def adopt_offset(own: AxisResult, source: dict, found_by: str, gyr1, gyr2, *, ac
     -------
     AxisResult
         The fit at that offset; ``time_offset`` is ``source``'s block with ``found_by``,
-        ``own`` (this axis's own search) and ``moved_from_own`` (deg), and the offset's
+        ``own`` (this axis's own search), ``disagreement_s`` (half of it joins
+        ``sigma_s``, with a warning) and ``moved_from_own`` (deg); the other search's
         1-sigma and that move (capped at ``OFFSET_MODEL_CAP`` x the model term) are in
-        the 1-sigma (:func:`imucal.time_offset.adopt`).
+        the axes' 1-sigma (:func:`imucal.time_offset.adopt`).
     """
     result = estimate_axis(gyr1, gyr2, acc1=acc1, acc2=acc2, rate=rate,
                            **{**options, "time_offset": float(source["time_offset_s"])})

@@ -397,8 +397,9 @@ def adopt_offset(own: PositionResult | None, source: dict, found_by: str, gyr1, 
     -------
     PositionResult
         The fit at that offset; ``time_offset`` is ``source``'s block with ``found_by``
-        and ``own`` (this position's own search, with ``own``), and the offset's 1-sigma is in the
-        1-sigma (:func:`imucal.time_offset.adopt`; no move from its own choice, as for
+        and, with ``own``, ``own`` (this position's own search) and ``disagreement_s``
+        (half of it joins ``sigma_s``, with a warning); the offset's 1-sigma is in the
+        centre's (:func:`imucal.time_offset.adopt`; no move from its own choice, as for
         an applied offset in "auto").
     """
     result = estimate_position(gyr1, acc1, gyr2, acc2, rate=rate,
