@@ -501,11 +501,11 @@ def _estimate_joint(jc: JointCalibration, around, spec: JointSpec, info: dict, c
         jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
     pos = estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, joint=spec.kind, axis=axis,
                             acc_error=acc_error, **common)
-    if axis is not None and common["time_offset"] == "auto":
-        axis, pos = _one_clock(axis, pos, s1, s2, common, acc_error, signs)
-        jc.axis = axis_report(axis, input_info=info)
-    elif axis is not None:
-        _one_check(axis, pos, s1, s2, common)
+    if axis is not None:  # one clock for the knee's axis and centre
+        if common["time_offset"] == "auto":
+            axis, pos = _one_clock(axis, pos, s1, s2, common, acc_error, signs)
+        else:
+            _one_check(axis, pos, s1, s2, common)
         jc.axis = axis_report(axis, input_info=info)
         jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
     jc.position = position_report(pos, input_info=info)
@@ -533,7 +533,7 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
     nothing."""
     from . import axis as axis_module
     from . import position as position_module
-    from .time_offset import choose, disagree
+    from .time_offset import choose, disagree, note_disagreement
 
     a, p = axis.time_offset, pos.time_offset
     if not (isinstance(a, dict) and isinstance(p, dict) and disagree(a, p)):
@@ -546,9 +546,12 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
                                              search)(pos))
     deltas = np.array([a["time_offset_s"], p["time_offset_s"]], float)
     if choose(deltas, *refits) == 0:  # the axis's: the centre fitted again at it
-        return axis, position_module.adopt_offset(
+        centre = position_module.adopt_offset(
             pos, a, "axis", s1.gyr, s1.acc, s2.gyr, s2.acc, joint="hinge", axis=axis,
             acc_error=acc_error, **common)
+        # the angles read the axis's offset: its 1-sigma carries the disagreement too
+        note_disagreement(axis, "axis", p, "the knee centre's search")
+        return axis, centre
     # the centre's: the axis fitted again at it, and the centre at it on that axis (a
     # hinge's centre is the point of its axis line closest to the sensors); searching
     # again moved it on the real right knee, 10-30 s (-10.4 to -26.9 ms)

@@ -825,8 +825,9 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
     Two searches of one clock that disagree say that a model error (soft tissue, a gyro
     bias) moves at least one of them, and not which: their difference ``disagreement_s``
     (this estimator's own estimate against the offset adopted) enters the offset's 1-sigma
-    as half of it, in quadrature with the other search's own (``sampling_sigma_s``), and a
-    warning says so. An independent review's 173 knees that changed (gait, protocol,
+    as half of it, in quadrature with the other search's own (``sampling_sigma_s``), and
+    where they differ beyond their sampling errors a warning says so
+    (:func:`note_disagreement`). An independent review's 173 knees that changed (gait, protocol,
     circling; 40-200 Hz; soft tissue 0.5-2 deg; shanks 0-50 ms late): the adopted offset
     was within half the difference of the truth in all but 10, all circling; the centre's
     own 1-sigma, 0.2-1 ms, had left the angles of circling calibrations 53-68 % within 3
@@ -849,24 +850,11 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
         **{k: source.get(k) for k in ("mode", "time_offset_s", "estimated_s", "sigma_s",
                                        "applied", "cost_ratio", "search_s", "at_edge")},
         "found_by": found_by}
-    joint = sampling
     if own is not None:
         mine = own.time_offset
         result.time_offset["own"] = {k: mine.get(k) for k in (
             "time_offset_s", "estimated_s", "sigma_s", "cost_ratio", "found_by")}
-        # its estimate where it has one (an unapplied one too), else what it applied (a
-        # bound at the search's end has no 1-sigma)
-        at = mine["estimated_s"] if mine.get("sigma_s") is not None else mine["time_offset_s"]
-        gap = abs(float(at) - delta)
-        joint = float(np.hypot(sampling, gap / 2))
-        result.time_offset.update({"sigma_s": joint, "sampling_sigma_s": sampling,
-                                   "disagreement_s": gap})
-        result.warnings.append(
-            f"the clock offset of the second sensor is {1000 * delta:+.1f} ms by the {found_by}'s "
-            f"search (used for both of the joint's estimates: the two constraints fit it "
-            f"better), but {1000 * float(at):+.1f} ms by this estimate's own: a model error "
-            f"(soft tissue, a gyroscope bias) moves at least one of them, so half the "
-            f"difference is in the offset's 1-sigma ({1000 * joint:.1f} ms)")
+        note_disagreement(result, found_by, mine, "its own")
     result.settings["time_offset"] = "auto"
     states = profile(result)(delta + SENSITIVITY_STEP_S * np.array([-1.0, 1.0]))[1]
     per_s = {k: v / (2 * SENSITIVITY_STEP_S)
@@ -874,6 +862,7 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
     result.time_offset["sensitivity_per_ms"] = {k: v / 1000 for k, v in per_s.items()}
     # as in fit_with_offset, an offset not applied adds only its disagreement
     applied = sampling if source.get("applied") else 0.0
+    joint = float(result.time_offset["sigma_s"] or 0.0)
     model = result.uncertainty_components.get("model")
     if model is not None and state is not None and own is not None:
         part = {k: v * applied for k, v in per_s.items()}
@@ -882,10 +871,43 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
         part = {k: float(np.hypot(v, min(shift[k], OFFSET_MODEL_CAP * model[k])))
                 for k, v in part.items()}
     else:
-        spread = float(np.hypot(applied, result.time_offset.get("disagreement_s", 0.0) / 2))
-        part = {k: v * spread for k, v in per_s.items()}
+        part = {k: v * (joint if own is not None else applied) for k, v in per_s.items()}
     _widen(result, part, unit, limit)
     return result
+
+
+def note_disagreement(result, used_by: str, other: dict, other_by: str) -> None:
+    """Put two searches' disagreement about one clock into ``result``'s offset: its
+    ``time_offset`` block (the offset used, found by ``used_by``'s search) gets
+    ``disagreement_s``, how far the ``other`` search (a ``time_offset`` block, named
+    ``other_by``) put it (its estimate where it has a 1-sigma, else what it applied),
+    ``sampling_sigma_s`` (the block's own ``sigma_s``) and ``sigma_s`` widened by half
+    the disagreement; where they differ by more than ``FOLLOW_STEP_S`` and twice their
+    combined 1-sigma, a warning says so. Two searches of one clock that disagree say that
+    a model error moves at least one of them, and not which (:func:`adopt`).
+
+    Returns
+    -------
+    None
+        ``result.time_offset`` and ``result.warnings`` changed in place.
+    """
+    block = result.time_offset
+    used = float(block["time_offset_s"])
+    sampling = block.get("sigma_s")
+    sampling = float(sampling) if sampling is not None and np.isfinite(sampling) else 0.0
+    at = float(other["estimated_s"] if other.get("sigma_s") is not None
+               else other["time_offset_s"])
+    theirs = float(other["sigma_s"]) if other.get("sigma_s") is not None else 0.0
+    gap = abs(at - used)
+    joint = float(np.hypot(sampling, gap / 2))
+    block.update({"sigma_s": joint, "sampling_sigma_s": sampling, "disagreement_s": gap})
+    if gap > max(FOLLOW_STEP_S, 2 * float(np.hypot(sampling, theirs))):
+        result.warnings.append(
+            f"the clock offset of the second sensor is {1000 * used:+.1f} ms by the "
+            f"{used_by}'s search (used for both of the joint's estimates: the two constraints "
+            f"fit it better), but {1000 * at:+.1f} ms by {other_by}: a model error (soft "
+            f"tissue, a gyroscope bias) moves at least one of them, so half the difference "
+            f"is in the offset's 1-sigma ({1000 * joint:.1f} ms)")
 
 
 def withdraw(result, by: str) -> str | None:

@@ -568,6 +568,8 @@ def test_a_knee_keeps_the_centres_offset_where_soft_tissue_misled_the_axis():
     block = knee.axis["time_offset"]
     assert block["found_by"] == "knee centre" and block["time_offset_s"] == 0.0
     assert block["own"]["time_offset_s"] == alone.time_offset["time_offset_s"]
+    # the vectors the angles read are the refitted axis's (they were the first fit's)
+    assert np.array_equal(knee.j1, knee.axis["j1"]) and np.array_equal(knee.j2, knee.axis["j2"])
     assert block["moved_from_own"]["j1"] > 0.5  # the overruled choice is in the 1-sigma
     # two searches of one clock disagree: half their difference joins its 1-sigma
     assert block["disagreement_s"] > 0.015 and block["sigma_s"] > 0.007
