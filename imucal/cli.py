@@ -117,6 +117,15 @@ def _output_file(value: str | Path) -> Path:
     return Path(value)
 
 
+def _output_folder(value: str | Path) -> Path:
+    """An output folder's name as typed ('' became '.', the current folder)."""
+    if isinstance(value, Path):
+        return value
+    if value == "":
+        raise typer.BadParameter("an empty folder name; give a folder name")
+    return Path(value)
+
+
 def _dash_is_stdout(value: Path | None) -> Path | None:
     """``--out -``: standard output, as a REC of ``-`` is standard input (it wrote a file
     named '-')."""
@@ -459,9 +468,10 @@ def angles(
     acc_units: AccUnits = None,
     sensor_map: SensorMap = None,
     tables: Annotated[Path | None, typer.Option(
-        "--tables", metavar="DIR", show_default=False, parser=_output_file,
+        "--tables", metavar="DIR", show_default=False, parser=_output_folder,
         help="A study (of one REC or several): write each recording's table as DIR/NAME.csv "
-        "(NAME: its file or folder name without suffix; DIR is created) and print one JSON "
+        "(NAME: its file or folder name without suffix; DIR is made when the first table "
+        "is written; none may be a recording or the calibration) and print one JSON "
         "line per recording {file, exit_code, error, warnings, result}, result the angles' "
         "summary with its 'table' (docs/angles.md); a recording whose angles do not fit "
         "gets exit_code 1 and no table (--force writes it).")] = None,
@@ -542,29 +552,21 @@ def _angles_job(ctx: typer.Context, calibration, reference, flexion_sign, tables
 def _angles_study(ctx: typer.Context, job, recs, *, out, plot, jobs, scheduler,
                   quiet) -> int:
     """``imucal angles`` over several recordings (or one with --tables): each table into
-    the --tables folder, JSON Lines on stdout or --out; the exit status."""
-    from .runner import table_name
+    the --tables folder, JSON Lines on stdout or --out; the exit status. The study checks
+    the folder, the tables' names and the calibration before anything runs."""
     from .study import run_study
 
     if job.settings.tables is None:
         raise typer.BadParameter("several RECs need --tables DIR (one table per recording)",
                                  ctx=ctx, param_hint="'--tables'")
-    tables = Path(job.settings.tables)
-    names: dict[str, str] = {}
-    for rec in recs:
-        name = table_name(rec)
-        if name in names and names[name] != rec:
-            raise typer.BadParameter(f"{names[name]} and {rec} would both write "
-                                     f"{tables / (name + '.csv')}; give the recordings "
-                                     "different names", ctx=ctx, param_hint="'--tables'")
-        names[name] = rec
-    check_not_inputs([("--tables", tables)], [Path(job.settings.calibration)])
-    from .calibration import load_calibration
-
-    load_calibration(job.settings.calibration)  # a broken one: one error, not one per line
-    if tables.exists() and not tables.is_dir():
-        raise InputError(f"{tables}: --tables names a folder, and this is a file")
-    tables.mkdir(parents=True, exist_ok=True)
+    if plot is not None:
+        raise typer.BadParameter("draws one recording's angles: leave out --tables, or run "
+                                 "'imucal angles REC --plot FILE.png' for the recordings to "
+                                 "draw", ctx=ctx, param_hint="'--plot'")
+    if recs == ["-"]:
+        raise typer.BadParameter("each table is named after its recording's file, and - "
+                                 "(standard input) has none: write its table with --out",
+                                 ctx=ctx, param_hint="'--tables'")
     _one_or_study(recs, scheduler, quiet)
     if len(recs) == 1:
         scheduler = None  # (said so: one recording runs here)

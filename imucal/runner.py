@@ -144,6 +144,8 @@ def _process_angles(job, recording, outcome) -> None:
     from .calibration import load_calibration
 
     s = job.settings
+    if s.tables is not None:  # (made here, not up front: a usage error leaves no folder)
+        Path(s.tables).mkdir(parents=True, exist_ok=True)
     cal = load_calibration(s.calibration)
     result = joint_angles(recording, cal, reference=s.reference,
                           flexion_sign=s.flexion_sign, start=job.start, end=job.end)
@@ -178,7 +180,7 @@ def table_name(file: str) -> str:
     >>> table_name("session/walk_01.h5"), table_name("session/walk_01/")
     ('walk_01', 'walk_01')
     """
-    return Path(file).stem
+    return Path(file).stem or Path(file).resolve().stem  # ('.' has no stem of its own)
 
 
 def _window_text(job: Job, window) -> str:

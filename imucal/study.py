@@ -219,7 +219,42 @@ def _checked_study(job: Job, files: list[str], out: Path | None, plot: Path | No
     if out is not None:
         check_not_inputs([("--out", out)], files + ([sensor_map] if sensor_map else []))
         check_writable(out)
+    if job.command == "angles":
+        _check_tables(job, files, out)
     return job
+
+
+def _check_tables(job: Job, files: list[str], out: Path | None) -> None:
+    """An angles study's outputs, before anything runs: a tables folder that can be
+    written, one table name per recording, no table (nor ``out``) where a recording or
+    the calibration is, and a calibration that reads (a broken one is one error, not one
+    per recording). The folder is made by each run, when it writes."""
+    from .calibration import load_calibration
+    from .runner import table_name
+
+    s = job.settings
+    if s.tables is None:
+        raise InputError("an angles study writes one table per recording: give a tables "
+                         "folder (--tables DIR, AnglesSettings(tables=...))")
+    tables = Path(s.tables)
+    if tables.exists() and not tables.is_dir():
+        raise InputError(f"{tables}: the tables folder is a file")
+    names: dict[str, str] = {}
+    for f in files:
+        name = table_name(f)
+        if name in names and Path(names[name]).resolve() != Path(f).resolve():
+            raise InputError(f"{names[name]} and {f} would both write "
+                             f"{tables / (name + '.csv')}; give the recordings different "
+                             "names")
+        names.setdefault(name, f)
+    outputs = [("--tables", tables / f"{name}.csv") for name in names]
+    check_not_inputs(outputs + [("--out", out)],
+                     files + [s.calibration] + ([job.sensor_map] if job.sensor_map else []))
+    folder = next((p for p in (tables, *tables.parents) if p.exists()), Path("."))
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"{tables}: the tables folder cannot be written ({folder} is not "
+                         "writable)")
+    load_calibration(s.calibration)
 
 
 def _workers(job: Job, files: list[str], scheduler: str | None, jobs: int, quiet: bool):
@@ -281,7 +316,8 @@ class _Tally:
         target = "" if out is None else f" -> {out}"
         status = "all succeeded" if not self.failed else (
             f"{len(self.failed)} failed ({_short(self.failed)}), exit status {self.worst}")
-        return f"{who}: {n} recordings in {elapsed:.1f} s {where}{target}: {status}"
+        return (f"{who}: {n} recording{'s' if n != 1 else ''} in {elapsed:.1f} s {where}"
+                f"{target}: {status}")
 
 
 def process_recordings(

@@ -394,7 +394,7 @@ def test_angles_study_writes_one_table_per_recording_and_json_lines(cal_file, tm
 
 @pytest.mark.parametrize(("extra", "phrase"), [
     ([], "several RECs need --tables DIR"),
-    (["--tables", "out", "--plot", "a.png"], "--plot draws one recording"),
+    (["--tables", "out", "--plot", "a.png"], "draws one recording"),
 ])
 def test_angles_study_usage_errors(cal_file, extra, phrase):
     path, _ = cal_file
@@ -420,3 +420,48 @@ def test_angles_study_reads_a_broken_calibration_once(tmp_path):
     assert run.returncode == 2 and run.stdout == ""
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and "not a calibration file" in lines[0]
+
+
+def test_angles_study_never_writes_over_its_inputs(cal_file, tmp_path):
+    # a new-user trial: --tables naming the recordings' own folder replaced each CSV
+    # recording by its angle table, and --out cal.json the calibration; both exit 0
+    path, _ = cal_file
+    folder = tmp_path / "walks"
+    folder.mkdir()
+    rec = folder / "walk.csv"
+    run = cli("convert", SAMPLE / "walking.h5", rec)
+    assert run.returncode == 0, run.stderr
+    before = rec.read_bytes()
+    run = cli("angles", rec, SAMPLE / "walking.h5", "-c", path, "--tables", folder)
+    assert run.returncode == 2 and "--tables names an input recording" in run.stderr
+    assert rec.read_bytes() == before and run.stdout == ""
+    calibration = path.read_bytes()
+    run = cli("angles", rec, "-c", path, "--tables", tmp_path / "t", "--out", path)
+    assert run.returncode == 2 and path.read_bytes() == calibration
+    assert not (tmp_path / "t").exists()  # a usage error leaves no folder
+    (tmp_path / "t").mkdir()
+    run = cli("angles", rec, "-c", path, "--tables", tmp_path / "t", "--out",
+              tmp_path / "t" / "walk.csv")
+    assert run.returncode == 2 and "name the same file" in run.stderr
+    assert list((tmp_path / "t").iterdir()) == []
+
+
+def test_angles_study_from_python_and_a_folder_named_with_a_slash(cal_file, tmp_path):
+    import os
+
+    from imucal.runner import Job
+    from imucal.settings import AnglesSettings
+    from imucal.study import run_study
+
+    path, _ = cal_file
+    job = Job("angles", (), AnglesSettings(str(path), tables=str(tmp_path / "py" / "knee")))
+    out = tmp_path / "lines.jsonl"
+    status = run_study(job, [str(SAMPLE / "walking.h5")], out=out, quiet=True)
+    line = json.loads(out.read_text())
+    assert status == 0 and line["result"]["table"] == str(tmp_path / "py" / "knee" /
+                                                          "walking.csv")
+    run = cli("angles", SAMPLE / "walking.h5", "-c", path, "--tables",
+              str(tmp_path / "cli") + os.sep, "-q")
+    assert run.returncode == 0 and (tmp_path / "cli" / "walking.csv").exists()
+    stdin = cli("angles", "-", "-c", path, "--tables", tmp_path / "s")
+    assert stdin.returncode == 2 and "standard input" in stdin.stderr
