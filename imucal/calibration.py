@@ -550,7 +550,8 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
             pos, a, "axis", s1.gyr, s1.acc, s2.gyr, s2.acc, joint="hinge", axis=axis,
             acc_error=acc_error, **common)
         # the angles read the axis's offset: its 1-sigma carries the disagreement too
-        note_disagreement(axis, "axis", p, "the knee centre's search")
+        note_disagreement(axis, "axis", p, "the knee centre's search", unit="deg",
+                          limit=axis_module.MAX_UNCERTAINTY_DEG)
         return axis, centre
     # the centre's: the axis fitted again at it, and the centre at it on that axis (a
     # hinge's centre is the point of its axis line closest to the sensors); searching
@@ -559,7 +560,7 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
                                     acc2=s2.acc, **common, **signs)
     return axis, position_module.adopt_offset(
         None, p, p.get("found_by", "profile"), s1.gyr, s1.acc, s2.gyr, s2.acc, joint="hinge",
-        axis=axis, acc_error=acc_error, **common)
+        axis=axis, acc_error=acc_error, versus=a, **common)
 
 
 def _one_check(axis, pos, s1, s2, common: dict) -> None:

@@ -374,8 +374,9 @@ def _estimate(g1, a1, g2, a2, rate, axis, s: PositionSettings, bias_removed: boo
     return result
 
 
-def adopt_offset(own: PositionResult | None, source: dict, found_by: str, gyr1, acc1, gyr2, acc2, *,
-                 rate: float, **options) -> PositionResult:
+def adopt_offset(own: PositionResult | None, source: dict, found_by: str, gyr1, acc1, gyr2,
+                 acc2, *, rate: float, versus: dict | None = None,
+                 **options) -> PositionResult:
     """The joint position fitted again at the clock offset another "auto" search of the
     same two sensors applied (a knee's axis: :func:`imucal.calibration.calibrate` keeps
     one offset per joint, :func:`imucal.time_offset.choose`).
@@ -390,6 +391,9 @@ def adopt_offset(own: PositionResult | None, source: dict, found_by: str, gyr1, 
         (s) is applied.
     found_by
         Which estimate found it, for the block's ``found_by`` (e.g. "axis").
+    versus
+        Without ``own``: the other estimate's own search (its ``time_offset`` block),
+        whose disagreement joins the offset's 1-sigma (the axis carries the warning).
     gyr1, acc1, gyr2, acc2, rate, options
         As given to :func:`estimate_position` for ``own`` (``time_offset`` is replaced).
 
@@ -408,7 +412,8 @@ def adopt_offset(own: PositionResult | None, source: dict, found_by: str, gyr1, 
     a1, a2 = check_pair(acc1, acc2, "acc")
     search = float(source["search_s"])
     return adopt(result, own, offset_profile((g1, a1, g2, a2), check_rate(rate), search),
-                 rate, source, found_by, _offset_moved, "mm", MAX_UNCERTAINTY_MM)
+                 rate, source, found_by, _offset_moved, "mm", MAX_UNCERTAINTY_MM,
+                 versus=versus, warn=False)
 
 
 def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> PositionResult:

@@ -38,7 +38,8 @@ from .errors import (
 from .recording import estimator_window, input_info
 from .signals import unreported
 
-__all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors", "table_name"]
+__all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors", "table_name",
+           "check_table"]
 
 @dataclass(frozen=True)
 class Command:
@@ -144,8 +145,6 @@ def _process_angles(job, recording, outcome) -> None:
     from .calibration import load_calibration
 
     s = job.settings
-    if s.tables is not None:  # (made here, not up front: a usage error leaves no folder)
-        Path(s.tables).mkdir(parents=True, exist_ok=True)
     cal = load_calibration(s.calibration)
     result = joint_angles(recording, cal, reference=s.reference,
                           flexion_sign=s.flexion_sign, start=job.start, end=job.end)
@@ -160,9 +159,47 @@ def _process_angles(job, recording, outcome) -> None:
     doc = result.to_document()
     if s.tables is not None:
         table = Path(s.tables) / f"{table_name(outcome.file)}.csv"
+        # (a study checks this once for all; a library caller's run, here)
+        check_table(table, [outcome.file], s.calibration)
+        # made when the first table is written: a run that writes none leaves no folder
+        table.parent.mkdir(parents=True, exist_ok=True)
         result.write(table)
         doc["table"] = str(table)
     outcome.document, outcome.result = doc, result
+
+
+def check_table(table: Path, recordings, calibration: str, option: str = "--tables") -> None:
+    """Refuse an angle table that would overwrite one of the ``recordings`` or the
+    ``calibration`` file (links and other spellings of one file count as that file).
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    InputError
+        Naming the table and what it would overwrite.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from imucal.runner import check_table
+    >>> check_table(Path("knee/walk.csv"), ["walk.h5"], "cal.json")  # nothing in the way
+    >>> try:
+    ...     check_table(Path("walk.csv"), ["walk.csv"], "cal.json")
+    ... except Exception as err:
+    ...     print(str(err)[:48])
+    walk.csv: --tables names an input recording and
+    """
+    from .atomic import check_not_inputs
+
+    check_not_inputs([(option, table)], list(recordings))
+    try:
+        check_not_inputs([(option, table)], [calibration])
+    except InputError:
+        raise InputError(f"{table}: {option} would overwrite the calibration file; give "
+                         "the tables another folder") from None
 
 
 def table_name(file: str) -> str:

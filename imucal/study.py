@@ -230,7 +230,7 @@ def _check_tables(job: Job, files: list[str], out: Path | None) -> None:
     the calibration is, and a calibration that reads (a broken one is one error, not one
     per recording). The folder is made by each run, when it writes."""
     from .calibration import load_calibration
-    from .runner import table_name
+    from .runner import check_table, table_name
 
     s = job.settings
     if s.tables is None:
@@ -248,9 +248,13 @@ def _check_tables(job: Job, files: list[str], out: Path | None) -> None:
                              "names")
         names.setdefault(name, f)
     outputs = [("--tables", tables / f"{name}.csv") for name in names]
-    check_not_inputs(outputs + [("--out", out)],
-                     files + [s.calibration] + ([job.sensor_map] if job.sensor_map else []))
+    inputs = files + ([job.sensor_map] if job.sensor_map else [])
+    for _, table in outputs:
+        check_table(table, inputs, s.calibration)
+    check_not_inputs(outputs + [("--out", out)], inputs + [s.calibration])
     folder = next((p for p in (tables, *tables.parents) if p.exists()), Path("."))
+    if not folder.is_dir():
+        raise InputError(f"{tables}: the tables folder cannot be made: {folder} is a file")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise InputError(f"{tables}: the tables folder cannot be written ({folder} is not "
                          "writable)")

@@ -813,7 +813,8 @@ def choose(deltas: np.ndarray, *refits) -> int:
 
 
 def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
-          unit: str, limit: float, state=None):
+          unit: str, limit: float, state=None, versus: dict | None = None,
+          warn: bool = True):
     """``result``, an estimator's fit with the offset another search of the same two
     sensors applied (``source``, that search's ``time_offset`` block, chosen by
     :func:`choose`), made an "auto" result: the block is ``source``'s with ``found_by``
@@ -836,6 +837,9 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
     other search's own 1-sigma, and the move from the estimator's own choice
     (``moved_from_own``, capped as ``moved_from_zero`` is) for the disagreement.
     ``profile``, ``moved``, ``unit``, ``limit``: as for :func:`fit_with_offset`.
+    ``versus``: without ``own``, the other search's block to weigh the disagreement
+    against (the knee centre refitted at its own offset on an axis that took it);
+    ``warn`` False leaves the warning to the other estimate.
 
     Returns
     -------
@@ -854,7 +858,10 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
         mine = own.time_offset
         result.time_offset["own"] = {k: mine.get(k) for k in (
             "time_offset_s", "estimated_s", "sigma_s", "cost_ratio", "found_by")}
-        note_disagreement(result, found_by, mine, "its own")
+        versus = mine
+    if versus is not None:
+        note_disagreement(result, found_by, versus, "its own" if own is not None
+                          else "the other estimate's search", warn=warn)
     result.settings["time_offset"] = "auto"
     states = profile(result)(delta + SENSITIVITY_STEP_S * np.array([-1.0, 1.0]))[1]
     per_s = {k: v / (2 * SENSITIVITY_STEP_S)
@@ -871,20 +878,25 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
         part = {k: float(np.hypot(v, min(shift[k], OFFSET_MODEL_CAP * model[k])))
                 for k, v in part.items()}
     else:
-        part = {k: v * (joint if own is not None else applied) for k, v in per_s.items()}
+        part = {k: v * (joint if versus is not None else applied) for k, v in per_s.items()}
     _widen(result, part, unit, limit)
     return result
 
 
-def note_disagreement(result, used_by: str, other: dict, other_by: str) -> None:
+def note_disagreement(result, used_by: str, other: dict, other_by: str, *,
+                      warn: bool = True, unit: str | None = None,
+                      limit: float | None = None) -> None:
     """Put two searches' disagreement about one clock into ``result``'s offset: its
     ``time_offset`` block (the offset used, found by ``used_by``'s search) gets
     ``disagreement_s``, how far the ``other`` search (a ``time_offset`` block, named
     ``other_by``) put it (its estimate where it has a 1-sigma, else what it applied),
     ``sampling_sigma_s`` (the block's own ``sigma_s``) and ``sigma_s`` widened by half
     the disagreement; where they differ by more than ``FOLLOW_STEP_S`` and twice their
-    combined 1-sigma, a warning says so. Two searches of one clock that disagree say that
-    a model error moves at least one of them, and not which (:func:`adopt`).
+    combined 1-sigma, a warning says so (unless ``warn`` is False). Two searches of one
+    clock that disagree say that a model error moves at least one of them, and not which
+    (:func:`adopt`). With ``unit`` and ``limit`` (as for :func:`fit_with_offset`), the
+    estimate's ``time_offset`` uncertainty component, already made, also takes the
+    sensitivity (``sensitivity_per_ms``) times half the disagreement, in quadrature.
 
     Returns
     -------
@@ -901,7 +913,12 @@ def note_disagreement(result, used_by: str, other: dict, other_by: str) -> None:
     gap = abs(at - used)
     joint = float(np.hypot(sampling, gap / 2))
     block.update({"sigma_s": joint, "sampling_sigma_s": sampling, "disagreement_s": gap})
-    if gap > max(FOLLOW_STEP_S, 2 * float(np.hypot(sampling, theirs))):
+    per_ms = block.get("sensitivity_per_ms")
+    part = result.uncertainty_components.get("time_offset")
+    if unit is not None and isinstance(per_ms, dict) and isinstance(part, dict):
+        _widen(result, {k: float(np.hypot(part.get(k, 0.0), 1000 * per_ms[k] * gap / 2))
+                        for k in per_ms}, unit, limit)
+    if warn and gap > max(FOLLOW_STEP_S, 2 * float(np.hypot(sampling, theirs))):
         result.warnings.append(
             f"the clock offset of the second sensor is {1000 * used:+.1f} ms by the "
             f"{used_by}'s search (used for both of the joint's estimates: the two constraints "

@@ -465,3 +465,31 @@ def test_angles_study_from_python_and_a_folder_named_with_a_slash(cal_file, tmp_
     assert run.returncode == 0 and (tmp_path / "cli" / "walking.csv").exists()
     stdin = cli("angles", "-", "-c", path, "--tables", tmp_path / "s")
     assert stdin.returncode == 2 and "standard input" in stdin.stderr
+
+
+def test_a_library_run_never_writes_a_table_over_its_recording_or_calibration(cal_file,
+                                                                              tmp_path):
+    # a review: runner.run with AnglesSettings(tables=...) wrote walk.csv's table over it
+    from imucal.runner import Job, run
+    from imucal.settings import AnglesSettings
+
+    path, _ = cal_file
+    rec = tmp_path / "walk.csv"
+    assert cli("convert", SAMPLE / "walking.h5", rec).returncode == 0
+    before = rec.read_bytes()
+    outcome = run(Job("angles", (), AnglesSettings(str(path), tables=str(tmp_path))), str(rec))
+    assert outcome.exit_code == 2 and "--tables names an input recording" in outcome.error
+    assert rec.read_bytes() == before
+    (tmp_path / "c").mkdir()
+    named = tmp_path / "c" / "walking.csv"  # a calibration where walking.h5's table goes
+    named.write_bytes(path.read_bytes())
+    outcome = run(Job("angles", (), AnglesSettings(str(named), tables=str(tmp_path / "c"))),
+                  str(SAMPLE / "walking.h5"))
+    assert outcome.exit_code == 2 and "would overwrite the calibration" in outcome.error
+    study = cli("angles", SAMPLE / "walking.h5", "-c", named, "--tables", tmp_path / "c")
+    assert study.returncode == 2 and "would overwrite the calibration" in study.stderr
+    assert named.read_bytes() == path.read_bytes()
+    # a run that writes no table leaves no folder
+    outcome = run(Job("angles", (), AnglesSettings(str(path), tables=str(tmp_path / "none"))),
+                  str(tmp_path / "missing.h5"))
+    assert outcome.exit_code == 2 and not (tmp_path / "none").exists()

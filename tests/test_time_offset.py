@@ -686,3 +686,36 @@ def test_a_centre_offset_that_overrules_a_right_axis_keeps_the_angles_in_their_b
     err = knee.flexion_deg - np.asarray(truth["knee_flexion_deg"])
     err -= err.mean()
     assert np.mean(np.abs(err) <= 3 * knee.sigma_deg) > 0.97
+
+
+def test_both_estimates_of_a_knee_carry_the_disagreement_of_its_two_clock_searches():
+    # a review: with the centre's offset, the axis's 1-sigma took half the disagreement
+    # but the centre kept 0.12 ms; with the axis's, the widening missed j1/j2's 1-sigma
+    _, _, calibration, _, _ = _knee_session(5, 0.02)
+    knee = calibration.joints["knee"]
+    axis_block, centre_block = knee.axis["time_offset"], knee.position["time_offset"]
+    assert axis_block["found_by"] == "knee centre"
+    assert centre_block["sigma_s"] == pytest.approx(axis_block["sigma_s"], rel=1e-9)
+    assert centre_block["disagreement_s"] == pytest.approx(axis_block["disagreement_s"])
+    half = 1000 * axis_block["disagreement_s"] / 2  # ms
+    part = knee.position["quality"]["uncertainty_components"]["time_offset"]
+    for k in ("o1", "o2"):
+        assert part[k] >= 0.99 * centre_block["sensitivity_per_ms"][k] * half
+
+
+def test_an_axis_whose_offset_wins_carries_the_disagreement_in_its_1_sigma(monkeypatch):
+    import imucal.time_offset as time_offset
+
+    monkeypatch.setattr(time_offset, "choose", lambda deltas, *refits: 0)  # the axis wins
+    _, _, calibration, _, _ = _knee_session(5, None)
+    knee = calibration.joints["knee"]
+    block = knee.axis["time_offset"]
+    assert block["found_by"] == "profile" and abs(block["time_offset_s"]) > 0.015
+    assert block["disagreement_s"] > 0.015 and block["sigma_s"] > 0.007
+    half = 1000 * block["disagreement_s"] / 2
+    part = knee.axis["quality"]["uncertainty_components"]["time_offset"]
+    assert part["j1"] >= 0.99 * block["sensitivity_per_ms"]["j1"] * half
+    assert knee.axis["quality"]["j1_uncertainty_deg"] >= part["j1"]
+    centre = knee.position["time_offset"]
+    assert centre["found_by"] == "axis" and centre["time_offset_s"] == block["time_offset_s"]
+    assert sum("half the difference" in w for w in knee.warnings) == 1  # the axis's only
