@@ -540,10 +540,7 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
         return axis, pos
     if axis.blocking or pos.blocking:  # a refused estimate overrules nothing
         return axis, pos
-    rate, search = common["rate"], common["offset_search"]
-    refits = (axis_module.offset_profile(s1.gyr, s2.gyr, rate, search)(axis),
-              position_module.offset_profile((s1.gyr, s1.acc, s2.gyr, s2.acc), rate,
-                                             search)(pos))
+    refits = _profiles(axis, pos, s1, s2, common["rate"], common["offset_search"])
     deltas = np.array([a["time_offset_s"], p["time_offset_s"]], float)
     if choose(deltas, *refits) == 0:  # the axis's: the centre fitted again at it
         centre = position_module.adopt_offset(
@@ -574,8 +571,6 @@ def _one_check(axis, pos, s1, s2, common: dict) -> None:
     centre's 0.5 ms or less, 1.0), and the knee angles' 1-sigma grew to 2.6-4.3 deg where
     0.4-0.7 deg covered the error; a shank 20 ms late given as 0 is still caught (by the
     centre's check there, the axis's missed it)."""
-    from . import axis as axis_module
-    from . import position as position_module
     from .time_offset import choose, withdraw
 
     a, p = axis.time_offset, pos.time_offset
@@ -583,10 +578,7 @@ def _one_check(axis, pos, s1, s2, common: dict) -> None:
     if sorted(map(str, flags)) != ["False", "True"]:
         return  # both or neither contradict it (or a check that could not run)
     claim = a if flags[0] else p
-    rate, search = common["rate"], float(claim["search_s"])
-    refits = (axis_module.offset_profile(s1.gyr, s2.gyr, rate, search)(axis),
-              position_module.offset_profile((s1.gyr, s1.acc, s2.gyr, s2.acc), rate,
-                                             search)(pos))
+    refits = _profiles(axis, pos, s1, s2, common["rate"], float(claim["search_s"]))
     deltas = np.array([claim["time_offset_s"], claim["estimated_s"]], float)
     if choose(deltas, *refits) != 0:
         return
@@ -596,6 +588,17 @@ def _one_check(axis, pos, s1, s2, common: dict) -> None:
     dropped = withdraw(axis, "knee centre")
     if dropped is not None:  # the centre carries a copy of the axis's warnings
         pos.warnings[:] = [w for w in pos.warnings if w != f"axis: {dropped}"]
+
+
+def _profiles(axis, pos, s1, s2, rate: float, search: float) -> tuple:
+    """The clock-offset profiles (``refit(deltas)``) of a knee's axis (eq. 1) and centre
+    (eq. 3), each around its own estimate, over +-``search`` s."""
+    from . import axis as axis_module
+    from . import position as position_module
+
+    return (axis_module.offset_profile(s1.gyr, s2.gyr, rate, search)(axis),
+            position_module.offset_profile((s1.gyr, s1.acc, s2.gyr, s2.acc), rate,
+                                           search)(pos))
 
 
 def _verdict_of_estimates(jc: JointCalibration) -> None:

@@ -3,8 +3,8 @@
 Everything the ``axis``, ``position``, ``calibrate`` and ``angles`` commands do with a
 recording, as plain functions that print nothing and return an :class:`Outcome`. The
 single-file command prints an outcome (:mod:`imucal.cli`), a study turns each outcome
-into one JSON line
-(:mod:`imucal.study`); neither the runner nor the study imports the command line.
+into one JSON line (:mod:`imucal.study`); neither the runner nor the study imports the
+command line.
 
 A command is one entry of :data:`COMMANDS`: how to estimate from two sensors, how to
 build its JSON document and how to draw its figure. The options of one run are a
