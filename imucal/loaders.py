@@ -180,7 +180,7 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
             data = _read_bytes(path, source)
             parsed = _guarded(_parse_csv, data, source, what="CSV")
 
-    sensors, file_rate, time, units, warnings = parsed
+    sensors, file_rate, time, units, notes = parsed
     for kind, unit in (("gyr", gyr_units), ("acc", acc_units)):
         if unit is not None:
             check_units(kind, unit, f"{source}: --{kind}-units ({kind}_units=)")
@@ -195,10 +195,12 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
         time=time,
         units=units,
         source=source,
-        notes=warnings,
         rate_name="--rate" if rate is not None else "the 'sample_rate' attribute",
     )
-    return recording
+    # facts about the file that are no problem of its data (columns that are not sensor
+    # data: a counter, a temperature): `imucal info` prints them as notes; as warnings
+    # they had turned every estimate from such a file into "use with care"
+    return replace(recording, provenance={"notes": notes}) if notes else recording
 
 
 # ----------------------------------------------------------------------------- vendor files
@@ -579,10 +581,10 @@ def _parse_csv(data: bytes, source: str):
     }
     time = numbers(columns["time"]) if columns["time"] is not None else None
     units = {name: {} for name in sensors}
-    warnings = []
+    notes = []
     if columns["ignored"]:
-        warnings.append(f"ignored columns: {_short_list(columns['ignored'])}")
-    return sensors, None, time, units, warnings
+        notes.append(f"ignored columns: {_short_list(columns['ignored'])}")
+    return sensors, None, time, units, notes
 
 
 #: pandas' message for a row longer than the rows before it.

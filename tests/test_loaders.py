@@ -277,13 +277,17 @@ def test_sensor_names_with_underscores(tmp_path):
     np.testing.assert_array_equal(rec.sensors["a_gyr_b"].acc[0], [9, 10, 11])
 
 
-def test_other_columns_are_ignored_with_a_warning(tmp_path):
+def test_other_columns_are_ignored_with_a_note(tmp_path):
+    # a note, not a warning: as a warning it turned every estimate from a lab export with
+    # a counter or temperature column into "use with care" (docs/formats.md: a note)
     path = tmp_path / "extra.csv"
     header = HEADER.rstrip("\n") + ",temperature\n"
     path.write_text(csv_text([row + [21.5] for row in good_rows()], header=header))
     rec = load_recording(path)
     assert list(rec.sensors) == ["t"]
-    assert any("temperature" in w for w in rec.warnings)
+    assert rec.provenance["notes"] == ["ignored columns: 'temperature'"]
+    assert not any("temperature" in w for w in rec.warnings)
+    assert not any("temperature" in w for w in rec.select(["t"]).warnings)
 
 
 def test_read_csv_from_stdin(monkeypatch):
