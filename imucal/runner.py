@@ -228,6 +228,17 @@ def _window_text(job: Job, window) -> str:
     return f", window {window[0]:g}-{window[1]:g} s"
 
 
+def _given_offset_doubt(warnings) -> str:
+    """The contradicted given clock offset among an estimate's other ``warnings``, as a
+    clause for the refusal's one line: a wrong ``--time-offset`` spoils the fit, and the
+    reason first named (restarts disagree, a poor hinge fit: "a spheroidal joint such as
+    the ankle?") blamed the joint, while the cause stood in a warning that ``-q`` hides."""
+    from .time_offset import GIVEN_WARNING
+
+    given = next((w for w in warnings if w.startswith(GIVEN_WARNING)), None)
+    return f" (and {given})" if given else ""
+
+
 def _reason(joint) -> str:
     """Why a calibrated joint is not usable: the error that stopped its estimate (its last
     warning), or the first warning of the estimate that cannot identify it (blocking
@@ -237,7 +248,8 @@ def _reason(joint) -> str:
         return joint.warnings[-1] if joint.warnings else "failed"
     for what, doc in (("axis", joint.axis), ("position", joint.position)):
         if doc is not None and doc["quality"]["verdict"] == "not identifiable":
-            return f"{what}: {doc['quality']['warnings'][0]}"
+            first, *others = doc["quality"]["warnings"]
+            return f"{what}: {first}{_given_offset_doubt(others)}"
     return joint.warnings[-1] if joint.warnings else joint.verdict
 
 
@@ -500,8 +512,9 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
         outcome.notes.extend(f"{recording.source}: {w}" for w in others
                              if not w.startswith("input: "))
         raise NotIdentifiableError(
-            f"{recording.source}: the data cannot identify the {what}: {reason}; nothing "
-            "written (--force writes the result with its warnings)")
+            f"{recording.source}: the data cannot identify the {what}: {reason}"
+            f"{_given_offset_doubt(others)}; nothing written (--force writes the result "
+            "with its warnings)")
     outcome.document, outcome.result = doc, result
 
 

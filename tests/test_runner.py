@@ -69,6 +69,16 @@ def test_not_identifiable_unless_forced(tmp_path):
     assert forced.document["quality"]["verdict"] == "not identifiable"
 
 
+def test_a_refusal_names_a_contradicted_given_clock_offset():
+    # circling with its shank read 500 ms early: the first reason blamed the joint ("a
+    # spheroidal joint such as the ankle?"); the offset given stood in a warning only
+    job = Job("axis", ("thigh", "shank"), AxisSettings(seed=1, time_offset=-0.5))
+    outcome = run(job, str(Path(__file__).parents[1] / "sample_data" / "circling.h5"))
+    assert outcome.exit_code == 1
+    assert "the data cannot identify the axis" in outcome.error
+    assert "(and the clock offset given (-500.0 ms) is not the data's" in outcome.error
+
+
 def test_job_and_sensor_checks():
     assert parse_sensors(" shank , foot") == ("shank", "foot")
     for bad in ("thigh", "thigh,thigh", "a,b,c", ",b"):
