@@ -132,6 +132,23 @@ def _check_values(values: np.ndarray, what_values: str, unit: str, what: str) ->
                          "from the first: a corrupt value; fix or delete that row")
 
 
+def _check_repeated_rows(s: RawSensor, t: np.ndarray, what: str) -> None:
+    """Refuse a row that repeats the one before it: the same time stamp and the same
+    values, a packet logged twice. The stamps' clock fit read it as one more sample
+    (a DOT export with one row repeated: a 60.075 Hz clock, the sensor stretched and
+    interpolated onto the others' grid, up to 0.59 rad/s off near the repeat, with no
+    word of the repeat; a new-user trial), where imucal's own CSV and a packet counter
+    refuse it."""
+    same = ((t[1:] == t[:-1]) & (s.gyr[1:] == s.gyr[:-1]).all(axis=1)
+            & (s.acc[1:] == s.acc[:-1]).all(axis=1))
+    if same.any():
+        i = int(np.flatnonzero(same)[0])
+        raise InputError(
+            f"{what}: data row {i + 2} repeats row {i + 1} (the same time stamp and values: "
+            "a packet logged twice?); remove the duplicated rows"
+        )
+
+
 def _from_counter(counter: np.ndarray, what: str) -> np.ndarray:
     k = counter - counter[0]
     steps = np.diff(k)
@@ -193,6 +210,7 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
         t = None
     if t is not None:
         _check_values(t, "time stamp", "s", what)
+        _check_repeated_rows(s, t, what)
     if t is not None and n >= 3:
         # Relative to the first stamp: a large clock value would cost the fit precision.
         t0, t = t[0], t - t[0]

@@ -997,3 +997,19 @@ def test_an_excel_separator_line_in_any_quoting(line, sep):
     from imucal.formats import sep_line
 
     assert sep_line(line) == sep
+
+
+@pytest.mark.parametrize("fmt", ["dot", "xsens"])
+def test_a_row_logged_twice_is_named_not_read_as_another_rate(fmt, tmp_path):
+    # the stamps' clock fit took a repeated DOT / Xsens row for one more sample: a 60.075
+    # Hz clock, the sensor stretched onto the others' grid (0.59 rad/s off near the
+    # repeat), with no word of the repeat (a new-user trial)
+    folder = write(fmt, short(), tmp_path)
+    path = sorted(p for p in folder.iterdir() if p.is_file())[0]
+    lines = path.read_text().split("\n")
+    data = [i for i, ln in enumerate(lines) if ln[:1].isdigit()]
+    lines.insert(data[200], lines[data[200]])
+    path.write_text("\n".join(lines))
+    with pytest.raises(InputError, match=r"data row \d+ repeats row \d+ \(the same time "
+                                         r"stamp and values: a packet logged twice\?\)"):
+        load_recording(folder)
