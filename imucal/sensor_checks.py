@@ -182,7 +182,15 @@ def check_units(kind: str, unit, what: str) -> None:
         close = difflib.get_close_matches(text.strip(), list(table), n=1, cutoff=0.6)
         guess = close[0] if close else None
     hint = f" (did you mean '{guess}'?)" if guess else ""
+    prefix = _SCALE_PREFIXES.get(text.strip()[:1])
+    if guess and prefix and text.strip()[1:].lower() == guess.lower():
+        # 'mg' is no misspelt 'g': taken for it the data would be 1000 times too large
+        hint = f" ({prefix}{guess}: convert the values to {guess} first)"
     raise InputError(f"{what}: unknown units {text[:40]!r}{hint}; use one of {', '.join(table)}")
+
+
+#: SI prefixes a unit may carry (mg, mdeg/s): a scale, not a spelling.
+_SCALE_PREFIXES = {"m": "milli-", "u": "micro-", "µ": "micro-", "k": "kilo-"}
 
 
 def max_gap_samples(rate: float) -> int:

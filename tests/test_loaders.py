@@ -763,6 +763,8 @@ def test_irregular_sampling_is_refused_not_resampled(tmp_path, kind):
                                 "'m/s^2'?)"),
         ({"acc_units": "G"}, "unknown units 'G' (did you mean 'g'?)"),
         ({"gyr_units": "rpm"}, "unknown units 'rpm'; use one of rad/s, deg/s"),
+        # a scale, not a misspelt 'g': "did you mean 'g'?" made the data 1000 x too large
+        ({"acc_units": "mg"}, "unknown units 'mg' (milli-g: convert the values to g first)"),
     ],
 )
 def test_unknown_unit_arguments(tmp_path, kwargs, phrase):
