@@ -81,9 +81,16 @@ def stillness_warning(gyr1: np.ndarray, gyr2: np.ndarray) -> list[str]:
     rates = (rms_rate_deg_s(gyr1), rms_rate_deg_s(gyr2))
     if min(rates) >= STILL_RATE_DEG_S:
         return []
+    # which one: "RMS rate 123.9 and 0.0 deg/s, below 5" left a dead foot to be guessed
+    if max(rates) < STILL_RATE_DEG_S:
+        which = f"both: RMS rates {rates[0]:.1f} and {rates[1]:.1f} deg/s"
+    else:
+        still, moving = ("first", "second") if rates[0] < rates[1] else ("second", "first")
+        which = (f"the {still} sensor: RMS rate {min(rates):.1f} deg/s, the {moving} "
+                 f"{max(rates):.1f}")
     return [
-        f"the sensors barely rotate (RMS rate {rates[0]:.1f} and {rates[1]:.1f} deg/s, below "
-        f"{STILL_RATE_DEG_S:g}): the recording holds no motion to estimate from"
+        f"the sensors barely rotate ({which}; below {STILL_RATE_DEG_S:g} deg/s): the "
+        "recording holds no motion to estimate from"
     ]
 
 

@@ -147,6 +147,15 @@ def test_static_recording_is_flagged():
     assert np.isfinite(r.batch.x).all() and 1.0 <= r.sign_evidence < 1.5
 
 
+def test_a_sensor_that_does_not_turn_is_named():
+    # "RMS rate 123.9 and 0.0 deg/s, below 5" left the dead one to be guessed
+    rec, _ = simulated(1)
+    gyr = rec.sensor("thigh").gyr
+    r = estimate_axis(gyr, np.zeros_like(gyr), rate=rec.rate, seed=1, restarts=4)
+    assert any(w.startswith("the sensors barely rotate (the second sensor: RMS rate 0.0 "
+                            "deg/s, the first ") for w in r.blocking), r.blocking
+
+
 def test_rigid_knee_has_a_small_singular_ratio():
     rigid, _ = simulated(1, motion="rigid-knee")
     moving, _ = simulated(1)
