@@ -1167,9 +1167,14 @@ def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
                         f"{FIT_FLOOR_RESIDUAL:g} (residual) / {FIT_FLOOR_DEG:g} deg (at most "
                         f"{FIT_MAX_DEG:g} deg)"}
     if bad:
+        # a clock offset that changed between trials reads as a misfit too (a shank 10 ms
+        # later than in the calibration trial: disagreement 5 deg over a 2.9 deg limit),
+        # and nothing had named it (a new-user trial)
         out["message"] = (f"{jc.name}: the calibration does not fit this recording ("
                           + "; ".join(bad) + "): sensors re-strapped, swapped or another "
-                          "subject? calibrate again; these angles are not trustworthy")
+                          "subject, or the two sensors' clocks offset otherwise than the "
+                          f"calibration's {1000 * out['clock_offset_s']:+.0f} ms? calibrate "
+                          "again; these angles are not trustworthy")
     if unidentified:  # first: whatever else is wrong, the axes were never found
         reason = jc.warnings[-1] if jc.warnings else "no reason recorded"
         out["message"] = (f"{jc.name}: the calibration could not identify this joint ("

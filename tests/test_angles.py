@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -131,6 +133,9 @@ def test_a_calibration_of_another_mounting_is_flagged(session):
     check = result.joints["knee"].check
     assert check["hinge_residual"] > 5 * check["calibration_hinge_residual"]
     assert "does not fit" in result.joints["knee"].warnings[-1]
+    # a changed clock offset is named among the causes, with the calibration's own
+    assert re.search(r"or the two sensors' clocks offset otherwise than the calibration's "
+                     r"[+-]\d+ ms\? calibrate again", result.joints["knee"].warnings[-1])
     assert result.to_document()["fits"] is False
 
 
