@@ -646,6 +646,19 @@ def _worst(verdicts: list[str]) -> str:
 MAX_FILE_BYTES = 10_000_000
 
 
+def _study_lines_hint(data: bytes) -> str:
+    """How to pick one calibration out of a ``calibrate`` study's JSON Lines (``data``),
+    or "" for anything else: handed over whole, they read as a bare JSON error."""
+    try:
+        first = json.loads(data.split(b"\n", 1)[0].decode("utf-8-sig"))
+    except (UnicodeDecodeError, ValueError, RecursionError):
+        return ""
+    if not (isinstance(first, dict) and {"file", "exit_code", "result"} <= first.keys()):
+        return ""
+    return ("; it is a study's JSON Lines, one line per recording: pick one recording's, "
+            "e.g. jq -c 'select(.file == \"CAL.h5\") | .result' FILE > cal.json")
+
+
 def _json_problem(err: Exception) -> str:
     """What was wrong with a file read as JSON, short and without nested parentheses (its
     first 80 characters cut "(char 40" off in the middle)."""
@@ -720,7 +733,7 @@ def load_calibration(path: str | Path) -> Calibration:
     # arrays nested a hundred thousand deep
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as err:
         raise InputError(f"{path}: not a calibration file (not readable as JSON: "
-                         f"{_json_problem(err)})") from None
+                         f"{_json_problem(err)}){_study_lines_hint(data)}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         hint = (f" (an imucal '{doc['command']}' result; make one with imucal calibrate)"
                 if isinstance(doc, dict) and isinstance(doc.get("command"), str) else "")

@@ -171,6 +171,10 @@ def test_another_mounting_exits_1_with_the_evidence_unless_force(cal_file, tmp_p
     # a RecursionError and a ValueError of json: exit 3 before (fuzz audit)
     ("[" * 100_000, "not a calibration file (not readable as JSON: maximum recursion"),
     ('{"format_version": ' + "9" * 5000 + "}", "not readable as JSON: Exceeds the limit"),
+    # a calibrate study's output handed over whole: a bare JSON error before
+    ('{"file": "a.h5", "exit_code": 0, "error": null, "warnings": [], "result": {}}\n' * 2,
+     "it is a study's JSON Lines, one line per recording: pick one recording's, e.g. jq -c "
+     "'select(.file == \"CAL.h5\") | .result' FILE > cal.json"),
 ])
 def test_a_missing_or_broken_calibration_exits_2_naming_it(tmp_path, content, phrase):
     cal = tmp_path / "cal.json"
