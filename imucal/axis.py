@@ -451,7 +451,7 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
         return _refuse_if_uninformative(fit_with_offset(
             again, offset_profile(g1, g2, rate, s.offset_search, biases), rate,
             s.offset_search, _offset_moved, "deg", MAX_UNCERTAINTY_DEG,
-            lambda r: np.concatenate([r.j1, r.j2])))
+            lambda r: np.concatenate([r.j1, r.j2]), unapplied=True))
     plain = search(False)
     if not _biases_in_play(plain.gyr_bias):
         return plain
