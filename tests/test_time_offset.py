@@ -768,3 +768,31 @@ def test_a_late_shank_soft_tissue_hides_leaves_no_good_axis_off_by_3_sigma():
     assert errors[0] > 4.0  # the clock the rates could not see
     assert errors[0] < 3 * axis.uncertainty_deg["j1"]
     assert axis.verdict != "good"
+
+
+def test_an_offset_soft_tissue_may_have_faked_is_doubted_in_words():
+    # gait with soft tissue, clocks in sync: the axis applied +25 ms at a 1-sigma of 1.7 ms
+    # and said "good" without a word (an honesty audit: 37 such of 185 applied offsets)
+    rec, _ = simulate(seed=27, rate=40.0, duration=30.0, motion="gait", gyr_noise=0.01,
+                      acc_noise=0.05, soft_tissue_deg=0.5, soft_tissue_mm=1.0)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    axis = estimate_axis(th.gyr, sh.gyr, rate=40.0, seed=1, acc1=th.acc, acc2=sh.acc)
+    assert axis.time_offset["applied"] and axis.time_offset["time_offset_s"] > 0.015
+    assert axis.uncertainty_components["model"]["j1"] >= 0.5
+    assert any(w.startswith("the clock offset applied (+") and "soft tissue?" in w
+               for w in axis.warnings), axis.warnings
+    assert axis.verdict == "use with care"
+
+
+def test_the_knee_centre_confirming_the_axis_offset_withdraws_the_doubt():
+    from types import SimpleNamespace
+
+    from imucal.time_offset import DOUBT_WARNING, confirm
+
+    doubt = f"{DOUBT_WARNING} (+20.0 ms) rests on the rates alone, ..."
+    axis = SimpleNamespace(warnings=["other", doubt], time_offset={"applied": True})
+    confirm(axis, "knee centre")
+    assert axis.warnings == ["other"] and axis.time_offset["confirmed_by"] == "knee centre"
+    untouched = SimpleNamespace(warnings=["other"], time_offset={})
+    confirm(untouched, "knee centre")
+    assert untouched.warnings == ["other"] and "confirmed_by" not in untouched.time_offset
