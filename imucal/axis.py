@@ -731,25 +731,18 @@ def _refit_residuals(d1, d2, x, b=None) -> tuple[np.ndarray, np.ndarray]:
         jtj = jac @ np.swapaxes(jac, 1, 2)
         grad = jac @ e[..., None]
         if b is not None:  # the prior's rows, weight * (b . u, b . v) per sensor
-            across = _across_axes(x, b)
+            bases = tangent_basis(x.reshape(-1, 3))  # (2D, 3, 2): u, v of j1, j2, ...
+            across = (b.reshape(-1, 1, 3) @ bases).reshape(count, 4)
             jtj[:, 4:, 4:] += weight2[:, None, None] * np.eye(4)
             grad[:, 4:, 0] += weight2[:, None] * across
         # a touch of damping: a sensor that never turns leaves J^T J singular (the step
         # is then 0, not an error)
         damp = 1e-9 * np.trace(jtj, axis1=1, axis2=2)[:, None, None] + 1e-30
         step = -np.linalg.solve(jtj + damp * np.eye(jtj.shape[-1]), grad)[..., 0]
-        if b is not None:
-            bases = tangent_basis(x.reshape(-1, 3))  # (2D, 3, 2), the step's own bases
+        if b is not None:  # the bias step in the bases it was computed in
             b = b + (bases @ step[:, 4:].reshape(-1, 2, 1)).reshape(count, 6)
         x = _retract(x, step[:, :4])
     return _residuals_and_jacobian_rows(d1, d2t, x, b)[0], x
-
-
-def _across_axes(x: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(D, 4): each bias's components along the tangent bases of its axis, (b1 . u1,
-    b1 . v1, b2 . u2, b2 . v2), for D states ``x`` and biases ``b`` (D, 6)."""
-    bases = tangent_basis(x.reshape(-1, 3))  # (2D, 3, 2)
-    return (b.reshape(-1, 1, 3) @ bases).reshape(x.shape[0], 4)
 
 
 def _diagnose(p: Prepared, q: dict, decision, gravity: dict) -> tuple[list[str], list[str]]:
@@ -1124,8 +1117,7 @@ def _residuals_and_jacobian_rows(g1: np.ndarray, g2t: np.ndarray, x: np.ndarray,
 
     With biases ``b`` (D, 6) (rad/s, b1 and b2; only their parts across the axes count)
     the rates are ``g - b`` and J (D, 8, N) also has the derivatives by each bias's
-    components along the axis's tangent basis (u, v), as :func:`_across_axes` reads
-    them."""
+    components along the axis's tangent basis (u, v) (:func:`imucal.vectors.tangent_basis`)."""
     d = x.shape[0]
     j = x.reshape(-1, 3)  # rows j1, j2, j1, j2, ...
     basis = np.concatenate([j[:, :, None], tangent_basis(j)], axis=2)  # columns j, u, v
