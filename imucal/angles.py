@@ -1112,6 +1112,18 @@ def _gravity(jc, s1, s2, rec, context) -> dict:
                               window=slice(*context.window), origin=float(context.time[0]))
 
 
+def _pinned_sign_doubt(jc) -> str:
+    """The first suspect of a misfit where the calibration pinned a relative sign its own
+    data contradicted (its axis's warning), else "": such a knee fits no trial, and the
+    message named only re-strapping, swapping or another subject (a new-user trial: a
+    --j2-sign pin contradicted 663:1)."""
+    pinned = next((w for w in jc.warnings if "the pinned j2 sign contradicts" in w), None)
+    if pinned is None:
+        return ""
+    return ("the calibration's pinned j2 sign, which its own data contradicted, is the "
+            "likelier cause (calibrate again without --j2-sign); else ")
+
+
 def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
                context=None) -> dict:
     """Does the calibration still fit this recording ``rec``? (docs/angles.md) ``flex``:
@@ -1171,7 +1183,8 @@ def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
         # later than in the calibration trial: disagreement 5 deg over a 2.9 deg limit),
         # and nothing had named it (a new-user trial)
         out["message"] = (f"{jc.name}: the calibration does not fit this recording ("
-                          + "; ".join(bad) + "): sensors re-strapped, swapped or another "
+                          + "; ".join(bad) + "): " + _pinned_sign_doubt(jc)
+                          + "sensors re-strapped, swapped or another "
                           "subject, or the two sensors' clocks offset otherwise than the "
                           f"calibration's {1000 * out['clock_offset_s']:+.0f} ms? calibrate "
                           "again; these angles are not trustworthy")

@@ -785,3 +785,22 @@ def test_angles_read_the_knee_centres_check_of_a_given_offset_too():
     assert np.mean(np.abs(err) < 3 * knee.sigma_deg) > 0.95
     assert any("the calibration's data put the second sensor's clock 17 ms later" in w
                for w in knee.warnings)
+
+
+def test_a_misfit_after_a_contradicted_sign_pin_names_the_pin_first():
+    # a --j2-sign pin its own data contradicted 663:1: every trial "did not fit", and the
+    # message named re-strapping, swapping or another subject (a new-user trial)
+    from pathlib import Path
+
+    from imucal.angles import joint_angles
+    from imucal.calibration import calibrate
+    from imucal.loaders import load_recording
+
+    sample = Path(__file__).parents[1] / "sample_data"
+    cal = calibrate(load_recording(sample / "circling.h5"), seed=1, restarts=30, sign="+z",
+                    j2_sign="-z", joints=["knee=hinge:thigh,shank"])
+    knee = joint_angles(load_recording(sample / "walking.h5"), cal).joints["knee"]
+    assert not knee.check["fits"]
+    assert ("the calibration's pinned j2 sign, which its own data contradicted, is the "
+            "likelier cause (calibrate again without --j2-sign); else sensors re-strapped"
+            in knee.check["message"])
