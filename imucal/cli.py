@@ -793,12 +793,14 @@ def info(
 
 
 @app.command(epilog=_examples("imucal convert opal.h5 walk.h5",
-                              "imucal convert dot_export/ walk.csv   # a folder of DOT files"))
+                              "imucal convert dot_export/ walk.csv   # a folder of DOT files",
+                              "imucal convert dot_export/ - | imucal axis -   # CSV on stdout"))
 def convert(
     rec: Rec,
     out: Annotated[Path, typer.Argument(metavar="OUT", show_default=False,
                                         parser=_output_file,
-                                        help="Output file, .h5/.hdf5 or .csv.")],
+                                        help="Output file, .h5/.hdf5 or .csv; - : CSV on "
+                                             "stdout.")],
     rate: Rate = None,
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
@@ -815,15 +817,23 @@ def convert(
         from .provenance import hdf5_attrs
         from .writers import save_recording
 
-        _check_outputs(out, None, rec, sensor_map, out_name="OUT")
+        stdout = str(out) == "-"  # a pipeline's CSV (it was "unknown output format '-'")
+        if not stdout:
+            _check_outputs(out, None, rec, sensor_map, out_name="OUT")
         recording = load_recording(rec, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
                                    names=sensor_map)
-        save_recording(recording, out, extra_attrs=hdf5_attrs(recording))
+        if stdout:
+            from .writers import csv_text
+
+            write_stdout(csv_text(recording))
+        else:
+            save_recording(recording, out, extra_attrs=hdf5_attrs(recording))
         if not quiet:
             for w in recording.warnings:
                 say(f"imucal: warning: {recording.source}: {w}")
-            say(f"imucal convert: wrote {out} ({len(recording.sensors)} sensors, "
-                f"{recording.n_samples} samples at {recording.rate:g} Hz)")
+            say(f"imucal convert: wrote {'CSV to stdout' if stdout else out} "
+                f"({len(recording.sensors)} sensors, {recording.n_samples} samples at "
+                f"{recording.rate:g} Hz)")
 
 
 def _settings(ctx: typer.Context, cls, **values):

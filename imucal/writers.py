@@ -7,6 +7,7 @@ moved onto the target, so a failed write never leaves a half-written file behind
 
 from __future__ import annotations
 
+import io
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -98,7 +99,21 @@ def _write_hdf5(recording: Recording, h5, extra_attrs: dict) -> None:
             group.create_dataset(kind, data=data).attrs["units"] = unit
 
 
-def _write_csv(recording: Recording, tmp: Path, extra_attrs: dict) -> None:
+def csv_text(recording: Recording) -> str:
+    """``recording`` in imucal's CSV layout (as :func:`save_recording` writes a ``.csv``),
+    as text: ``imucal convert REC -`` writes it to standard output for a pipeline.
+
+    Returns
+    -------
+    str
+        The CSV file's content.
+    """
+    buffer = io.StringIO()
+    _write_csv(recording, buffer, {})
+    return buffer.getvalue()
+
+
+def _write_csv(recording: Recording, tmp: Path | io.StringIO, extra_attrs: dict) -> None:
     # Times are written exactly (shortest round-trip text): with only 9 significant digits
     # long recordings would gain visible timestamp jitter.
     columns: dict[str, Any] = {"time": [repr(t) for t in np.asarray(recording.time).tolist()]}

@@ -484,6 +484,9 @@ def test_convert_keeps_provenance_and_result(tmp_path):
     csv = tmp_path / "conv.csv"
     assert run_cli("convert", src, csv, "-q").returncode == 0
     assert load_recording(csv).n_samples == orig.n_samples
+    # OUT '-': the same CSV on stdout, for a pipeline (was "unknown output format '-'")
+    piped = run_cli("convert", src, "-", "-q")
+    assert piped.returncode == 0 and piped.stdout == csv.read_text()
 
 
 def test_notes_about_an_unused_sensor_stay_out_of_the_selection(tmp_path):
