@@ -95,11 +95,12 @@ Start = Annotated[float | None, typer.Option(help="Window start, s on the record
                                              show_default=False)]
 End = Annotated[float | None, typer.Option(help="Window end, s on the recording's time axis.",
                                            show_default=False)]
+# (no min=: the settings check it, and typer's own check read NaN as "should be >= 0")
 AxisCutoff = Annotated[float | None, typer.Option(
-    "--cutoff", min=0.0, help="Low-pass cut-off, Hz, before the fit; default: none (raw rates fit "
+    "--cutoff", help="Low-pass cut-off, Hz, before the fit; default: none (raw rates fit "
     "eq. 1 best).", show_default=False)]
 PositionCutoff = Annotated[float | None, typer.Option(
-    "--cutoff", min=0.0, help="Low-pass cut-off, Hz; default: from the recording's spectrum "
+    "--cutoff", help="Low-pass cut-off, Hz; default: from the recording's spectrum "
     "(3 x the frequency below which most of the motion lies, within 4-12 Hz and at most "
     "0.4 x rate); 0 disables the filter.", show_default=False)]
 Subsample = Annotated[int | None, typer.Option(min=1, help="Use every k-th sample; default: all "

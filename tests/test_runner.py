@@ -142,6 +142,11 @@ def test_no_module_imports_the_command_line():
         # folder"
         (["axis", "--map", ""], "Invalid value for '--map': '': empty file name"),
         (["angles", "-c", ""], "Invalid value for '--calibration' / '-c': '': empty file name"),
+        # typer's own bound read NaN as "Input should be greater than or equal to 0"
+        (["axis", "--cutoff", "nan"],
+         "Invalid value for '--cutoff': cutoff must be a finite number, got nan"),
+        (["position", "--cutoff", "-1"],
+         "Invalid value for '--cutoff': cutoff must be in [0, inf), got -1"),
     ],
 )
 def test_usage_errors_before_any_file_is_read(tmp_path, args, message):
