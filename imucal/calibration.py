@@ -538,7 +538,9 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
     a, p = axis.time_offset, pos.time_offset
     if not (isinstance(a, dict) and isinstance(p, dict) and disagree(a, p)):
         if isinstance(p, dict) and p.get("applied") and not pos.blocking:
-            confirm(axis, "knee centre")  # the same offset through specific forces
+            dropped = confirm(axis, "knee centre")  # the same offset, specific forces
+            if dropped is not None:  # the centre carries a copy of the axis's warnings
+                pos.warnings[:] = [w for w in pos.warnings if w != f"axis: {dropped}"]
         return axis, pos
     if axis.blocking or pos.blocking:  # a refused estimate overrules nothing
         return axis, pos
@@ -720,6 +722,7 @@ def load_calibration(path: str | Path) -> Calibration:
         raise InputError(f"{path}: calibration file not found")
     if path.is_dir():
         raise InputError(f"{path}: not a calibration file (not a regular file)")
+    data = b""  # (an open or read that fails leaves nothing to hint from)
     try:
         # read once, up to a limit: a pipe (-c <(...)) can be read only once, and a
         # device has no size to check first (/dev/zero never ends)

@@ -83,8 +83,10 @@ class EstimateResult(Verdict):
         also "knee centre" or "axis", the other estimate of the joint, with "own": this
         estimate's own search, "disagreement_s" and "sampling_sigma_s", and "sigma_s"
         widened by half that disagreement) and "sensitivity_per_ms" (per vector, deg or mm per ms of
-        offset); where they apply also "moved_from_zero", "moved_from_own" and
-        "unapplied_move"; with "given", the check of the offset
+        offset); where they apply also "moved_from_zero", "moved_from_own",
+        "unapplied_move", "with_biases" (the axis: the offset found with gyroscope biases
+        refitted) and "confirmed_by" (the axis in a calibration: the knee centre applied
+        the same offset); with "given", the check of the offset
         given: "estimated_s", "sigma_s", "cost_ratio" (cost at the offset given over the
         cost at "estimated_s"), "search_s", "at_edge" and "contradicted" (in a
         calibration also "overruled_by": the other estimate of the knee, whose check

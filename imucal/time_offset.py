@@ -504,14 +504,22 @@ def _doubt_warning(found: Offset, model: dict) -> list[str]:
             "calibrate (the knee centre's specific forces check it) or --time-offset"]
 
 
-def confirm(result, by: str) -> None:
+def confirm(result, by: str) -> str | None:
     """Withdraw ``result``'s :func:`_doubt_warning`: the other estimate of the same two
     sensors (``by``, e.g. "knee centre"), through its own constraint, applied the same
-    offset (``time_offset.confirmed_by``)."""
-    kept = [w for w in result.warnings if not w.startswith(DOUBT_WARNING)]
-    if len(kept) < len(result.warnings):
-        result.warnings[:] = kept
-        result.time_offset["confirmed_by"] = by
+    offset (``time_offset.confirmed_by``).
+
+    Returns
+    -------
+    str or None
+        The warning removed (a joint centre estimated on this axis carries a copy), None
+        if it had none.
+    """
+    for i, warning in enumerate(result.warnings):
+        if warning.startswith(DOUBT_WARNING):
+            result.time_offset["confirmed_by"] = by
+            return result.warnings.pop(i)
+    return None
 
 
 def _unapplied_move_warning(result, found: Offset, rate: float, moves: dict,

@@ -497,3 +497,21 @@ def test_a_library_run_never_writes_a_table_over_its_recording_or_calibration(ca
     outcome = run(Job("angles", (), AnglesSettings(str(path), tables=str(tmp_path / "none"))),
                   str(tmp_path / "missing.h5"))
     assert outcome.exit_code == 2 and not (tmp_path / "none").exists()
+
+
+def test_a_calibration_file_that_cannot_be_read_is_named(monkeypatch, tmp_path):
+    # an open or read that failed left the study-lines hint nothing to read: an internal
+    # error (UnboundLocalError) instead of the file's name and problem (/proc/self/mem)
+    import imucal.calibration as calibration_module
+    from imucal.errors import InputError
+
+    path = tmp_path / "cal.json"
+    path.write_text("{}")
+
+    def unreadable(*args, **kwargs):
+        raise OSError(5, "Input/output error")
+
+    monkeypatch.setattr(calibration_module, "open", unreadable, raising=False)
+    with pytest.raises(InputError, match=r"cal.json: not a calibration file \(not readable "
+                                         r"as JSON: \[Errno 5\] Input/output error\)$"):
+        calibration_module.load_calibration(path)

@@ -796,3 +796,19 @@ def test_the_knee_centre_confirming_the_axis_offset_withdraws_the_doubt():
     untouched = SimpleNamespace(warnings=["other"], time_offset={})
     confirm(untouched, "knee centre")
     assert untouched.warnings == ["other"] and "confirmed_by" not in untouched.time_offset
+
+
+def test_a_confirmed_offset_leaves_no_doubt_on_the_knee_centre_either():
+    # the centre carries a copy of the axis's warnings ("axis: ..."): confirming the
+    # offset withdrew the doubt from the axis only (an independent review)
+    from imucal.calibration import calibrate
+    from imucal.time_offset import DOUBT_WARNING
+
+    rec, _ = simulate(seed=2, rate=40.0, duration=30.0, motion="protocol", gyr_noise=0.01,
+                      acc_noise=0.05, soft_tissue_deg=1.0, soft_tissue_mm=2.0,
+                      clock_offset={"shank": 0.03})
+    knee = calibrate(rec, restarts=20, seed=1, joints=["knee=hinge:thigh,shank"]).joints["knee"]
+    assert knee.axis["time_offset"]["confirmed_by"] == "knee centre"
+    for warnings in (knee.axis["quality"]["warnings"], knee.position["quality"]["warnings"],
+                     knee.warnings):
+        assert not any(DOUBT_WARNING in w for w in warnings), warnings
