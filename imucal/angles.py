@@ -1117,7 +1117,9 @@ def _pinned_sign_doubt(jc) -> str:
     data contradicted (its axis's warning), else "": such a knee fits no trial, and the
     message named only re-strapping, swapping or another subject (a new-user trial: a
     --j2-sign pin contradicted 663:1)."""
-    pinned = next((w for w in jc.warnings if "the pinned j2 sign contradicts" in w), None)
+    from .axis import PINNED_SIGN_WARNING
+
+    pinned = next((w for w in jc.warnings if PINNED_SIGN_WARNING in w), None)
     if pinned is None:
         return ""
     return ("the calibration's pinned j2 sign, which its own data contradicted, is the "

@@ -137,6 +137,9 @@ MODEL_FACTOR = 0.5
 #: the shared real recording's knees gain 1.00-1.04, simulated biases of 0.02 rad/s
 #: 1.27-3.3 at the wrong offset (gait, shank 20-45 ms late).
 BIAS_SEARCH_RATIO = 1.1
+#: How the warning on a pinned relative sign the data contradict begins (imucal.angles
+#: names it first when a calibration with it does not fit a recording).
+PINNED_SIGN_WARNING = "the pinned j2 sign contradicts"
 #: A 1-sigma axis uncertainty above this is not good enough for joint angles, deg: the
 #: verdict is at best "use with care". With 5 deg, simulated soft tissue (2 deg / 3 mm,
 #: 1-sigma 2.7-4.8 deg) was called "good" with errors up to 3.6 sigma; clean simulated
@@ -878,7 +881,7 @@ def _sign_warnings(decision, applied: float, pinned: bool) -> list[str]:
     evidence = decision.evidence
     if pinned:
         if applied != decision.sign and evidence >= MIN_SIGN_EVIDENCE:
-            return [f"the pinned j2 sign contradicts the data's sign tests (evidence "
+            return [f"{PINNED_SIGN_WARNING} the data's sign tests (evidence "
                     f"{evidence:.2f} for the other sign); check how the sensors sit"]
         return []
     if evidence < MIN_SIGN_EVIDENCE:

@@ -538,9 +538,7 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
     a, p = axis.time_offset, pos.time_offset
     if not (isinstance(a, dict) and isinstance(p, dict) and disagree(a, p)):
         if isinstance(p, dict) and p.get("applied") and not pos.blocking:
-            dropped = confirm(axis, "knee centre")  # the same offset, specific forces
-            if dropped is not None:  # the centre carries a copy of the axis's warnings
-                pos.warnings[:] = [w for w in pos.warnings if w != f"axis: {dropped}"]
+            _drop_copy(pos, confirm(axis, "knee centre"))  # the same offset, specific forces
         return axis, pos
     if axis.blocking or pos.blocking:  # a refused estimate overrules nothing
         return axis, pos
@@ -562,6 +560,13 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
     return axis, position_module.adopt_offset(
         None, p, p.get("found_by", "profile"), s1.gyr, s1.acc, s2.gyr, s2.acc, joint="hinge",
         axis=axis, acc_error=acc_error, versus=a, **common)
+
+
+def _drop_copy(pos, dropped: str | None) -> None:
+    """Remove from the knee centre ``pos`` its copy ("axis: ...") of a warning withdrawn
+    from the axis it was estimated on (``dropped``; None: nothing withdrawn)."""
+    if dropped is not None:
+        pos.warnings[:] = [w for w in pos.warnings if w != f"axis: {dropped}"]
 
 
 def _one_check(axis, pos, s1, s2, common: dict) -> None:
@@ -589,9 +594,7 @@ def _one_check(axis, pos, s1, s2, common: dict) -> None:
     if flags[1]:
         withdraw(pos, "axis")
         return
-    dropped = withdraw(axis, "knee centre")
-    if dropped is not None:  # the centre carries a copy of the axis's warnings
-        pos.warnings[:] = [w for w in pos.warnings if w != f"axis: {dropped}"]
+    _drop_copy(pos, withdraw(axis, "knee centre"))
 
 
 def _profiles(axis, pos, s1, s2, rate: float, search: float) -> tuple:

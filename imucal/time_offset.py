@@ -515,11 +515,10 @@ def confirm(result, by: str) -> str | None:
         The warning removed (a joint centre estimated on this axis carries a copy), None
         if it had none.
     """
-    for i, warning in enumerate(result.warnings):
-        if warning.startswith(DOUBT_WARNING):
-            result.time_offset["confirmed_by"] = by
-            return result.warnings.pop(i)
-    return None
+    dropped = _pop_warning(result, DOUBT_WARNING)
+    if dropped is not None:
+        result.time_offset["confirmed_by"] = by
+    return dropped
 
 
 def _unapplied_move_warning(result, found: Offset, rate: float, moves: dict,
@@ -910,7 +909,7 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
     result
         ``result``, changed in place.
     """
-    _drop_given_warning(result)  # (the given path's check: its disagreement is ``own``)
+    _pop_warning(result, GIVEN_WARNING)  # (the given path's check: its disagreement is ``own``)
     delta = float(source["time_offset_s"])
     sampling = source.get("sigma_s")
     sampling = float(sampling) if sampling is not None and np.isfinite(sampling) else 0.0
@@ -1012,12 +1011,14 @@ def withdraw(result, by: str) -> str | None:
         ``contradicted`` False and ``overruled_by`` ``by``.
     """
     result.time_offset.update({"contradicted": False, "overruled_by": by})
-    return _drop_given_warning(result)
+    return _pop_warning(result, GIVEN_WARNING)
 
 
-def _drop_given_warning(result) -> str | None:
-    """Remove :func:`check_given`'s warning, if any, and return it."""
+def _pop_warning(result, prefix: str) -> str | None:
+    """Remove the last of ``result``'s warnings that begins with ``prefix`` (one of
+    :func:`check_given`'s or :func:`_doubt_warning`'s; each adds at most one), if any,
+    and return it."""
     for i in range(len(result.warnings) - 1, -1, -1):
-        if result.warnings[i].startswith(GIVEN_WARNING):
+        if result.warnings[i].startswith(prefix):
             return result.warnings.pop(i)
     return None
