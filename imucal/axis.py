@@ -454,7 +454,8 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
         return _refuse_if_uninformative(fit_with_offset(
             again, offset_profile(g1, g2, rate, s.offset_search, biases), rate,
             s.offset_search, _offset_moved, "deg", MAX_UNCERTAINTY_DEG,
-            lambda r: np.concatenate([r.j1, r.j2]), unapplied=True))
+            lambda r: np.concatenate([r.j1, r.j2]), unapplied=True,
+            offset_model=_offset_model_s))
     plain = search(False)
     if not _biases_in_play(plain.gyr_bias):
         return plain
@@ -463,6 +464,32 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
         return plain
     joint.time_offset["with_biases"] = True
     return joint
+
+
+def _offset_model_s(result: AxisResult, found) -> float:
+    """The model-error part of an applied clock offset's 1-sigma, s: the model term's
+    smooth residual (:func:`_model_term`) over the RMS of the residual's derivative by the
+    offset (the square root of the profile's curvature, ``found.curvature``), times
+    ``MODEL_FACTOR``: the largest shift of the offset a residual of that size could
+    explain, as the model term is the largest turn of the axes. Soft tissue moving the
+    sensors in step with the stride lowers the cost of a shift as a late clock does, and
+    the profile's own sampling error does not show it: of 1400 simulated knees of an
+    honesty audit, the 360 applied offsets under soft tissue were 46 % within 3 x that
+    error (6.4 ms off, median, at 1.4 ms) and are 97 % within 3 x the reported 1-sigma;
+    the 221 clean ones 98 and 100 % (median 1-sigma 0.37 and 0.82 ms).
+
+    Returns
+    -------
+    float
+        The term, s (0 where the fit has no model term or the profile no curvature).
+    """
+    model = result.uncertainty_components.get("model", {}).get("j1", 0.0)
+    sv = np.asarray(result.singular_values)
+    if not (model > 0 and sv.size and np.isfinite(found.curvature)):
+        return 0.0
+    # the model term is MODEL_FACTOR x smooth / sv_min (rad): the smooth RMS is recovered
+    smooth = np.radians(model) * sv[-1] / MODEL_FACTOR
+    return float(MODEL_FACTOR * smooth / np.sqrt(found.curvature))
 
 
 def _biases_in_play(bias: dict) -> bool:

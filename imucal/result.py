@@ -85,7 +85,8 @@ class EstimateResult(Verdict):
         widened by half that disagreement) and "sensitivity_per_ms" (per vector, deg or mm per ms of
         offset); where they apply also "moved_from_zero", "moved_from_own",
         "unapplied_move", "with_biases" (the axis: the offset found with gyroscope biases
-        refitted) and "confirmed_by" (the axis in a calibration: the knee centre applied
+        refitted), "model_sigma_s" (the axis, applied: a model error's share of
+        "sigma_s", s) and "confirmed_by" (the axis in a calibration: the knee centre applied
         the same offset); with "given", the check of the offset
         given: "estimated_s", "sigma_s", "cost_ratio" (cost at the offset given over the
         cost at "estimated_s"), "search_s", "at_edge" and "contradicted" (in a

@@ -24,7 +24,7 @@ contiguous time blocks, as for the estimates themselves
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.interpolate import make_interp_spline
@@ -130,6 +130,13 @@ class Offset:
         not trusted (and not applied).
     search_s : the search range +-, s.
     cost_ratio : cost at zero offset over the cost at ``delta_s`` (1 = no gain).
+    curvature : the profile's curvature there, (mean squared residual) per s^2: a
+        parabola ``curvature x (delta - delta_s)^2`` through the candidates' mean costs
+        (NaN where none was fitted); its square root is the RMS of the residual's
+        derivative by the offset once the estimate is refitted.
+    model_sigma_s : a model error's share of the offset's 1-sigma, s (0: none known;
+        :func:`fit_with_offset`); ``reported_sigma_s`` adds it to ``sigma_s``, which
+        alone decides whether the offset is applied.
     """
 
     delta_s: float
@@ -137,6 +144,13 @@ class Offset:
     at_edge: bool
     search_s: float
     cost_ratio: float
+    curvature: float = float("nan")
+    model_sigma_s: float = 0.0
+
+    @property
+    def reported_sigma_s(self) -> float:
+        """The 1-sigma reported, s: ``sigma_s`` and ``model_sigma_s`` in quadrature."""
+        return float(np.hypot(self.sigma_s, self.model_sigma_s))
 
     def significant(self, rate: float) -> bool:
         """Whether the offset is worth applying at ``rate`` Hz.
@@ -255,7 +269,7 @@ def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
     rough, edge = _parabola_minimum(whole, fine / rate)
     if at_edge or edge:
         return Offset(rough, _block_sigma(table, fine / rate, rough), bool(at_edge),
-                      float(search), ratio)
+                      float(search), ratio, _curvature(whole, fine / rate))
     # the sub-sample pass, recentred on its own vertex until the candidates straddle it
     # the candidates stay inside the search (at 1000 Hz the one-sample grid spans only
     # the sub-sample pass's own width)
@@ -268,13 +282,14 @@ def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
         near_table = np.square(residuals(near))
         if not np.isfinite(near_table).all():
             return Offset(rough, _block_sigma(table, fine / rate, rough), False,
-                          float(search), ratio)
+                          float(search), ratio, _curvature(whole, fine / rate))
         best = float(np.clip(_parabola_vertices(near_table.mean(axis=1)[:, None], near)[0],
                              lo, hi))
         if abs(best - centre) <= FINE_STEP_S:
             break
     ratio = max(ratio, float(zero / max(near_table.mean(axis=1).min(), 1e-300)))
-    return Offset(best, _block_sigma(near_table, near, best), False, float(search), ratio)
+    return Offset(best, _block_sigma(near_table, near, best), False, float(search), ratio,
+                  _curvature(near_table.mean(axis=1), near))
 
 
 def _block_sigma(table: np.ndarray, deltas: np.ndarray, best: float) -> float:
@@ -284,6 +299,14 @@ def _block_sigma(table: np.ndarray, deltas: np.ndarray, best: float) -> float:
     parts = (table @ masks.T) / masks.sum(axis=1)  # (D, K): mean square, one block out
     left_out = np.clip(_parabola_vertices(parts, deltas), deltas[0], deltas[-1])
     return SIGMA_SCALE * jackknife_sigma(left_out - best)
+
+
+def _curvature(cost: np.ndarray, deltas: np.ndarray) -> float:
+    """Leading coefficient of the least-squares parabola through ``cost`` (D,) over
+    ``deltas`` (D,), per s^2; NaN where it does not curve upwards."""
+    x = deltas - deltas.mean()
+    a = np.linalg.lstsq(np.stack([x**2, x, np.ones_like(x)], axis=1), cost, rcond=None)[0][0]
+    return float(a) if a > 0 else float("nan")
 
 
 def _parabola_vertices(cost: np.ndarray, deltas: np.ndarray) -> np.ndarray:
@@ -381,7 +404,8 @@ def profile_samples(sample_index: np.ndarray, n: int, rate: float,
 
 
 def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
-                    limit: float, state=None, unapplied: bool = False):
+                    limit: float, state=None, unapplied: bool = False,
+                    offset_model: Callable | None = None):
     """The "auto" clock offset around any estimator.
 
     ``fit(seconds)`` runs the estimator with the second sensor read at
@@ -420,6 +444,13 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     873 soft-tissue circling axes were 91.2 % within 3 sigma (9 `good` beyond), 99.7 %
     with the move (none); clean circling 98.3 -> 100 % (the 1-sigma's median the same).
 
+    An applied offset's own 1-sigma is the profile's sampling error, which a model error
+    does not show in: where ``offset_model(result, found)`` (s) is given (the axis), it
+    is added in quadrature to the reported ``sigma_s`` and reported as
+    ``time_offset.model_sigma_s``. Which offset is applied, and the estimate's
+    ``time_offset`` entry, rest on the sampling error as before (the estimate's own
+    model bound and its move from offset 0 already carry a model error's share).
+
     ``unit`` is "deg" (axis) or "mm" (joint centre); ``limit`` is in that unit.
 
     Returns
@@ -447,9 +478,12 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     elif found.suspicious(rate) and not at_search_end(found, rate):
         applied, found, result = _trial(fit, profile, rate, search, first, found)
         how = "trial" if applied else "profile"
-    result.time_offset = {**offset_report(found, rate), "found_by": how}
+    reported = _with_model_sigma(result, found, offset_model) if applied else found
+    result.time_offset = {**offset_report(reported, rate), "found_by": how}
+    if reported.model_sigma_s > 0:
+        result.time_offset["model_sigma_s"] = reported.model_sigma_s
     result.settings["time_offset"] = "auto"
-    result.warnings.extend(offset_warnings(found, rate))
+    result.warnings.extend(offset_warnings(reported, rate))
     if refused_at_edge(found):
         result.blocking.append(offset_edge_reason(found))
     used = found.delta_s if applied else 0.0
@@ -490,11 +524,21 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     return result
 
 
+def _with_model_sigma(result, found: Offset, offset_model: Callable | None):
+    """``found`` with ``offset_model(result, found)`` (s) as its ``model_sigma_s``;
+    ``found`` itself where there is no model term or it is 0."""
+    extra = offset_model(result, found) if offset_model is not None else 0.0
+    if not (np.isfinite(extra) and extra > 0 and np.isfinite(found.sigma_s)):
+        return found
+    return replace(found, model_sigma_s=float(extra))
+
+
 def _doubt_warning(found: Offset, model: dict) -> list[str]:
     """The warning on an offset the axis's search applied where its model term
     (``model``, deg per vector) reaches ``OFFSET_DOUBT_MODEL_DEG``: soft tissue lowers
-    the cost of a shift as a late clock does, so the rates alone cannot vouch for it (its
-    1-sigma is the profile's sampling error only)."""
+    the cost of a shift as a late clock does, so the rates alone cannot vouch for it
+    (its 1-sigma carries that, :func:`_with_model_sigma`; whether it is applied does
+    not)."""
     worst = max(model.values())
     if not worst >= OFFSET_DOUBT_MODEL_DEG:
         return []
@@ -721,7 +765,7 @@ def offset_report(found: Offset, rate: float) -> dict:
     applied = found.significant(rate)
     # a minimum on the search's end that is not applied is a bound, not an estimate: it
     # has no 1-sigma (the sub-sample pass can apply one within half a sample of the end)
-    sigma = None if not applied and at_search_end(found, rate) else found.sigma_s
+    sigma = None if not applied and at_search_end(found, rate) else found.reported_sigma_s
     return {"mode": "auto", "time_offset_s": found.delta_s if applied else 0.0,
             "estimated_s": found.delta_s, "sigma_s": sigma, "applied": applied,
             "cost_ratio": found.cost_ratio, "search_s": found.search_s,
@@ -916,6 +960,7 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
     result.time_offset = {
         **{k: source.get(k) for k in ("mode", "time_offset_s", "estimated_s", "sigma_s",
                                        "applied", "cost_ratio", "search_s", "at_edge")},
+        **({"model_sigma_s": source["model_sigma_s"]} if "model_sigma_s" in source else {}),
         "found_by": found_by}
     if own is not None:
         mine = own.time_offset
