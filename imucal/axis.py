@@ -454,8 +454,7 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
         return _refuse_if_uninformative(fit_with_offset(
             again, offset_profile(g1, g2, rate, s.offset_search, biases), rate,
             s.offset_search, _offset_moved, "deg", MAX_UNCERTAINTY_DEG,
-            lambda r: np.concatenate([r.j1, r.j2]), unapplied=True,
-            offset_model=_offset_model_s))
+            lambda r: np.concatenate([r.j1, r.j2]), unapplied=True))
     plain = search(False)
     if not _biases_in_play(plain.gyr_bias):
         return plain
@@ -464,32 +463,6 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
         return plain
     joint.time_offset["with_biases"] = True
     return joint
-
-
-def _offset_model_s(result: AxisResult, found) -> float:
-    """The model-error part of an applied clock offset's 1-sigma, s: the model term's
-    smooth residual (:func:`_model_term`) over the RMS of the residual's derivative by the
-    offset (the square root of the profile's curvature, ``found.curvature``), times
-    ``MODEL_FACTOR``: the largest shift of the offset a residual of that size could
-    explain, as the model term is the largest turn of the axes. Soft tissue moving the
-    sensors in step with the stride lowers the cost of a shift as a late clock does, and
-    the profile's own sampling error does not show it: of 1400 simulated knees of an
-    honesty audit, the 360 applied offsets under soft tissue were 46 % within 3 x that
-    error (6.4 ms off, median, at 1.4 ms) and are 97 % within 3 x the reported 1-sigma;
-    the 221 clean ones 98 and 100 % (median 1-sigma 0.37 and 0.82 ms).
-
-    Returns
-    -------
-    float
-        The term, s (0 where the fit has no model term or the profile no curvature).
-    """
-    model = result.uncertainty_components.get("model", {}).get("j1", 0.0)
-    sv = np.asarray(result.singular_values)
-    if not (model > 0 and sv.size and np.isfinite(found.curvature)):
-        return 0.0
-    # the model term is MODEL_FACTOR x smooth / sv_min (rad): the smooth RMS is recovered
-    smooth = np.radians(model) * sv[-1] / MODEL_FACTOR
-    return float(MODEL_FACTOR * smooth / np.sqrt(found.curvature))
 
 
 def _biases_in_play(bias: dict) -> bool:
@@ -584,8 +557,9 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
     # are tenths of a second apart, where gait and soft tissue alias into each other
     # (180 s of simulated gait: 0 deg, "good" 18 sigma off)
     moving = p.moving
-    smooth = e if moving is p.data else _residual_and_jacobian(*moving, x)[0]
-    model = _model_term(smooth, sv, p.rate / p.step)
+    smooth = smooth_residual_rms(e if moving is p.data else _residual_and_jacobian(*moving, x)[0],
+                                 p.rate / p.step)
+    model = _model_term(smooth, sv)
     components = {
         "curvature": {"j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),
                       "j2": float(np.degrees(np.sqrt(cov[2, 2] + cov[3, 3])))},
@@ -597,6 +571,7 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
     keep = settled(fit.batch.final_cost, fit.reached)
     return {
         "rms": rms_e,
+        "smooth": smooth,
         "relative": rms_e / scale if scale > 0 else float("inf"),
         "singular_values": sv,
         "singular_ratio": float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
@@ -613,16 +588,16 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
     }
 
 
-def _model_term(e: np.ndarray, sv: np.ndarray, rate: float) -> float:
+def _model_term(smooth: float, sv: np.ndarray) -> float:
     """The model-error bound of the axes, deg: ``MODEL_FACTOR`` times the smooth residual
-    (:func:`imucal.quality.smooth_residual_rms`, samples ``rate`` Hz apart) over the
+    ``smooth`` (rad/s, :func:`imucal.quality.smooth_residual_rms`) over the
     Jacobian's smallest singular value ``sv[-1]`` (per sqrt(sample)), i.e. the largest
     turn of the axes a residual of that size could explain. Relative to the weakest
     direction, not to the rates' size: gait excites the axes less than circling, and the
     same smooth residual moved them several times as far there."""
     if sv.size == 0 or not sv[-1] > 0:
         return 0.0
-    return float(MODEL_FACTOR * np.degrees(smooth_residual_rms(e, rate) / sv[-1]))
+    return float(MODEL_FACTOR * np.degrees(smooth / sv[-1]))
 
 
 def _excitation(d1, d2, x) -> dict:

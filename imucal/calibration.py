@@ -533,12 +533,14 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
     nothing."""
     from . import axis as axis_module
     from . import position as position_module
-    from .time_offset import choose, confirm, disagree, note_disagreement
+    from .time_offset import agree, choose, confirm, disagree, note_disagreement
 
     a, p = axis.time_offset, pos.time_offset
     if not (isinstance(a, dict) and isinstance(p, dict) and disagree(a, p)):
         if isinstance(p, dict) and p.get("applied") and not pos.blocking:
             _drop_copy(pos, confirm(axis, "knee centre"))  # the same offset, specific forces
+            if not axis.blocking:
+                agree(a, p)
         return axis, pos
     if axis.blocking or pos.blocking:  # a refused estimate overrules nothing
         return axis, pos

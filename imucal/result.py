@@ -30,6 +30,11 @@ class EstimateResult(Verdict):
         estimate, in the residual's units (rad/s for the axis, m/s^2 for the position).
     relative_residual : ``rms_residual`` over the RMS of what the residual compares,
         dimensionless (0 = the model fits exactly).
+    smooth_residual : RMS of the residual's smooth part over every moving sample (below
+        8 Hz, less the white noise's share there,
+        :func:`imucal.quality.smooth_residual_rms`), in the residual's units: what soft
+        tissue and a joint that is no perfect hinge or ball leave; the axis's model term
+        and the clock offset's (``time_offset.model_sigma_s``) are made of it.
     singular_ratio : smallest / largest singular value of the Jacobian at the estimate
         (near 0: some direction of the parameters is not determined by the data).
     singular_values : singular values of that Jacobian over sqrt(samples).
@@ -82,11 +87,13 @@ class EstimateResult(Verdict):
         ("profile", "followed" or "trial": how the offset was reached; in a calibration
         also "knee centre" or "axis", the other estimate of the joint, with "own": this
         estimate's own search, "disagreement_s" and "sampling_sigma_s", and "sigma_s"
-        widened by half that disagreement) and "sensitivity_per_ms" (per vector, deg or mm per ms of
-        offset); where they apply also "moved_from_zero", "moved_from_own",
+        widened by half that disagreement or the model share, the larger) and
+        "sensitivity_per_ms" (per vector, deg or mm per ms of offset); where they apply
+        also "moved_from_zero", "moved_from_own",
         "unapplied_move", "with_biases" (the axis: the offset found with gyroscope biases
-        refitted), "model_sigma_s" (the axis, applied: a model error's share of
-        "sigma_s", s) and "confirmed_by" (the axis in a calibration: the knee centre applied
+        refitted), "model_sigma_s" (applied: a model error's share of "sigma_s", s;
+        "model_capped_by" where a calibration's other search of the knee confirmed it)
+        and "confirmed_by" (the axis in a calibration: the knee centre applied
         the same offset); with "given", the check of the offset
         given: "estimated_s", "sigma_s", "cost_ratio" (cost at the offset given over the
         cost at "estimated_s"), "search_s", "at_edge" and "contradicted" (in a
@@ -96,6 +103,7 @@ class EstimateResult(Verdict):
 
     rms_residual: float
     relative_residual: float
+    smooth_residual: float
     singular_ratio: float
     singular_values: np.ndarray
     uncertainty_components: dict
@@ -126,7 +134,7 @@ def shared_fields(p: Prepared, fit: Multistart, q: dict, *, unit: str, settings:
                   time_offset: float, warnings: list[str], blocking: list[str]) -> dict:
     """The :class:`EstimateResult` fields of an estimate made by the shared stages:
     ``p`` the prepared data, ``fit`` the multistart, ``q`` the estimator's quality
-    block (keys "rms", "relative", "singular_ratio", "singular_values", "components",
+    block (keys "rms", "smooth", "relative", "singular_ratio", "singular_values", "components",
     "excitation", "sensitivity", "fraction", "agreement", "minima"), ``unit`` of the
     equal minima's distance ("deg" or "mm") and ``time_offset`` the offset applied, s.
 
@@ -142,6 +150,7 @@ def shared_fields(p: Prepared, fit: Multistart, q: dict, *, unit: str, settings:
     return {
         "rms_residual": q["rms"],
         "relative_residual": q["relative"],
+        "smooth_residual": q["smooth"],
         "singular_ratio": q["singular_ratio"],
         "singular_values": q["singular_values"],
         "uncertainty_components": q["components"],
