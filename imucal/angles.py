@@ -31,7 +31,7 @@ from .rest import (
     gravity_warning,
     still_periods,
 )
-from .settings import is_bool
+from .settings import check_time_offset, is_bool
 from .time_offset import shifted
 
 if TYPE_CHECKING:
@@ -321,6 +321,74 @@ def clock_offset(jc) -> float:
     """
     value = _offset_number(jc, "time_offset_s")
     return 0.0 if value is None else value
+
+
+#: ``time_offset`` of the blocks :func:`_given_clock` puts in a joint's calibration.
+GIVEN_FOR_RECORDING = "given for this recording"
+
+
+def check_trial_offset(value) -> float | None:
+    """A recording's own clock offset for :func:`joint_angles` checked: None, or a finite
+    number of seconds within +-10 s (also as a string).
+
+    Returns
+    -------
+    float or None
+        The offset, s, or None (the calibration's).
+
+    Raises
+    ------
+    InputError
+        "auto" (the angles have no search of their own: under soft tissue a walk's rates
+        put the clocks 6-26 ms from the truth with the calibration's axes, on imucal's
+        simulator) or anything :func:`imucal.settings.check_time_offset` refuses.
+    """
+    if value is None:
+        return None
+    try:
+        checked = check_time_offset(value)
+    except InputError:
+        checked = None
+    if checked == "auto":
+        raise InputError("time offset of the angles must be a number of seconds, got "
+                         "'auto': not searched here, as soft tissue on a walk mimics offsets "
+                         "of 6-26 ms; find it with imucal calibrate on this recording, or "
+                         "give it from the sensors' synchronisation")
+    if checked is None:
+        raise InputError("time offset of the angles must be a finite number of seconds "
+                         f"within +-10 s, got {value!r}")
+    return checked
+
+
+def _given_clock(jc, offset: float | None):
+    """``jc`` with its calibration's clock offset replaced by ``offset`` (s, taken as
+    exact: mode "given", no check to contradict it, ``clock_offset_source`` "given for
+    this recording"), or ``jc`` itself for None."""
+    if offset is None:
+        return jc
+    block = {"mode": "given", "time_offset_s": float(offset),
+             "source": GIVEN_FOR_RECORDING}
+    return replace(jc, axis={**jc.axis, "time_offset": block},
+                   position=None if jc.position is None else {**jc.position,
+                                                              "time_offset": block})
+
+
+def clock_offset_source(jc) -> str:
+    """Where the clock offset the angles read comes from.
+
+    Returns
+    -------
+    str
+        "calibration", or ``GIVEN_FOR_RECORDING`` (:func:`_given_clock`).
+    """
+    block = jc.axis.get("time_offset") if isinstance(jc.axis, dict) else None
+    given = isinstance(block, dict) and block.get("source") == GIVEN_FOR_RECORDING
+    return GIVEN_FOR_RECORDING if given else "calibration"
+
+
+def _offset_words(jc) -> str:
+    """How messages name the offset read: "the calibration's" or "the given"."""
+    return "the calibration's" if clock_offset_source(jc) == "calibration" else "the given"
 
 
 def _fused(rec, jc, smoothing_s: float, context=None):
@@ -779,7 +847,8 @@ def _check_reference(reference) -> float | str | None:
 
 def joint_angles(recording, calibration: Calibration, *, reference=None,
                  flexion_sign="auto", start: float | None = None, end: float | None = None,
-                 smoothing_s: float | None = None) -> JointAngles:
+                 smoothing_s: float | None = None,
+                 time_offset: float | None = None) -> JointAngles:
     """Flexion of every usable hinge of ``calibration`` over ``recording`` (module docstring).
 
     Parameters
@@ -805,6 +874,12 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
         Window, s on the recording's time axis.
     smoothing_s
         Fusion kernel, s (default: the calibration's).
+    time_offset
+        Clock offset of every hinge's second sensor in this recording, s (positive: its
+        clock is late), taken as exact; None (the default): the calibration's, as the
+        offset of a fixed latency persists from trial to trial. For sensors whose clocks
+        are synchronised anew for each recording (``check["clock_offset_source"]`` is then
+        "given for this recording").
 
     Returns
     -------
@@ -818,8 +893,8 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
     ------
     InputError
         The calibration has no usable hinge, a sensor it needs is missing, the window
-        holds fewer than ``MIN_SAMPLES`` samples, or ``reference`` / ``flexion_sign`` are
-        invalid. A calibration that does not fit gives
+        holds fewer than ``MIN_SAMPLES`` samples, or ``reference`` / ``flexion_sign`` /
+        ``time_offset`` are invalid. A calibration that does not fit gives
         ``fits=False`` and a warning with the evidence, never silently wrong angles.
     NotIdentifiableError
         A joint centre's acceleration that never lies in the joint plane: no
@@ -849,6 +924,7 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
         raise InputError(f"expected a Calibration, got {type(calibration).__name__}{hint}")
     pinned = _check_sign(flexion_sign)
     reference = _check_reference(reference)
+    time_offset = check_trial_offset(time_offset)
     if smoothing_s is not None:
         smoothing_s = check_smoothing(smoothing_s)
     hinges = [j for j in calibration.hinges if j.usable and j.angle]
@@ -882,7 +958,8 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
                          f"window measured ({rec.time[0]:g} to {rec.time[-1]:g} s)")
     joints = {}
     for jc in hinges:
-        local = replace(jc, sensors=tuple(recording.resolve(s) for s in jc.sensors))
+        local = _given_clock(replace(jc, sensors=tuple(recording.resolve(s)
+                                                       for s in jc.sensors)), time_offset)
         joints[jc.name] = _one_joint(rec, local, reference=reference, pinned=pinned,
                                      smoothing_s=smoothing_s or jc.angle["smoothing_s"],
                                      context=around)
@@ -1071,7 +1148,7 @@ def _extrapolated(jc, sigma_deg: np.ndarray, flex: np.ndarray, beyond: np.ndarra
     count, end = int(past.sum()), "last" if past[-1] else "first"
     return (np.hypot(sigma_deg, rate_rms * beyond),
             f"{jc.name}: the {end} {count} samples (up to {1000 * beyond.max():.0f} ms) read "
-            f"{jc.sensors[1]} beyond its recording (the calibration's clock offset of "
+            f"{jc.sensors[1]} beyond its recording ({_offset_words(jc)} clock offset of "
             f"{1000 * clock_offset(jc):+.0f} ms): extrapolated, their 1-sigma grows with the "
             f"RMS flexion rate ({rate_rms:.0f} deg/s) to {rate_rms * beyond.max():.1f} deg")
 
@@ -1170,6 +1247,7 @@ def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
     unidentified = jc.verdict == "not identifiable"
     out = {"fits": not bad and not unidentified, "calibration_verdict": jc.verdict,
            "clock_offset_s": clock_offset(jc),
+           "clock_offset_source": clock_offset_source(jc),
            "hinge_residual": res, "hinge_residual_limit": res_lim,
            "calibration_hinge_residual": ref["hinge_residual"],
            "acc_gyro_disagreement_deg": dis, "acc_gyro_disagreement_limit_deg": dis_lim,
@@ -1187,9 +1265,11 @@ def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
         out["message"] = (f"{jc.name}: the calibration does not fit this recording ("
                           + "; ".join(bad) + "): " + _pinned_sign_doubt(jc)
                           + "sensors re-strapped, swapped or another "
-                          "subject, or the two sensors' clocks offset otherwise than the "
-                          f"calibration's {1000 * out['clock_offset_s']:+.0f} ms? calibrate "
-                          "again; these angles are not trustworthy")
+                          "subject, or the two sensors' clocks offset otherwise than "
+                          f"{_offset_words(jc)} {1000 * out['clock_offset_s']:+.0f} ms? "
+                          + ("give this recording's (--time-offset SECONDS) or calibrate "
+                             if out["clock_offset_source"] == "calibration" else "calibrate ")
+                          + "again; these angles are not trustworthy")
     if unidentified:  # first: whatever else is wrong, the axes were never found
         reason = jc.warnings[-1] if jc.warnings else "no reason recorded"
         out["message"] = (f"{jc.name}: the calibration could not identify this joint ("

@@ -425,6 +425,7 @@ def calibrate(
         "imucal angles walk.h5 --calibration cal.json --out knee.csv --plot knee.png",
         "imucal angles walk.h5 -c cal.json --reference standing --out knee.h5",
         "imucal angles walk.h5 -c cal.json --reference 3.5 --flexion-sign +",
+        "imucal angles walk.h5 -c cal.json --time-offset 0.015   # this trial's shank 15 ms late",
         "imucal angles walk_*.h5 -c cal.json --tables knee/ --jobs 2 > walks.jsonl",
     )
 )
@@ -462,6 +463,12 @@ def angles(
         "calibration's guess is kept, with a warning); + / -: flexion is "
         "the right-handed rotation of the second segment about the calibration's axis, "
         "or the opposite.")] = "auto",
+    time_offset: Annotated[str | None, typer.Option(
+        "--time-offset", metavar="SECONDS", show_default=False,
+        help="This recording's clock offset of each knee's second sensor (the shank), s, "
+        "positive: its clock is late; taken as exact. Default: the calibration's, as a "
+        "fixed latency persists between trials. For sensors synchronised anew for each "
+        "recording (not searched here: soft tissue on a walk mimics offsets).")] = None,
     start: Start = None,
     end: End = None,
     rate: Rate = None,
@@ -495,9 +502,9 @@ def angles(
     joint (docs/angles.md). Data on stdout or --out, messages on stderr; with --tables,
     a study: one table per recording in DIR and JSON Lines on stdout."""
     with _errors(debug):
-        job = _angles_job(ctx, calibration, reference, flexion_sign, tables, start=start,
-                          end=end, rate=rate, gyr_units=gyr_units, acc_units=acc_units,
-                          sensor_map=sensor_map, force=force)
+        job = _angles_job(ctx, calibration, reference, flexion_sign, tables, time_offset,
+                          start=start, end=end, rate=rate, gyr_units=gyr_units,
+                          acc_units=acc_units, sensor_map=sensor_map, force=force)
         if tables is not None or len(rec) > 1:
             raise typer.Exit(_angles_study(ctx, job, rec, out=out, plot=plot, jobs=jobs,
                                            scheduler=scheduler, quiet=quiet))
@@ -532,7 +539,8 @@ def angles(
             _angles_summary(result, out)
 
 
-def _angles_job(ctx: typer.Context, calibration, reference, flexion_sign, tables, **options):
+def _angles_job(ctx: typer.Context, calibration, reference, flexion_sign, tables,
+                time_offset, **options):
     """The runner's angles job; bad options are usage errors before any file is read."""
     from .settings import AnglesSettings
 
@@ -546,7 +554,8 @@ def _angles_job(ctx: typer.Context, calibration, reference, flexion_sign, tables
                                  param_hint="'--flexion-sign'")
     settings = _settings(ctx, AnglesSettings, calibration=str(calibration), reference=ref,
                          flexion_sign=flexion_sign,
-                         tables=None if tables is None else str(tables))
+                         tables=None if tables is None else str(tables),
+                         time_offset=time_offset)
     return _job(ctx, "angles", None, settings, **options)
 
 
@@ -620,7 +629,10 @@ def _angles_summary(result, out) -> None:
             + (f"; gravity mismatch {c['gravity_mismatch_deg']:.0f} deg"
                 if c.get("gravity_mismatch_deg") is not None else "")
             + (f"; {c['implausible_flexion_share']:.0%} of the flexion outside {low:g} to "
-                f"{high:g} deg" if c.get("implausible_flexion_share") else "") + ")")
+                f"{high:g} deg" if c.get("implausible_flexion_share") else "")
+            + (f"; clock offset {1000 * c['clock_offset_s']:+.1f} ms "
+               f"{c['clock_offset_source']}" if c.get("clock_offset_source", "calibration")
+               != "calibration" else "") + ")")
 
 
 @app.command(

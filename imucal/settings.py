@@ -280,27 +280,32 @@ class AnglesSettings:
         folder name without suffix) and named in its document (``table``); a study's
         recordings need it, one ``--out`` cannot hold their tables. None: no table is
         written (a single recording's command line writes its own).
+    time_offset : float or None
+        Every recording's own clock offset of the hinges' second sensors, s, as in
+        :func:`imucal.joint_angles`; None: the calibration's.
 
     Raises
     ------
     InputError
-        An empty calibration name, a reference or flexion sign :func:`imucal.joint_angles`
-        refuses, or an empty tables name.
+        An empty calibration name, a reference, flexion sign or time offset
+        :func:`imucal.joint_angles` refuses, or an empty tables name.
     """
 
     calibration: str
     reference: object = None
     flexion_sign: str = "auto"
     tables: str | None = None
+    time_offset: float | None = None
 
     def __post_init__(self) -> None:
-        from .angles import _check_reference, _check_sign
+        from .angles import _check_reference, _check_sign, check_trial_offset
 
         if not isinstance(self.calibration, str | PathLike) or not str(self.calibration):
             raise InputError(f"calibration must be a file name, got {self.calibration!r}")
         object.__setattr__(self, "calibration", str(self.calibration))
         object.__setattr__(self, "reference", _check_reference(self.reference))
         _check_sign(self.flexion_sign)
+        object.__setattr__(self, "time_offset", check_trial_offset(self.time_offset))
         if self.tables is not None:
             if not isinstance(self.tables, str | PathLike) or not str(self.tables):
                 raise InputError(f"tables must be a folder name, got {self.tables!r}")

@@ -95,6 +95,20 @@ def test_angles_of_the_sample_walk_as_csv_on_stdout(cal_file):
     assert "regular flexion cycles of 1." in run.stderr and "fit check: fits" in run.stderr
 
 
+def test_a_recordings_own_clock_offset_on_the_command_line(cal_file):
+    path, _ = cal_file
+    # the sample walk's clocks are in sync: given as such it reads as before, and says so
+    run = cli("angles", SAMPLE / "walking.h5", "-c", path, "--time-offset", "0")
+    assert run.returncode == 0, run.stderr
+    assert "clock offset +0.0 ms given for this recording" in run.stderr
+    table = pd.read_csv(io.StringIO(run.stdout))
+    assert _sample_offset_and_rmse(table["knee_flexion_deg"])[1] < 1.0
+    # not searched: a usage error that says why, before any file is read
+    run = cli("angles", SAMPLE / "no_such.h5", "-c", path, "--time-offset", "auto")
+    assert run.returncode == 2 and run.stdout == ""
+    assert "'--time-offset'" in run.stderr and "not searched here" in run.stderr
+
+
 def test_angles_to_h5_with_a_figure(cal_file, tmp_path):
     path, _ = cal_file
     out, png = tmp_path / "knee.h5", tmp_path / "knee.png"
