@@ -34,7 +34,9 @@ class EstimateResult(Verdict):
         8 Hz, less the white noise's share there,
         :func:`imucal.quality.smooth_residual_rms`), in the residual's units: what soft
         tissue and a joint that is no perfect hinge or ball leave; the axis's model term
-        and the clock offset's (``time_offset.model_sigma_s``) are made of it.
+        and the clock offset's (``time_offset.model_sigma_s``) are made of it. For a
+        position, whose signals are low-passed below that band, the noise's share
+        stays in (no octave above the band measures it).
     singular_ratio : smallest / largest singular value of the Jacobian at the estimate
         (near 0: some direction of the parameters is not determined by the data).
     singular_values : singular values of that Jacobian over sqrt(samples).

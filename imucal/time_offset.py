@@ -608,13 +608,8 @@ def confirm(result, by: str) -> str | None:
 def agree(first: dict, second: dict) -> None:
     """Two searches of one clock through different constraints (a knee's axis: rates; its
     centre: specific forces) that applied the same offset (within ``FOLLOW_STEP_S``):
-    each ``time_offset`` block's model share (``model_sigma_s``, :func:`model_sigma`) is
-    capped at that agreement (the larger of their gap and ``FOLLOW_STEP_S``), its
-    ``sigma_s`` made again from it, and ``model_capped_by`` records the other's
-    estimate. A model error would have to move both alike; the bound is a worst case
-    (simulated knees whose centre confirmed the axis's offset: within 1.3 ms of the
-    truth at model shares of 12-14 ms, and the knee angles' bands twice as wide as
-    their errors needed, an independent review).
+    each ``time_offset`` block's model share capped by their agreement
+    (:func:`_cap_model_share`).
 
     Returns
     -------
@@ -627,13 +622,25 @@ def agree(first: dict, second: dict) -> None:
     gap = abs(float(first["time_offset_s"]) - float(second["time_offset_s"]))
     if gap > FOLLOW_STEP_S:
         return
-    cap = max(gap, FOLLOW_STEP_S)
     for block, other in ((first, second), (second, first)):
-        model = block.get("model_sigma_s", 0.0)
-        if model > cap:
-            jackknife = sampling_sigma(block)
-            block.update({"model_sigma_s": cap, "sigma_s": float(np.hypot(jackknife, cap)),
-                          "model_capped_by": float(other["time_offset_s"])})
+        jackknife = sampling_sigma(block)  # (before the share it subtracts changes)
+        _cap_model_share(block, gap, float(other["time_offset_s"]))
+        if "model_capped_by" in block:
+            block["sigma_s"] = float(np.hypot(jackknife, block["model_sigma_s"]))
+
+
+def _cap_model_share(block: dict, gap: float, other_s: float) -> None:
+    """Cap ``block``'s ``model_sigma_s`` (:func:`model_sigma`) at the distance ``gap``, s,
+    between its offset and another search's of the same clock through another constraint
+    (``other_s``, s), or ``FOLLOW_STEP_S`` where that is larger; ``model_capped_by``
+    records ``other_s``. The share is a worst case (every smooth residual aligned with the
+    offset's derivative), and two constraints that agree would have to be moved alike:
+    simulated knees whose centre confirmed the axis's offset were within 1.3 ms of the
+    truth at shares of 12-14 ms, and the knee angles' bands twice as wide as their errors
+    needed (an independent review)."""
+    cap = max(gap, FOLLOW_STEP_S)
+    if block.get("model_sigma_s", 0.0) > cap:
+        block.update({"model_sigma_s": cap, "model_capped_by": other_s})
 
 
 def _unapplied_move_warning(result, found: Offset, rate: float, moves: dict,
@@ -1003,7 +1010,9 @@ def adopt(result, own, profile, rate: float, source: dict, found_by: str, moved,
     Two searches of one clock that disagree say that a model error (soft tissue, a gyro
     bias) moves at least one of them, and not which: their difference ``disagreement_s``
     (this estimator's own estimate against the offset adopted) enters the offset's 1-sigma
-    as half of it, in quadrature with the other search's own (``sampling_sigma_s``), and
+    as half of it (or the adopted search's model share ``model_sigma_s``, capped at the
+    difference, where larger), in quadrature with the other search's jackknife part
+    (``sampling_sigma_s``), and
     where they differ beyond their sampling errors a warning says so
     (:func:`note_disagreement`). An independent review's 173 knees that changed (gait, protocol,
     circling; 40-200 Hz; soft tissue 0.5-2 deg; shanks 0-50 ms late): the adopted offset
@@ -1079,8 +1088,9 @@ def note_disagreement(result, used_by: str, other: dict, other_by: str, *,
     ``disagreement_s``, how far the ``other`` search (a ``time_offset`` block, named
     ``other_by``) put it (its estimate where it has a 1-sigma, else what it applied),
     ``sampling_sigma_s`` (the block's own sampling part, :func:`sampling_sigma`) and
-    ``sigma_s``: that with half the disagreement or the block's ``model_sigma_s``, the
-    larger, in quadrature (both measure a model error's move); where they differ by more
+    ``sigma_s``: that with half the disagreement or the block's ``model_sigma_s`` (capped
+    at the disagreement, :func:`_cap_model_share`), the larger, in quadrature (both
+    measure a model error's move); where they differ by more
     than ``FOLLOW_STEP_S`` and twice their combined sampling 1-sigma, a warning says so
     (unless ``warn`` is False). Two searches of one
     clock that disagree say that a model error moves at least one of them, and not which
@@ -1100,6 +1110,7 @@ def note_disagreement(result, used_by: str, other: dict, other_by: str, *,
                else other["time_offset_s"])
     theirs = sampling_sigma(other)
     gap = abs(at - used)
+    _cap_model_share(block, gap, at)
     # the disagreement measures a model error that the model share bounds: the larger
     # counts, not both
     joint = float(np.hypot(sampling, max(gap / 2, block.get("model_sigma_s", 0.0))))

@@ -843,11 +843,11 @@ def test_an_applied_offsets_sigma_carries_the_residuals_smooth_part(soft, larges
         assert error < 0.001 and off["model_sigma_s"] < largest_ms / 1000, off
 
 
-def _knee_calibration(seed, motion, **kw):
+def _knee_calibration(seed, motion, soft=1.0, **kw):
     from imucal.calibration import calibrate
 
     rec, _ = simulate(seed=seed, rate=100.0, duration=30.0, motion=motion, gyr_noise=0.01,
-                      acc_noise=0.05, soft_tissue_deg=1.0, soft_tissue_mm=2.0,
+                      acc_noise=0.05, soft_tissue_deg=soft, soft_tissue_mm=2 * soft,
                       clock_offset={"shank": 0.02}, **kw)
     return calibrate(rec, seed=1, joints=["knee=hinge:thigh,shank"]).joints["knee"]
 
@@ -897,3 +897,15 @@ def test_an_applied_ankle_offsets_sigma_carries_the_residuals_smooth_part():
     for k in ("o1", "o2"):
         assert r.uncertainty_components["time_offset"][k] == pytest.approx(
             off["sensitivity_per_ms"][k] * 1000 * sampling)
+
+
+def test_searches_that_agree_cap_the_model_share_whether_or_not_both_applied():
+    # the centre applied 20.5 ms, the axis's own search found 19.7 ms but applied nothing:
+    # the share stayed at 3.3 ms where both applying would have capped it at 2 (a review)
+    knee = _knee_calibration(2, "protocol", soft=2.0)
+    block = knee.axis["time_offset"]
+    assert block["found_by"] == "knee centre" and block["disagreement_s"] < 0.002
+    assert block["model_sigma_s"] == pytest.approx(0.002)
+    assert "model_capped_by" in block
+    assert block["sigma_s"] == pytest.approx(np.hypot(block["sampling_sigma_s"], 0.002))
+    assert abs(block["time_offset_s"] - 0.02) < 3 * block["sigma_s"]
