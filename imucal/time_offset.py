@@ -311,20 +311,25 @@ def _block_sigma(table: np.ndarray, deltas: np.ndarray, best: float) -> float:
     return SIGMA_SCALE * jackknife_sigma(left_out - best)
 
 
+def _parabolas(cost: np.ndarray, deltas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(``deltas`` less their mean, (3, ...) coefficients a, b, c): least-squares
+    parabolas ``a x^2 + b x + c`` through ``cost`` (D,) or each of its columns (D, K)."""
+    x = deltas - deltas.mean()
+    return x, np.linalg.lstsq(np.stack([x**2, x, np.ones_like(x)], axis=1), cost,
+                              rcond=None)[0]
+
+
 def _curvature(cost: np.ndarray, deltas: np.ndarray) -> float:
     """Leading coefficient of the least-squares parabola through ``cost`` (D,) over
     ``deltas`` (D,), per s^2; NaN where it does not curve upwards."""
-    x = deltas - deltas.mean()
-    a = np.linalg.lstsq(np.stack([x**2, x, np.ones_like(x)], axis=1), cost, rcond=None)[0][0]
+    a = _parabolas(cost, deltas)[1][0]
     return float(a) if a > 0 else float("nan")
 
 
 def _parabola_vertices(cost: np.ndarray, deltas: np.ndarray) -> np.ndarray:
     """(K,) vertices of least-squares parabolas through each column of ``cost`` (D, K)
     over ``deltas`` (D,); the lowest candidate where a column does not curve upwards."""
-    x = deltas - deltas.mean()
-    a, b, _ = np.linalg.lstsq(np.stack([x**2, x, np.ones_like(x)], axis=1), cost,
-                              rcond=None)[0]
+    x, (a, b, _) = _parabolas(cost, deltas)
     lowest = x[np.argmin(cost, axis=0)]
     with np.errstate(divide="ignore", invalid="ignore"):
         vertex = np.where(a > 0, -b / (2 * a), lowest)
@@ -488,8 +493,6 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
         how = "trial" if applied else "profile"
     reported = replace(found, model_sigma_s=model_sigma(result, found)) if applied else found
     result.time_offset = {**offset_report(reported, rate), "found_by": how}
-    if reported.model_sigma_s > 0:
-        result.time_offset["model_sigma_s"] = reported.model_sigma_s
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(reported, rate))
     if refused_at_edge(found):
@@ -837,15 +840,17 @@ def offset_report(found: Offset, rate: float) -> dict:
     block : dict
         JSON-ready: ``mode`` "auto", ``time_offset_s`` (s, the offset applied: ``found``'s
         when :meth:`Offset.significant` at ``rate`` Hz, else 0.0), ``estimated_s`` (s),
-        ``sigma_s`` (s; None for a minimum on the search's end that is not applied),
-        ``applied``, ``cost_ratio``, ``search_s`` (s) and ``at_edge``.
+        ``sigma_s`` (s; None for a minimum on the search's end that is not applied;
+        with ``found``'s model share, then also ``model_sigma_s``, s), ``applied``,
+        ``cost_ratio``, ``search_s`` (s) and ``at_edge``.
     """
     applied = found.significant(rate)
     # a minimum on the search's end that is not applied is a bound, not an estimate: it
     # has no 1-sigma (the sub-sample pass can apply one within half a sample of the end)
     sigma = None if not applied and at_search_end(found, rate) else found.reported_sigma_s
+    share = {"model_sigma_s": found.model_sigma_s} if found.model_sigma_s > 0 else {}
     return {"mode": "auto", "time_offset_s": found.delta_s if applied else 0.0,
-            "estimated_s": found.delta_s, "sigma_s": sigma, "applied": applied,
+            "estimated_s": found.delta_s, "sigma_s": sigma, **share, "applied": applied,
             "cost_ratio": found.cost_ratio, "search_s": found.search_s,
             "at_edge": found.at_edge}
 
