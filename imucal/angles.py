@@ -956,6 +956,15 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
     if reference not in (None, "standing") and not rec.time[0] <= reference <= rec.time[-1]:
         raise InputError(f"{recording.source}: reference time {reference:g} s is outside the "
                          f"window measured ({rec.time[0]:g} to {rec.time[-1]:g} s)")
+    if time_offset is not None and (rec.time[0] + time_offset > around.time[-1]
+                                    or rec.time[-1] + time_offset < around.time[0]):
+        # every read of the shank would lie beyond its samples: the fusion then found no
+        # usable sample and blamed the accelerometers (a new-user trial)
+        raise InputError(f"{recording.source}: time offset {time_offset:+g} s reads the "
+                         f"second sensors at {rec.time[0] + time_offset:g} to "
+                         f"{rec.time[-1] + time_offset:g} s, wholly outside the "
+                         f"{around.time[0]:g} to {around.time[-1]:g} s recorded; give the "
+                         "offset in seconds (0.015 for 15 ms)")
     joints = {}
     for jc in hinges:
         local = _given_clock(replace(jc, sensors=tuple(recording.resolve(s)
@@ -1268,7 +1277,8 @@ def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
                           "subject, or the two sensors' clocks offset otherwise than "
                           f"{_offset_words(jc)} {1000 * out['clock_offset_s']:+.0f} ms? "
                           + ("give this recording's (--time-offset SECONDS) or calibrate "
-                             if out["clock_offset_source"] == "calibration" else "calibrate ")
+                             if out["clock_offset_source"] == "calibration" else
+                             "check the offset given (--time-offset), or calibrate ")
                           + "again; these angles are not trustworthy")
     if unidentified:  # first: whatever else is wrong, the axes were never found
         reason = jc.warnings[-1] if jc.warnings else "no reason recorded"

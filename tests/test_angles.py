@@ -251,6 +251,13 @@ def test_a_recordings_own_clock_offset_can_be_given():
     assert knee.check["clock_offset_source"] == GIVEN_FOR_RECORDING
     # taken as exact: nothing of the calibration's own offset search is carried
     assert np.median(knee.sigma_deg) < 0.5
+    # a misfit under a given offset names that offset first (it said "calibrate again")
+    wrong = joint_angles(walk, calibration, time_offset=0.02).joints["knee"]
+    assert not wrong.fits and "check the offset given (--time-offset)" in wrong.check["message"]
+    # an offset that reads the shank wholly past the samples: said so, not blamed on the
+    # accelerometers (a new-user trial)
+    with pytest.raises(InputError, match="wholly outside the 0 to 19.99 s recorded"):
+        joint_angles(walk, calibration, time_offset=2.0, start=18.0, end=19.5)
     with pytest.raises(InputError, match="not searched here"):
         joint_angles(walk, calibration, time_offset="auto")
     with pytest.raises(InputError, match="within \\+-10 s"):
