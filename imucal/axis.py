@@ -57,7 +57,6 @@ from .quality import (
     robust_covariance,
     sensitivity_cutoffs,
     singular_values,
-    smooth_residual_rms,
     uncertainty_totals,
     uncertainty_warning,
 )
@@ -552,13 +551,8 @@ def _quality(p: Prepared, fit: Multistart, x: np.ndarray) -> dict:
     sv = singular_values(jac)
     sensitivity = _cutoff_sensitivity(p, x)
     # a smooth residual is a model error every time block shares (soft tissue moving the
-    # sensors in step with the gait cycle): a bias bound in proportion to it. Judged on
-    # every moving sample, not the fit's thinned ones: thinned (a long recording) they
-    # are tenths of a second apart, where gait and soft tissue alias into each other
-    # (180 s of simulated gait: 0 deg, "good" 18 sigma off)
-    moving = p.moving
-    smooth = smooth_residual_rms(e if moving is p.data else _residual_and_jacobian(*moving, x)[0],
-                                 p.rate / p.step)
+    # sensors in step with the gait cycle): a bias bound in proportion to it
+    smooth = p.smooth_residual(e, lambda *moving: _residual_and_jacobian(*moving, x)[0])
     model = _model_term(smooth, sv)
     components = {
         "curvature": {"j1": float(np.degrees(np.sqrt(cov[0, 0] + cov[1, 1]))),

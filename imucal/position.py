@@ -61,7 +61,6 @@ from .quality import (
     robust_covariance,
     sensitivity_cutoffs,
     singular_values,
-    smooth_residual_rms,
     uncertainty_totals,
     uncertainty_warning,
 )
@@ -527,14 +526,11 @@ def _quality(p: Prepared, s: PositionSettings, fit: Multistart, line, bias) -> d
     keep = settled(fit.batch.final_cost, fit.reached)
     count, apart, ratio = equal_minima(fit.finals, fit.refined.final_cost, fit.best,
                                        fit.reached, _position_distance)
-    # on every moving sample, as the axis's: thinned samples alias the stride and the
-    # soft tissue's ringing into each other
-    moving = p.moving
-    smooth = e if moving is p.data else _SpheroidalProblem(*moving, None).linearise(
-        x[None, :])[0][0]
+    smooth = p.smooth_residual(
+        e, lambda *moving: _SpheroidalProblem(*moving, None).linearise(x[None, :])[0][0])
     return {
         "rms": rms_e,
-        "smooth": smooth_residual_rms(smooth, p.rate / p.step),
+        "smooth": smooth,
         "relative": rms_e / scale if scale > 0 else float("inf"),
         "singular_values": sv,
         "singular_ratio": float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
