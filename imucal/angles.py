@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import InputError, NotIdentifiableError, number_text
+from .errors import InputError, NotIdentifiableError, number_text, signed_ms
 from .formats import HDF5_SUFFIXES
 from .fusion import SMOOTHING_S, check_smoothing, fuse, hinge_signals, plane_basis
 from .rest import (
@@ -973,7 +973,7 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
                                      smoothing_s=smoothing_s or jc.angle["smoothing_s"],
                                      context=around)
     skipped = [f"joint '{j.name}' has no angle: its calibration {j.verdict} ("
-               f"{j.warnings[-1] if j.warnings else 'no vectors'})"
+               f"{j.reason() if j.warnings else 'no vectors'})"
                for j in calibration.hinges if all(j is not h for h in hinges)]
     return JointAngles(time=rec.time.copy(), joints=joints, source=recording.source,
                        calibration=calibration.file or calibration.source, rate=rec.rate,
@@ -1158,7 +1158,7 @@ def _extrapolated(jc, sigma_deg: np.ndarray, flex: np.ndarray, beyond: np.ndarra
     return (np.hypot(sigma_deg, rate_rms * beyond),
             f"{jc.name}: the {end} {count} samples (up to {1000 * beyond.max():.0f} ms) read "
             f"{jc.sensors[1]} beyond its recording ({_offset_words(jc)} clock offset of "
-            f"{1000 * clock_offset(jc):+.0f} ms): extrapolated, their 1-sigma grows with the "
+            f"{signed_ms(clock_offset(jc), 0)} ms): extrapolated, their 1-sigma grows with the "
             f"RMS flexion rate ({rate_rms:.0f} deg/s) to {rate_rms * beyond.max():.1f} deg")
 
 
@@ -1275,13 +1275,13 @@ def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
                           + "; ".join(bad) + "): " + _pinned_sign_doubt(jc)
                           + "sensors re-strapped, swapped or another "
                           "subject, or the two sensors' clocks offset otherwise than "
-                          f"{_offset_words(jc)} {1000 * out['clock_offset_s']:+.0f} ms? "
+                          f"{_offset_words(jc)} {signed_ms(out['clock_offset_s'], 0)} ms? "
                           + ("give this recording's (--time-offset SECONDS) or calibrate "
                              if out["clock_offset_source"] == "calibration" else
                              "check the offset given (--time-offset), or calibrate ")
                           + "again; these angles are not trustworthy")
     if unidentified:  # first: whatever else is wrong, the axes were never found
-        reason = jc.warnings[-1] if jc.warnings else "no reason recorded"
+        reason = jc.reason() if jc.warnings else "no reason recorded"
         out["message"] = (f"{jc.name}: the calibration could not identify this joint ("
                           f"{reason}): these angles are not trustworthy; calibrate again on "
                           "a trial that moves it more"

@@ -87,6 +87,30 @@ class JointCalibration:
     position: dict | None = None
     angle: dict | None = None
 
+    def reason(self) -> str:
+        """Why the joint is not usable, as the refusal of ``calibrate`` and the angles of
+        a joint that is not identifiable quote it.
+
+        Returns
+        -------
+        str
+            The error that stopped its estimate (its last warning), or the first warning
+            of the estimate that cannot identify it (blocking reasons come first), with a
+            contradicted given clock offset named beside it, or else why its angle could
+            not be calibrated (its last warning).
+        """
+        if self.verdict == "failed":
+            return self.warnings[-1] if self.warnings else "failed"
+        for what, doc in (("axis", self.axis), ("position", self.position)):
+            quality = doc.get("quality") if isinstance(doc, dict) else None
+            if (isinstance(quality, dict) and quality.get("verdict") == NOT_IDENTIFIABLE
+                    and quality.get("warnings")):
+                first, *others = quality["warnings"]
+                from .time_offset import given_offset_doubt
+
+                return f"{what}: {first}{given_offset_doubt(others)}"
+        return self.warnings[-1] if self.warnings else self.verdict
+
     @property
     def usable(self) -> bool:
         """Whether the joint has its vectors (an estimate that stopped leaves none) and
@@ -617,7 +641,10 @@ def _verdict_of_estimates(jc: JointCalibration) -> None:
     jc.verdict = _worst([d["quality"]["verdict"] for d in docs])
     for d, what in zip(docs, ("axis", "position") if jc.kind == "hinge" else ("position",),
                        strict=True):
-        jc.warnings += [f"{what}: {w}" for w in d["quality"]["warnings"]]
+        # a knee's centre is fitted about its axis and carries the axis' warnings
+        # ("axis: ..."): the joint's list names each once
+        jc.warnings += [f"{what}: {w}" for w in d["quality"]["warnings"]
+                        if f"{what}: {w}" not in jc.warnings and w not in jc.warnings]
 
 
 def _angle_reference(jc: JointCalibration, used, around, smoothing_s) -> None:
@@ -634,7 +661,9 @@ def _angle_reference(jc: JointCalibration, used, around, smoothing_s) -> None:
         return
     a = jc.angle
     if a["warnings"]:
-        jc.warnings += [f"angle: {w}" for w in a["warnings"]]
+        # the trial's gravity check is the axis' own: said once, by the axis
+        jc.warnings += [f"angle: {w}" for w in a["warnings"]
+                        if f"axis: {w.removeprefix(f'{jc.name}: ')}" not in jc.warnings]
         jc.verdict = _worst([jc.verdict, "use with care"])
     if implausible_range(jc.name, a["flexion_range_deg"]) or own_check_failure(
             jc.name, a["acc_gyro_disagreement_deg"], a["gravity_consistent"]):

@@ -37,6 +37,7 @@ from .errors import (
     number_text,
     one_line,
     say,
+    signed_ms,
 )
 from .signals import raise_on_signals
 from .signals import report as report_interruption
@@ -630,7 +631,7 @@ def _angles_summary(result, out) -> None:
                 if c.get("gravity_mismatch_deg") is not None else "")
             + (f"; {c['implausible_flexion_share']:.0%} of the flexion outside {low:g} to "
                 f"{high:g} deg" if c.get("implausible_flexion_share") else "")
-            + (f"; clock offset {1000 * c['clock_offset_s']:+.1f} ms "
+            + (f"; clock offset {signed_ms(c['clock_offset_s'], 1)} ms "
                f"{c['clock_offset_source']}" if c.get("clock_offset_source", "calibration")
                != "calibration" else "") + ")")
 
@@ -1039,19 +1040,25 @@ def _summary(doc: dict, names) -> None:
         # no signal at all (every sample 0): the ratio is undefined, null in the JSON
         f"({'-' if q['relative_residual'] is None else format(q['relative_residual'], '.1%')}"
         " of signal)")
-    offset = doc.get("time_offset") or {}
-    if offset.get("mode") == "auto":
-        applied = "applied" if offset["applied"] else "not applied"
-        sigma, ms = offset["sigma_s"], 1000 * offset["estimated_s"]
-        if sigma is None and ms != 0 and not offset["applied"]:  # the search's end: a bound
-            value = f"at least {ms:+.1f} ms (the end of the search, {applied})"
-        else:
-            value = (f"{ms:+.1f} ms (1-sigma {'-' if sigma is None else f'{1000 * sigma:.1f}'}"
-                     f" ms, {applied})")
-        say(f"  clock offset of {names[1]}: {value}")
+    offset = _offset_text(doc.get("time_offset"))
+    if offset:
+        say(f"  clock offset of {names[1]}: {offset}")
     say(f"  verdict: {q['verdict']}")
     for w in q["warnings"]:
         say(f"  warning: {w}")
+
+
+def _offset_text(offset: dict | None) -> str:
+    """What the clock-offset search of an estimate found (``"+28.1 ms (1-sigma 14.1 ms,
+    applied)"``), or "" when the offset was given (no search)."""
+    if not isinstance(offset, dict) or offset.get("mode") != "auto":
+        return ""
+    applied = "applied" if offset["applied"] else "not applied"
+    sigma, found = offset["sigma_s"], offset["estimated_s"]
+    if sigma is None and found != 0 and not offset["applied"]:  # the search's end: a bound
+        return f"at least {signed_ms(found, 1)} ms (the end of the search, {applied})"
+    return (f"{signed_ms(found, 1)} ms (1-sigma "
+            f"{'-' if sigma is None else f'{1000 * sigma:.1f}'} ms, {applied})")
 
 
 def _sigmas(result: dict, names: tuple[str, str], spec: str) -> str:
@@ -1086,9 +1093,14 @@ def _calibration_summary(doc: dict) -> None:
         else:
             say(f"{head}; o1 = {_vec(j['o1'])} m, o2 = {_vec(j['o2'])} m "
                 f"({_sigmas(j['position'], ('o1', 'o2'), '.1f')})")
+        # a knee's offset is its axis's (both of its estimates use it), a ball joint's its
+        # centre's; the angles read the sensors with the offset applied here
+        offset = _offset_text(((j["axis"] if j["joint"] == "hinge" else j["position"]) or {})
+                              .get("time_offset"))
+        if offset:
+            say(f"    clock offset of {j['sensors'][1]}: {offset}")
         for w in j["warnings"]:
-            if not w.startswith("position: axis: "):  # the hinge's axis, said above
-                say(f"    warning: {w}")
+            say(f"    warning: {w}")
 
 
 def _num(x, decimals: int) -> str:

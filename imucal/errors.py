@@ -68,6 +68,25 @@ def number_text(x: float, decimals: int) -> str:
     return f"{x:.4g}" if abs(x) >= 1e6 else f"{x:.{decimals}f}"
 
 
+def signed_ms(seconds: float, decimals: int) -> str:
+    """A time offset, s, as signed milliseconds for a message.
+
+    Returns
+    -------
+    str
+        ``1000 * seconds`` with its sign and ``decimals`` decimals; an offset that rounds
+        to zero reads ``+0``, never ``-0`` (a found -0.04 ms printed "-0 ms").
+
+    Examples
+    --------
+    >>> from imucal.errors import signed_ms
+    >>> signed_ms(0.0281, 1), signed_ms(-4e-5, 0)
+    ('+28.1', '+0')
+    """
+    # adding +0.0 turns a rounded -0.0 into +0.0
+    return f"{round(1000 * seconds, decimals) + 0.0:+.{decimals}f}"
+
+
 def one_line(text: str) -> str:
     """``text`` with every run of whitespace, newlines included, as one space: an error
     is one stderr line even where it quotes a name or a library's text with newlines.

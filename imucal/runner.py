@@ -128,7 +128,7 @@ def _process_calibrate(job, recording, outcome) -> None:
     bad = [j for j in cal.joints.values() if j.verdict in ("not identifiable", "failed")]
     if bad and not job.force:
         # each joint with its own reason: they differ (one not identifiable, one failed)
-        which = "; ".join(f"joint {j.name} ({j.verdict}): {_reason(j)}" for j in bad)
+        which = "; ".join(f"joint {j.name} ({j.verdict}): {j.reason()}" for j in bad)
         outcome.exit_code = NotIdentifiableError.exit_code
         outcome.error = (f"{recording.source}: {which}; the calibration is written with "
                          f"{'them' if len(bad) > 1 else 'it'} marked (--force: exit 0)")
@@ -227,31 +227,6 @@ def _window_text(job: Job, window) -> str:
     if job.start is None and job.end is None:
         return ""
     return f", window {window[0]:g}-{window[1]:g} s"
-
-
-def _given_offset_doubt(warnings) -> str:
-    """The contradicted given clock offset among an estimate's other ``warnings``, as a
-    clause for the refusal's one line: a wrong ``--time-offset`` spoils the fit, and the
-    reason first named (restarts disagree, a poor hinge fit: "a spheroidal joint such as
-    the ankle?") blamed the joint, while the cause stood in a warning that ``-q`` hides."""
-    from .time_offset import GIVEN_WARNING
-
-    given = next((w for w in warnings if w.startswith(GIVEN_WARNING)), None)
-    return f" (and {given})" if given else ""
-
-
-def _reason(joint) -> str:
-    """Why a calibrated joint is not usable: the error that stopped its estimate (its last
-    warning), or the first warning of the estimate that cannot identify it (blocking
-    reasons come first), or else why its angle could not be calibrated (its last
-    warning)."""
-    if joint.verdict == "failed":
-        return joint.warnings[-1] if joint.warnings else "failed"
-    for what, doc in (("axis", joint.axis), ("position", joint.position)):
-        if doc is not None and doc["quality"]["verdict"] == "not identifiable":
-            first, *others = doc["quality"]["warnings"]
-            return f"{what}: {first}{_given_offset_doubt(others)}"
-    return joint.warnings[-1] if joint.warnings else joint.verdict
 
 
 #: The estimating commands by name. A new one is one entry here (plus its option parsing
@@ -509,12 +484,14 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
     if doc["quality"]["verdict"] == "not identifiable" and not job.force:
         # The first warning is the reason (blocking reasons come first); the others only
         # help a human reading along ("input: " ones were warnings at load already).
+        from .time_offset import given_offset_doubt
+
         reason, *others = doc["quality"]["warnings"]
         outcome.notes.extend(f"{recording.source}: {w}" for w in others
                              if not w.startswith("input: "))
         raise NotIdentifiableError(
             f"{recording.source}: the data cannot identify the {what}: {reason}"
-            f"{_given_offset_doubt(others)}; nothing written (--force writes the result "
+            f"{given_offset_doubt(others)}; nothing written (--force writes the result "
             "with its warnings)")
     outcome.document, outcome.result = doc, result
 

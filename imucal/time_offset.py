@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
-from .errors import InputError
+from .errors import InputError, signed_ms
 from .quality import (
     UNCERTAIN_PREFIX,
     block_masks,
@@ -105,6 +105,23 @@ MAX_FOLLOW = 3
 FOLLOW_STEP_S = 0.002
 #: How :func:`check_given`'s warning begins.
 GIVEN_WARNING = "the clock offset given"
+
+
+def given_offset_doubt(warnings) -> str:
+    """The contradicted given clock offset among an estimate's other ``warnings``, as a
+    clause for the refusal's one line: a wrong ``--time-offset`` spoils the fit, and the
+    reason first named (restarts disagree, a poor hinge fit: "a spheroidal joint such as
+    the ankle?") blamed the joint, while the cause stood in a warning that ``-q`` hides.
+
+    Returns
+    -------
+    str
+        ``" (and <that warning>)"``, or "" when no warning is about a given offset.
+    """
+    given = next((w for w in warnings if w.startswith(GIVEN_WARNING)), None)
+    return f" (and {given})" if given else ""
+
+
 #: An offset the axis's search (rates only) applied is doubted, with a warning that begins
 #: ``DOUBT_WARNING``, where the axis's model term (the residual's smooth part, soft
 #: tissue's mark) reaches this, deg. An honesty audit (6270 simulated fits): with soft
@@ -585,7 +602,7 @@ def _doubt_warning(found: Offset, model: dict) -> list[str]:
     worst = max(model.values())
     if not worst >= OFFSET_DOUBT_MODEL_DEG:
         return []
-    return [f"{DOUBT_WARNING} ({1000 * found.delta_s:+.1f} ms) rests on the rates alone, "
+    return [f"{DOUBT_WARNING} ({signed_ms(found.delta_s, 1)} ms) rests on the rates alone, "
             f"and their residual has a smooth part (model term {worst:.1f} deg: soft tissue?) "
             "that can fake or shift one: check the sensors' synchronisation, or use imucal "
             "calibrate (the knee centre's specific forces check it) or --time-offset"]
@@ -826,7 +843,7 @@ def check_given(result, profile, rate: float, search: float, given: float) -> No
                  f"{abs(1000 * lag):.1f} +- {1000 * found.sigma_s:.1f} ms "
                  f"{'late' if lag >= 0 else 'early'}")
         result.warnings.append(
-            f"{GIVEN_WARNING} ({1000 * given:+.1f} ms) is not the data's: they put the "
+            f"{GIVEN_WARNING} ({signed_ms(given, 1)} ms) is not the data's: they put the "
             f"second sensor's clock {where}, and reading it so lowers the residual "
             f"{ratio:.2f}x; check the sensors' synchronisation, or use --time-offset auto "
             "(a given offset is otherwise taken as exact)")
@@ -1127,9 +1144,9 @@ def note_disagreement(result, used_by: str, other: dict, other_by: str, *,
                         for k in per_ms}, unit, limit)
     if warn and gap > max(FOLLOW_STEP_S, 2 * float(np.hypot(sampling, theirs))):
         result.warnings.append(
-            f"the clock offset of the second sensor is {1000 * used:+.1f} ms by the "
+            f"the clock offset of the second sensor is {signed_ms(used, 1)} ms by the "
             f"{used_by}'s search (used for both of the joint's estimates: the two constraints "
-            f"fit it better), but {1000 * at:+.1f} ms by {other_by}: a model error (soft "
+            f"fit it better), but {signed_ms(at, 1)} ms by {other_by}: a model error (soft "
             f"tissue, a gyroscope bias) moves at least one of them, so half the difference "
             f"is in the offset's 1-sigma ({1000 * joint:.1f} ms)")
 

@@ -339,3 +339,25 @@ def test_a_sensor_name_with_a_newline_is_reported_on_one_line(calibration, tmp_p
     run = run_imucal("angles", tmp_path / "walk.h5", "-c", tmp_path / "cal.json", text=True)
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "no sensor 'th\u00efgh '" in run.stderr
+
+
+def test_a_knee_names_each_warning_once_and_angles_quote_what_decided(real_recording):
+    # the whole left knee of the shared recording: its centre is fitted about the axis and
+    # carried every axis warning again ("position: axis: ..."), the trial's gravity check
+    # came a third time from the angle; and angles quoted the knee's last warning ("no
+    # recording can pass the fit check") as why it was not identifiable, not the axis'
+    # blocking reason
+    from imucal import joint_angles
+
+    cal = calibrate(real_recording, joints=["L=hinge:left_thigh,left_shank"], restarts=10,
+                    seed=1)
+    knee = cal.joints["L"]
+    assert knee.verdict == "not identifiable"
+    assert len(knee.warnings) == len(set(knee.warnings)) == 9
+    assert not [w for w in knee.warnings if w.startswith("position: axis: ")]
+    assert sum("not one physical line" in w for w in knee.warnings) == 1
+    reason = knee.reason()
+    assert reason.startswith("axis: the angle about this axis") and "spans 191 deg" in reason
+    angles = joint_angles(real_recording, cal)
+    message = angles.joints["L"].check["message"]
+    assert message.startswith(f"L: the calibration could not identify this joint ({reason})")

@@ -506,3 +506,27 @@ def test_simulate_refuses_a_name_whose_truth_another_recording_shares(tmp_path):
     assert run.returncode == 2 and "c.H5 lies beside it" in run.stderr.decode()
     # the same file again is no sibling
     assert imucal("simulate", tmp_path / "c.H5", "--duration", "3", "-q").returncode == 0
+
+
+def test_calibrate_says_each_joints_clock_offset(tmp_path):
+    # the summary printed a knee's axes, centre and angle zero but not the clock offset the
+    # angles will read its shank at (only a warning named it, where the centre's search
+    # overruled the axis's); the axis and position commands print theirs
+    from imucal.simulate import simulate
+    from imucal.writers import save_recording
+
+    rec, _ = simulate(seed=5, motion="circling", duration=20.0, clock_offset={"shank": 0.020})
+    save_recording(rec, tmp_path / "late.h5")
+    run = run_imucal("calibrate", tmp_path / "late.h5", "--restarts", "10", "--seed", "1",
+                     "--out", tmp_path / "cal.json", text=True)
+    assert run.returncode == 0, run.stderr
+    lines = [line.strip() for line in run.stderr.splitlines()]
+    knee = next(line for line in lines if line.startswith("clock offset of shank: "))
+    foot = next(line for line in lines if line.startswith("clock offset of foot: "))
+    doc = json.loads((tmp_path / "cal.json").read_text())
+    for line, block in ((knee, doc["joints"]["knee"]["axis"]["time_offset"]),
+                        (foot, doc["joints"]["ankle"]["position"]["time_offset"])):
+        assert block["applied"] and line.endswith(" ms, applied)")
+        found = float(line.split(": ")[1].split(" ms")[0])
+        assert found == round(1000 * block["estimated_s"], 1)
+        assert abs(abs(found) - 20.0) < 3.0  # the foot reads -20 ms against the shank
