@@ -475,11 +475,13 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     873 soft-tissue circling axes were 91.2 % within 3 sigma (9 `good` beyond), 99.7 %
     with the move (none); clean circling 98.3 -> 100 % (the 1-sigma's median the same).
 
-    An applied offset's own 1-sigma is the profile's sampling error, which a model error
-    does not show in: :func:`model_sigma` joins it in the reported ``sigma_s`` and is
-    reported as ``time_offset.model_sigma_s``. Which offset is applied, and the
-    estimate's ``time_offset`` entry, rest on the sampling error as before (the axis's
-    model bound and its move from offset 0 already carry a model error's share).
+    The offset's own 1-sigma is the profile's sampling error, which a model error does
+    not show in: :func:`model_sigma` joins it in the reported ``sigma_s`` and is reported
+    as ``time_offset.model_sigma_s``, for an offset applied or not (one not applied is
+    still the data's reading of the clock: the angles widen their band by it). Which
+    offset is applied, and the estimate's ``time_offset`` entry, rest on the sampling
+    error as before (the axis's model bound and its move from offset 0 already carry a
+    model error's share).
 
     ``unit`` is "deg" (axis) or "mm" (joint centre); ``limit`` is in that unit.
 
@@ -508,7 +510,9 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     elif found.suspicious(rate) and not at_search_end(found, rate):
         applied, found, result = _trial(fit, profile, rate, search, first, found)
         how = "trial" if applied else "profile"
-    reported = replace(found, model_sigma_s=model_sigma(result, found)) if applied else found
+    # applied or not, the number reported is the data's best reading of the clock, and a
+    # model error moves it alike (the reading decides nothing unapplied: angles widen by it)
+    reported = replace(found, model_sigma_s=model_sigma(result, found))
     result.time_offset = {**offset_report(reported, rate), "found_by": how}
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(reported, rate))
@@ -571,7 +575,7 @@ def sampling_sigma(block: dict) -> float:
 
 
 def model_sigma(result, found: Offset) -> float:
-    """A model error's share of an applied offset's 1-sigma, s: ``OFFSET_MODEL_FACTOR``
+    """A model error's share of an offset's 1-sigma, s: ``OFFSET_MODEL_FACTOR``
     times the fit's smooth residual (``result.smooth_residual``,
     :func:`imucal.quality.smooth_residual_rms`) over the RMS of the residual's
     derivative by the offset once the estimate is refitted (the square root of the
@@ -907,7 +911,7 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
         return [offset_edge_reason(found, refused=False)]
     where = (f"at least {_read_at(found.delta_s, '.0f')} (the end of the search)"
              if at_search_end(found, rate)
-             else f"{_read_at(found.delta_s, '.0f')} (+-{1000 * found.sigma_s:.0f} ms)")
+             else f"{_read_at(found.delta_s, '.0f')} (+-{1000 * found.reported_sigma_s:.0f} ms)")
     if found.cost_ratio >= MIN_COST_RATIO and abs(found.delta_s) > MIN_APPLIED_SAMPLES / rate:
         return [f"the residual is lowest with the second sensor read {where}, lower by a "
                 f"factor {found.cost_ratio:.2f}, but the offset is not determined well "

@@ -692,7 +692,7 @@ def test_a_clock_offset_the_calibration_found_but_left_is_in_the_band():
     # a calibration (file) whose axis found the offset and left it: the axis's own search
     cal.joints["knee"].axis["time_offset"] = {
         "mode": "auto", "time_offset_s": 0.0, "applied": False, "at_edge": False,
-        **{k: own[k] for k in ("estimated_s", "sigma_s", "cost_ratio")}}
+        **{k: own[k] for k in ("estimated_s", "sigma_s", "model_sigma_s", "cost_ratio")}}
     knee, rmse, within = errors(cal)
     assert rmse > 4.0  # the lag is real ...
     assert within > 0.99  # ... and in the band

@@ -909,3 +909,29 @@ def test_searches_that_agree_cap_the_model_share_whether_or_not_both_applied():
     assert "model_capped_by" in block
     assert block["sigma_s"] == pytest.approx(np.hypot(block["sampling_sigma_s"], 0.002))
     assert abs(block["time_offset_s"] - 0.02) < 3 * block["sigma_s"]
+
+
+def test_an_offset_found_but_not_applied_reports_the_model_share_too():
+    # gait with soft tissue 1 deg / 2 mm, shank 20 ms late: the axis's search read the
+    # shank 18.6 ms early at a jackknife 1-sigma of 2.0 ms (19.6 sigma off) and, too
+    # shallow to apply, reported that; the ankle's in sync read -1.37 +- 0.12 ms (11.8
+    # sigma). An unapplied reading carries the smooth residual's share as an applied one
+    # does; what is applied, and the warnings' choice, stay on the jackknife
+    rec, _ = simulate(seed=5, rate=100.0, duration=30.0, motion="gait", gyr_noise=0.01,
+                      acc_noise=0.05, soft_tissue_deg=1.0, soft_tissue_mm=2.0,
+                      clock_offset={"shank": 0.02})
+    r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=100.0, seed=1)
+    off = r.time_offset
+    sampling = np.sqrt(off["sigma_s"] ** 2 - off["model_sigma_s"] ** 2)
+    error = abs(off["estimated_s"] - 0.02)
+    assert not off["applied"] and off["time_offset_s"] == 0.0
+    assert 10 * sampling < error < 3 * off["sigma_s"], off
+    assert any(f"read 19 ms earlier (+-{1000 * off['sigma_s']:.0f} ms)" in w
+               for w in r.warnings), r.warnings
+    rec, _ = simulate(seed=4, rate=100.0, duration=30.0, motion="gait", gyr_noise=0.01,
+                      acc_noise=0.05, soft_tissue_deg=1.0, soft_tissue_mm=2.0)
+    shank, foot = rec.sensor("shank"), rec.sensor("foot")
+    off = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, rate=100.0,
+                            seed=1).time_offset
+    sampling = np.sqrt(off["sigma_s"] ** 2 - off["model_sigma_s"] ** 2)
+    assert not off["applied"] and 5 * sampling < abs(off["estimated_s"]) < 3 * off["sigma_s"]

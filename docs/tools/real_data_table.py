@@ -372,10 +372,13 @@ constraint's residual is profiled over relative shifts of the second sensor with
 +-0.2 s, the estimate refitted at each
 ([method.md](method.md#clock-offsets-between-the-two-sensors)). Estimated: the second
 sensor's lateness that minimises the residual, ms (positive: its clock late); sigma: its
-1-sigma (twice the block jackknife), ms, "-" where the minimum lies on the end of the
+1-sigma (twice the block jackknife, with a model error's share from the residual's smooth
+part in quadrature: `model_sigma_s`), ms, "-" where the minimum lies on the end of the
 search (+-200 ms: a bound, not an estimate); cost ratio: mean squared residual at zero shift
 over that at the estimate (1 = no gain). Applied only when it is larger than a
-quarter sample and twice its sigma, and the cost ratio is at least 1.6.
+quarter sample and twice its jackknife sigma, and the cost ratio is at least 1.6. None
+of these is a clock (below): with the share, the readings are 0.04-3.8 sigma from 0 (the
+jackknife alone put them up to 29 sigma away).
 
 """
 OFFSET_HEAD = [
@@ -473,7 +476,7 @@ FOOTER = """
   which imucal aligns the sensors. What the profiles prefer is not a clock. The left knee
   axis' residual keeps falling to the end of the +-0.2 s search (+200 ms, at a cost
   ratio of only 1.16 and 1.28, so no "beyond the search" warning); the right knee axis'
-  is lowest at a shank lateness of -37 ms (+-16) in 0-55 s but -14 ms in 55-100 s; the
+  is lowest at a shank lateness of -37 ms (+-74) in 0-55 s but -14 ms in 55-100 s; the
   same sensor pairs' joint centres (eq. 3, `--joint hinge`) prefer -9 ms in 0-55 s and
   -38 to -40 ms in 55-100 s. One pair of clocks has one offset (a drift of 30 ms within a
   minute would be 0.05 %, far beyond any crystal), whatever the constraint: shifts that
