@@ -1285,9 +1285,8 @@ def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
                              "check the offset given (--time-offset), or calibrate ")
                           + "again; these angles are not trustworthy")
     if unidentified:  # first: whatever else is wrong, the axes were never found
-        reason = jc.reason() if jc.warnings else "no reason recorded"
         out["message"] = (f"{jc.name}: the calibration could not identify this joint ("
-                          f"{reason}): these angles are not trustworthy; calibrate again on "
+                          f"{jc.reason()}): these angles are not trustworthy; calibrate again on "
                           "a trial that moves it more"
                           + ("" if not bad else "; " + out["message"]))
     return out

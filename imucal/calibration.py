@@ -97,10 +97,11 @@ class JointCalibration:
             The error that stopped its estimate (its last warning), or the first warning
             of the estimate that cannot identify it (blocking reasons come first), with a
             contradicted given clock offset named beside it, or else why its angle could
-            not be calibrated (its last warning).
+            not be calibrated (its last warning); "no reason recorded" when there is
+            none (a hand-edited file).
         """
         if self.verdict == "failed":
-            return self.warnings[-1] if self.warnings else "failed"
+            return self.warnings[-1] if self.warnings else "no reason recorded"
         for what, doc in (("axis", self.axis), ("position", self.position)):
             quality = doc.get("quality") if isinstance(doc, dict) else None
             if (isinstance(quality, dict) and quality.get("verdict") == NOT_IDENTIFIABLE
@@ -109,7 +110,7 @@ class JointCalibration:
                 from .time_offset import given_offset_doubt
 
                 return f"{what}: {first}{given_offset_doubt(others)}"
-        return self.warnings[-1] if self.warnings else self.verdict
+        return self.warnings[-1] if self.warnings else "no reason recorded"
 
     @property
     def usable(self) -> bool:

@@ -118,7 +118,9 @@ def given_offset_doubt(warnings) -> str:
     str
         ``" (and <that warning>)"``, or "" when no warning is about a given offset.
     """
-    given = next((w for w in warnings if w.startswith(GIVEN_WARNING)), None)
+    # (a hand-edited calibration file may hold anything there)
+    given = next((w for w in warnings if isinstance(w, str) and w.startswith(GIVEN_WARNING)),
+                 None)
     return f" (and {given})" if given else ""
 
 

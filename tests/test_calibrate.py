@@ -361,3 +361,19 @@ def test_a_knee_names_each_warning_once_and_angles_quote_what_decided(real_recor
     angles = joint_angles(real_recording, cal)
     message = angles.joints["L"].check["message"]
     assert message.startswith(f"L: the calibration could not identify this joint ({reason})")
+
+
+def test_a_hand_edited_reason_of_a_knee_that_is_not_identifiable_is_quoted_not_crashed(
+        calibration, tmp_path):
+    from imucal import joint_angles
+
+    doc = calibration[0].to_document()
+    knee = doc["joints"]["knee"]
+    knee["verdict"] = knee["axis"]["quality"]["verdict"] = "not identifiable"
+    knee["axis"]["quality"]["warnings"] = [17, None]
+    (tmp_path / "edited.json").write_text(json.dumps(doc))
+    loaded = load_calibration(tmp_path / "edited.json")
+    assert loaded.joints["knee"].reason() == "axis: 17"
+    rec, _ = simulate(seed=2, mounting_seed=11, motion="gait", duration=8.0)
+    message = joint_angles(rec, loaded).joints["knee"].check["message"]
+    assert message.startswith("knee: the calibration could not identify this joint (axis: 17)")
