@@ -297,8 +297,8 @@ def _unapplied_search(jc) -> tuple[float, float]:
 
 
 def _contradicted_given(jc) -> tuple[float, float]:
-    """(estimated_s minus the offset given, sigma_s) of the contradicted check (axis or
-    knee centre) with the larger cost ratio, else (0, 0)."""
+    """(estimated_s minus the offset given, the sampling part of sigma_s) of the
+    contradicted check (axis or knee centre) with the larger cost ratio, else (0, 0)."""
     found = []
     for doc in (jc.axis, jc.position):
         block = doc.get("time_offset") if isinstance(doc, dict) else None
@@ -307,11 +307,11 @@ def _contradicted_given(jc) -> tuple[float, float]:
         values = [_offset_number(jc, k, doc) for k in ("estimated_s", "sigma_s",
                                                         "time_offset_s", "cost_ratio")]
         if None not in values:
-            found.append(values)
+            found.append(values + [_offset_number(jc, "model_sigma_s", doc) or 0.0])
     if not found:
         return 0.0, 0.0
-    estimated, sigma, given, _ = max(found, key=lambda v: v[3])
-    return estimated - given, sigma
+    estimated, sigma, given, _, share = max(found, key=lambda v: v[3])
+    return estimated - given, math.sqrt(max(sigma**2 - share**2, 0.0))  # as unapplied
 
 
 def clock_offset(jc) -> float:

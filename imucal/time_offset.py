@@ -821,7 +821,8 @@ def check_given(result, profile, rate: float, search: float, given: float) -> No
     Returns
     -------
     None
-        ``result.time_offset`` gains ``estimated_s``, ``sigma_s``, ``cost_ratio`` (cost at
+        ``result.time_offset`` gains ``estimated_s``, ``sigma_s`` (with a model error's
+        share, ``model_sigma_s``, :func:`model_sigma`), ``cost_ratio`` (cost at
         ``given`` over the cost at ``estimated_s``), ``search_s``, ``at_edge`` and
         ``contradicted``; ``result.warnings`` the warning when contradicted.
     """
@@ -837,16 +838,21 @@ def check_given(result, profile, rate: float, search: float, given: float) -> No
     elsewhere = versus.significant(rate)
     edge = checked and found.at_edge and ratio >= MIN_COST_RATIO
     contradicted = (elsewhere or edge) if checked else None
+    # the reading carries a model error's share as an automatic one does; whether it
+    # contradicts the offset given rests on the jackknife, as applying one does
+    share = model_sigma(result, found) if checked and not at_search_end(found, rate) else 0.0
+    reported = replace(found, model_sigma_s=share)
     result.time_offset.update({
         "estimated_s": found.delta_s if checked else None,
-        "sigma_s": found.sigma_s if checked else None,
+        "sigma_s": reported.reported_sigma_s if checked else None,
+        **({"model_sigma_s": share} if share > 0 else {}),
         "cost_ratio": ratio if checked else None, "search_s": float(search),
         "at_edge": found.at_edge, "contradicted": contradicted})
     if contradicted:
         lag = found.delta_s
         where = (f"beyond {'+' if lag > 0 else '-'}{1000 * search:.0f} ms (the search's end)"
                  if edge and not elsewhere else
-                 f"{abs(1000 * lag):.1f} +- {1000 * found.sigma_s:.1f} ms "
+                 f"{abs(1000 * lag):.1f} +- {1000 * reported.reported_sigma_s:.1f} ms "
                  f"{'late' if lag >= 0 else 'early'}")
         result.warnings.append(
             f"{GIVEN_WARNING} ({signed_ms(given, 1)} ms) is not the data's: they put the "

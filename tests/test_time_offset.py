@@ -928,6 +928,13 @@ def test_an_offset_found_but_not_applied_reports_the_model_share_too():
     assert 10 * sampling < error < 3 * off["sigma_s"], off
     assert any(f"read 19 ms earlier (+-{1000 * off['sigma_s']:.0f} ms)" in w
                for w in r.warnings), r.warnings
+    # the check of an offset given (0) reads the clock the same way, and reports alike
+    given = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=100.0,
+                          seed=1, time_offset=0).time_offset
+    assert not given["contradicted"]
+    assert given["estimated_s"] == pytest.approx(off["estimated_s"])
+    assert given["sigma_s"] == pytest.approx(off["sigma_s"])
+    assert given["model_sigma_s"] == pytest.approx(off["model_sigma_s"])
     rec, _ = simulate(seed=4, rate=100.0, duration=30.0, motion="gait", gyr_noise=0.01,
                       acc_noise=0.05, soft_tissue_deg=1.0, soft_tissue_mm=2.0)
     shank, foot = rec.sensor("shank"), rec.sensor("foot")
