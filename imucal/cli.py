@@ -1050,7 +1050,15 @@ def _summary(doc: dict, names) -> None:
 
 def _offset_text(offset: dict | None) -> str:
     """What the clock-offset search of an estimate found (``"+28.1 ms (1-sigma 14.1 ms,
-    applied)"``), or "" when the offset was given (no search)."""
+    applied)"``), or the offset given and what its check read (``"+0.0 ms given (the data
+    read +19.7 ms, 1-sigma 0.3 ms: contradicted)"``); "" without a ``time_offset`` block."""
+    if isinstance(offset, dict) and offset.get("mode") == "given":
+        given = f"{signed_ms(offset['time_offset_s'], 1)} ms given"
+        if offset.get("estimated_s") is None or offset.get("sigma_s") is None:
+            return f"{given} (not checked: too few samples)"
+        verdict = ": contradicted" if offset.get("contradicted") else ""
+        return (f"{given} (the data read {signed_ms(offset['estimated_s'], 1)} ms, 1-sigma "
+                f"{1000 * offset['sigma_s']:.1f} ms{verdict})")
     if not isinstance(offset, dict) or offset.get("mode") != "auto":
         return ""
     applied = "applied" if offset["applied"] else "not applied"

@@ -530,3 +530,18 @@ def test_calibrate_says_each_joints_clock_offset(tmp_path):
         found = float(line.split(": ")[1].split(" ms")[0])
         assert found == round(1000 * block["estimated_s"], 1)
         assert abs(abs(found) - 20.0) < 3.0  # the foot reads -20 ms against the shank
+
+
+def test_the_summary_says_what_the_check_of_a_given_offset_read():
+    # with --time-offset the summary said nothing of the clocks; the JSON held the check
+    sample = ROOT / "sample_data" / "circling.h5"
+    run = run_imucal("axis", sample, "--sensors", "thigh,shank", "--restarts", "5", "--seed",
+                     "1", "--time-offset", "0.03", text=True)
+    assert run.returncode == 0, run.stderr
+    block = json.loads(run.stdout)["time_offset"]
+    line = next(line.strip() for line in run.stderr.splitlines()
+                if line.strip().startswith("clock offset of shank: "))
+    assert block["contradicted"] and line == (
+        f"clock offset of shank: +30.0 ms given (the data read "
+        f"{1000 * block['estimated_s']:+.1f} ms, 1-sigma {1000 * block['sigma_s']:.1f} ms: "
+        "contradicted)")
