@@ -105,7 +105,7 @@ class JointCalibration:
         for what, doc in (("axis", self.axis), ("position", self.position)):
             quality = doc.get("quality") if isinstance(doc, dict) else None
             if (isinstance(quality, dict) and quality.get("verdict") == NOT_IDENTIFIABLE
-                    and quality.get("warnings")):
+                    and isinstance(quality.get("warnings"), list) and quality["warnings"]):
                 first, *others = quality["warnings"]
                 from .time_offset import given_offset_doubt
 
@@ -563,7 +563,8 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
     a, p = axis.time_offset, pos.time_offset
     if not (isinstance(a, dict) and isinstance(p, dict) and disagree(a, p)):
         if isinstance(p, dict) and p.get("applied") and not pos.blocking:
-            _drop_copy(pos, confirm(axis, "knee centre"))  # the same offset, specific forces
+            confirm(axis, "knee centre")  # the same offset, specific forces
+            _copy_axis_warnings(pos, axis)
             if not axis.blocking:
                 agree(a, p)
         return axis, pos
@@ -578,6 +579,7 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
         # the angles read the axis's offset: its 1-sigma carries the disagreement too
         note_disagreement(axis, "axis", p, "the knee centre's search", unit="deg",
                           limit=axis_module.MAX_UNCERTAINTY_DEG)
+        _copy_axis_warnings(centre, axis)
         return axis, centre
     # the centre's: the axis fitted again at it, and the centre at it on that axis (a
     # hinge's centre is the point of its axis line closest to the sensors); searching
@@ -589,11 +591,16 @@ def _one_clock(axis, pos, s1, s2, common: dict, acc_error, signs):
         axis=axis, acc_error=acc_error, versus=a, **common)
 
 
-def _drop_copy(pos, dropped: str | None) -> None:
-    """Remove from the knee centre ``pos`` its copy ("axis: ...") of a warning withdrawn
-    from the axis it was estimated on (``dropped``; None: nothing withdrawn)."""
-    if dropped is not None:
-        pos.warnings[:] = [w for w in pos.warnings if w != f"axis: {dropped}"]
+def _copy_axis_warnings(pos, axis) -> None:
+    """The knee centre ``pos``'s copies ("axis: ...") of the warnings of the axis it was
+    estimated on, made again from ``axis``'s current ones, where they stood: the knee's
+    one clock withdraws an axis warning, or rewords its uncertainty once the offset's
+    1-sigma carries a disagreement, after the centre copied them (the summary then gave
+    the axis two 1-sigmas, an independent review)."""
+    old = [i for i, w in enumerate(pos.warnings) if w.startswith("axis: ")]
+    at = old[0] if old else len(pos.warnings)
+    rest = [w for w in pos.warnings if not w.startswith("axis: ")]
+    pos.warnings[:] = rest[:at] + [f"axis: {w}" for w in axis.warnings] + rest[at:]
 
 
 def _one_check(axis, pos, s1, s2, common: dict) -> None:
@@ -621,7 +628,8 @@ def _one_check(axis, pos, s1, s2, common: dict) -> None:
     if flags[1]:
         withdraw(pos, "axis")
         return
-    _drop_copy(pos, withdraw(axis, "knee centre"))
+    withdraw(axis, "knee centre")
+    _copy_axis_warnings(pos, axis)
 
 
 def _profiles(axis, pos, s1, s2, rate: float, search: float) -> tuple:
@@ -645,7 +653,8 @@ def _verdict_of_estimates(jc: JointCalibration) -> None:
         # a knee's centre is fitted about its axis and carries the axis' warnings
         # ("axis: ..."): the joint's list names each once
         jc.warnings += [f"{what}: {w}" for w in d["quality"]["warnings"]
-                        if f"{what}: {w}" not in jc.warnings and w not in jc.warnings]
+                        if not (what == "position" and jc.kind == "hinge"
+                                and w.startswith("axis: "))]
 
 
 def _angle_reference(jc: JointCalibration, used, around, smoothing_s) -> None:

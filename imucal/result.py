@@ -93,7 +93,8 @@ class EstimateResult(Verdict):
         "sensitivity_per_ms" (per vector, deg or mm per ms of offset); where they apply
         also "moved_from_zero", "moved_from_own",
         "unapplied_move", "with_biases" (the axis: the offset found with gyroscope biases
-        refitted), "model_sigma_s" (applied: a model error's share of "sigma_s", s;
+        refitted), "model_sigma_s" (a model error's share of "sigma_s", s, applied or not, also
+        in the check of a given offset;
         "model_capped_by" where a calibration's other search of the knee confirmed it)
         and "confirmed_by" (the axis in a calibration: the knee centre applied
         the same offset); with "given", the check of the offset

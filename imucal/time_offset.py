@@ -884,7 +884,9 @@ def offset_report(found: Offset, rate: float) -> dict:
     # a minimum on the search's end that is not applied is a bound, not an estimate: it
     # has no 1-sigma (the sub-sample pass can apply one within half a sample of the end)
     sigma = None if not applied and at_search_end(found, rate) else found.reported_sigma_s
-    share = {"model_sigma_s": found.model_sigma_s} if found.model_sigma_s > 0 else {}
+    # (a bound has no 1-sigma to have a share of)
+    share = ({"model_sigma_s": found.model_sigma_s}
+             if found.model_sigma_s > 0 and sigma is not None else {})
     return {"mode": "auto", "time_offset_s": found.delta_s if applied else 0.0,
             "estimated_s": found.delta_s, "sigma_s": sigma, **share, "applied": applied,
             "cost_ratio": found.cost_ratio, "search_s": found.search_s,

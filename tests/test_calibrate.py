@@ -377,3 +377,31 @@ def test_a_hand_edited_reason_of_a_knee_that_is_not_identifiable_is_quoted_not_c
     rec, _ = simulate(seed=2, mounting_seed=11, motion="gait", duration=8.0)
     message = joint_angles(rec, loaded).joints["knee"].check["message"]
     assert message.startswith("knee: the calibration could not identify this joint (axis: 17)")
+
+
+def test_a_knee_whose_axis_offset_is_reworded_gives_its_axis_one_1_sigma(tmp_path):
+    # the axis's offset won over the knee centre's, and the disagreement reworded the
+    # axis's "uncertain" warning after the centre had copied it: the summary printed the
+    # axis's 1-sigma as 9.7 and as 9.0 deg (an independent review)
+    rec, _ = simulate(seed=4, motion="gait", rate=40.0, duration=30.0, gyr_noise=0.01,
+                      acc_noise=0.05, soft_tissue_deg=1.0, soft_tissue_mm=2.0,
+                      clock_offset={"shank": 0.05})
+    knee = calibrate(rec, restarts=30, seed=1, joints=["knee=hinge:thigh,shank"]).joints["knee"]
+    assert knee.axis["time_offset"].get("disagreement_s", 0) > 0
+    uncertain = [w for w in knee.warnings if w.startswith("axis: the estimate is uncertain")]
+    assert len(uncertain) == 1
+    copies = [w.removeprefix("axis: ") for w in knee.position["quality"]["warnings"]
+              if w.startswith("axis: ")]
+    assert copies == knee.axis["quality"]["warnings"]
+
+
+@pytest.mark.parametrize("warnings", [5, "text", ["the reason", 5]])
+def test_the_reason_of_a_hand_edited_quality_block_is_text(warnings):
+    from imucal.calibration import JointCalibration
+
+    jc = JointCalibration("knee", "hinge", ("thigh", "shank"), verdict="not identifiable",
+                          warnings=["axis: the reason"],
+                          axis={"quality": {"verdict": "not identifiable",
+                                            "warnings": warnings}})
+    # (5 crashed with exit 3 in `angles`, "text" was quoted by its first letter)
+    assert jc.reason() == "axis: the reason"

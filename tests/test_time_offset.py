@@ -942,3 +942,39 @@ def test_an_offset_found_but_not_applied_reports_the_model_share_too():
                             seed=1).time_offset
     sampling = np.sqrt(off["sigma_s"] ** 2 - off["model_sigma_s"] ** 2)
     assert not off["applied"] and 5 * sampling < abs(off["estimated_s"]) < 3 * off["sigma_s"]
+
+
+def test_an_unapplied_axis_offset_keeps_a_disagreement_in_the_angles_spread():
+    # the axis applied nothing (+3 ms, jackknife 1 ms, model share 10 ms) and its 0 won
+    # over the knee centre's +20 ms: the disagreement widened the axis block, and the
+    # angles' spread, reading sigma_s without its model share, lost half the disagreement
+    # with it (1 ms instead of 10; an independent review)
+    from types import SimpleNamespace
+
+    from imucal.angles import unapplied_clock_offset, unapplied_offset_spread
+    from imucal.time_offset import note_disagreement
+
+    block = {"mode": "auto", "time_offset_s": 0.0, "estimated_s": 0.003,
+             "sigma_s": float(np.hypot(0.001, 0.010)), "model_sigma_s": 0.010,
+             "applied": False, "cost_ratio": 1.1, "search_s": 0.2, "at_edge": False}
+    centre = {"mode": "auto", "time_offset_s": 0.020, "estimated_s": 0.020,
+              "sigma_s": 0.0005, "applied": True, "cost_ratio": 8.0, "search_s": 0.2,
+              "at_edge": False}
+    note_disagreement(SimpleNamespace(time_offset=block, warnings=[],
+                                      uncertainty_components={}),
+                      "axis", centre, "the knee centre's search")
+    jc = SimpleNamespace(axis={"time_offset": block}, position=None)
+    assert unapplied_offset_spread(jc) == pytest.approx(np.hypot(0.003, np.hypot(0.001, 0.01)))
+    assert unapplied_clock_offset(jc) == 0.0  # 3 ms is not clear of 2 x 10 ms
+
+
+def test_a_bound_at_the_search_end_reports_no_model_share():
+    # a bound has no 1-sigma (sigma_s null), so no share of one
+    rec, _ = simulate(seed=3, motion="circling", duration=20.0, rate=100.0,
+                      clock_offset={"shank": 0.3}, soft_tissue_deg=1.0, soft_tissue_mm=2.0,
+                      gyr_noise=0.01, acc_noise=0.05)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    off = estimate_position(th.gyr, th.acc, sh.gyr, sh.acc, rate=100.0, seed=1, restarts=20,
+                            offset_search=0.1, joint="hinge").time_offset
+    assert off["sigma_s"] is None and not off["applied"]
+    assert "model_sigma_s" not in off, off
