@@ -330,6 +330,29 @@ def test_jittery_repeating_stamps_are_not_drops():
     assert out.info["s"]["dropped"] == 2
 
 
+def test_a_repeated_stamp_is_no_dropped_packet_and_no_other_rate():
+    """One stamp repeating the one before (its values its own: a glitched stamp, not a
+    packet logged twice) read as a dropped packet next to it, gave the sensor 100.027 Hz
+    and interpolated all of it onto the grid (a new-user trial); five: 100.29 Hz."""
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+
+    n = 2000
+    t = np.arange(n) / 100.0
+    sig = np.column_stack([np.sin(2 * np.pi * 0.5 * t)] * 3)
+    glitched = t.copy()
+    rows = [200, 500, 800, 1100, 1400]
+    glitched[rows] = glitched[[r - 1 for r in rows]]
+    out = align([RawSensor("a", sig, sig + 9.0, "rad/s", "m/s^2", time=t),
+                 RawSensor("b", sig, sig + 9.0, "rad/s", "m/s^2", time=glitched)], "<test>")
+    assert out.info["b"]["dropped"] == 0 and not out.info["b"]["interpolated"]
+    assert out.info["b"]["rate_hz"] == pytest.approx(100.0, rel=1e-9)
+    np.testing.assert_array_equal(out.data["b"][0], sig)
+    assert out.notes == ["sensor 'b': 5 time stamp(s) about a sample period off their place "
+                         "(data row 201, 501, 801, 1101, 1401; a repeated or glitched stamp): "
+                         "read at their place in the sequence"]
+
+
 def test_bids_units_from_channels_and_missing_sidecar(tmp_path):
     rec = short()
     folder = vw.bids(rec, tmp_path / "b", gyr_units="deg/s", gyr_scale=vw.RAD2DEG)
