@@ -45,7 +45,7 @@ if TYPE_CHECKING:  # pandas is imported where CSV is parsed: it costs ~0.2 s of 
 
 from .errors import InputError
 from .errors import one_line as _one_line
-from .formats import HDF5_SIGNATURE, HDF5_SUFFIXES
+from .formats import HDF5_SIGNATURE, HDF5_SUFFIXES, decode_text
 from .recording import Recording, make_recording
 from .sensor_checks import check_units
 from .timing import check_rate
@@ -538,12 +538,7 @@ def _parse_csv(data: bytes, source: str):
 
     if data.startswith(HDF5_SIGNATURE):
         raise InputError(f"{source}: not a CSV file; it looks like an HDF5 file, use a .h5 name")
-    if b"\x00" in data:
-        raise InputError(f"{source}: not a CSV file (it contains binary data)")
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = data.decode("latin-1")
+    text = decode_text(data, source, "CSV file")
     # Trailing blank lines and spaces carry no data; leading ones would shift the header.
     text = text.rstrip()
     if not text:

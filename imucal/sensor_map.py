@@ -91,13 +91,9 @@ def read_sensor_map(path: str | Path) -> dict[str, str]:
         reason = ("symbolic link loop" if err.errno == errno.ELOOP
                   else f"cannot read sensor map ({err.strerror or err})")
         raise InputError(f"{source}: {reason}") from None
-    if b"\x00" in data:
-        raise InputError(f"{source}: not a sensor map (it contains binary data; is it a "
-                         "recording?)")
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = data.decode("latin-1")
+    from .formats import decode_text
+
+    text = decode_text(data, source, "sensor map", hint="; is it a recording?")
     if text.lstrip().startswith("["):  # JSON, but not the object a map is
         raise InputError(f"{source}: a sensor map in JSON is one object, "
                          '{"device name or serial": "name to use", ...}, not a list')

@@ -318,6 +318,19 @@ def test_utf8_bom_and_windows_line_endings(tmp_path):
     assert load_recording(path).n_samples == 5
 
 
+@pytest.mark.parametrize("encoding", ["utf-16-le", "utf-16-be"])
+def test_utf16_with_its_byte_order_mark(tmp_path, encoding):
+    # Excel's "Unicode text" is UTF-16: it was refused as "binary data" (a new-user trial)
+    path = tmp_path / "unicode.csv"
+    bom = b"\xff\xfe" if encoding.endswith("le") else b"\xfe\xff"
+    path.write_bytes(bom + csv_text(good_rows()).replace("\n", "\r\n").encode(encoding))
+    rec = load_recording(path)
+    plain = tmp_path / "plain.csv"
+    plain.write_text(csv_text(good_rows()))
+    assert rec.n_samples == 5
+    np.testing.assert_array_equal(rec.sensor("t").gyr, load_recording(plain).sensor("t").gyr)
+
+
 # ---------------------------------------------------------------------------------- errors
 
 

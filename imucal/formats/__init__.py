@@ -191,8 +191,36 @@ def detect(path: Path):
 # ------------------------------------------------------------------------- text helpers
 
 
+def decode_text(data: bytes, source: str, what: str, hint: str = "") -> str:
+    """The text of a file's bytes: UTF-16 with its byte-order mark (Excel's "Unicode
+    text"), else UTF-8 (with or without a byte-order mark), else Latin-1.
+
+    Returns
+    -------
+    str
+        The text, without a byte-order mark.
+
+    Raises
+    ------
+    InputError
+        "``source``: not a ``what`` (it contains binary data``hint``)": NUL bytes
+        outside UTF-16.
+    """
+    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        try:
+            return data.decode("utf-16")
+        except UnicodeDecodeError:
+            pass  # (a binary file that happens to start so)
+    if b"\x00" in data:
+        raise InputError(f"{source}: not a {what} (it contains binary data{hint})")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
 def read_text(path: Path, source: str | None = None) -> str:
-    """A text file's content: UTF-8 (with or without a byte-order mark), else Latin-1.
+    """A text file's content (:func:`decode_text`).
 
     Returns
     -------
@@ -209,12 +237,7 @@ def read_text(path: Path, source: str | None = None) -> str:
         data = Path(path).read_bytes()
     except OSError as err:
         raise InputError(f"{source or path}: cannot read file ({err.strerror or err})") from None
-    if b"\x00" in data[:4096]:
-        raise InputError(f"{source or path}: not a text file (it contains binary data)")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        return data.decode("latin-1")
+    return decode_text(data, source or str(path), "text file")
 
 
 def is_empty(path: Path) -> bool:
