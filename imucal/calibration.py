@@ -703,6 +703,9 @@ def _study_lines_hint(data: bytes) -> str:
         return ""
     if not (isinstance(first, dict) and {"file", "exit_code", "result"} <= first.keys()):
         return ""
+    if b"\n" not in data.strip():  # one line of them: its result is the calibration
+        return ("; it is one line of a study's JSON Lines: its result is the calibration, "
+                "e.g. jq -c .result LINE > cal.json")
     return ("; it is a study's JSON Lines, one line per recording: pick one recording's, "
             "e.g. jq -c 'select(.file == \"CAL.h5\") | .result' FILE > cal.json")
 
@@ -781,11 +784,17 @@ def load_calibration(path: str | Path) -> Calibration:
     # ValueError: json's own errors, and integers of thousands of digits; RecursionError:
     # arrays nested a hundred thousand deep
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as err:
+        from .formats import HDF5_SIGNATURE
+
+        if data.startswith(HDF5_SIGNATURE):  # (read as JSON it was a codec's complaint)
+            raise InputError(f"{path}: not a calibration file (an HDF5 file: a recording? "
+                             "make the calibration from it with imucal calibrate)") from None
         raise InputError(f"{path}: not a calibration file (not readable as JSON: "
                          f"{_json_problem(err)}){_study_lines_hint(data)}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         hint = (f" (an imucal '{doc['command']}' result; make one with imucal calibrate)"
-                if isinstance(doc, dict) and isinstance(doc.get("command"), str) else "")
+                if isinstance(doc, dict) and isinstance(doc.get("command"), str) else
+                _study_lines_hint(data))
         raise InputError(f"{path}: not a calibration file (no \"format\": \"{FORMAT}\"){hint}")
     version = doc.get("format_version")
     if version != FORMAT_VERSION:

@@ -59,6 +59,11 @@ MISPLACED_SHARE = 0.01
 #: Grid points this close to a device sample (in sample periods) are taken as that
 #: sample: float rounding of the time stamps must not turn a copy into an interpolation.
 SNAP = 1e-6
+#: A device whose samples all lie this close to the grid's (in sample periods: 0.1 ms at
+#: 100 Hz, far below the clock offsets the estimators resolve) is copied, not
+#: interpolated: devices with clocks of their own (x-IMU3) started a few microseconds
+#: apart, and the interpolation's warning made every such recording "use with care".
+PHASE_SNAP = 0.01
 #: A device whose stamps or counter leave more than this share of its span without
 #: samples is refused: one corrupt stamp (1e18 us in a 10 s file) read as dropped packets
 #: asked for petabytes of gaps (exit 3), and a recording that mostly is gaps is no
@@ -447,7 +452,10 @@ def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
     full = int(clk.k[-1]) + 1
     pos = (grid - clk.a) / clk.period
     near = np.rint(pos)
-    pos = np.clip(np.where(np.abs(pos - near) < SNAP, near, pos), 0, full - 1)
+    # a device within PHASE_SNAP of the grid everywhere is copied; a drifting one keeps
+    # its interpolation wherever it is further from a sample than float rounding
+    snap = PHASE_SNAP if np.all(np.abs(pos - near) < PHASE_SNAP) else SNAP
+    pos = np.clip(np.where(np.abs(pos - near) < snap, near, pos), 0, full - 1)
     interpolated = bool(np.any(pos != np.floor(pos)))
     i = np.minimum(np.floor(pos).astype(np.int64), full - 1)
     nxt = np.minimum(i + 1, full - 1)

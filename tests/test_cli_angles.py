@@ -189,10 +189,19 @@ def test_another_mounting_exits_1_with_the_evidence_unless_force(cal_file, tmp_p
     ('{"file": "a.h5", "exit_code": 0, "error": null, "warnings": [], "result": {}}\n' * 2,
      "it is a study's JSON Lines, one line per recording: pick one recording's, e.g. jq -c "
      "'select(.file == \"CAL.h5\") | .result' FILE > cal.json"),
+    # one line of it, and a recording given as the calibration: "no format" and a codec's
+    # complaint about byte 0x89 (a new-user trial)
+    ('{"file": "a.h5", "exit_code": 0, "error": null, "warnings": [], "result": {}}\n',
+     "it is one line of a study's JSON Lines: its result is the calibration, e.g. jq -c "
+     ".result LINE > cal.json"),
+    (b"\x89HDF\r\n\x1a\n" + bytes(64), "not a calibration file (an HDF5 file: a recording? "
+     "make the calibration from it with imucal calibrate)"),
 ])
 def test_a_missing_or_broken_calibration_exits_2_naming_it(tmp_path, content, phrase):
     cal = tmp_path / "cal.json"
-    if content is not None:
+    if isinstance(content, bytes):
+        cal.write_bytes(content)
+    elif content is not None:
         cal.write_text(content)
     run = cli("angles", SAMPLE / "walking.h5", "-c", cal, "--out", tmp_path / "a.csv")
     assert run.returncode == 2

@@ -310,6 +310,25 @@ def test_clock_drift_and_offset_interpolated(tmp_path):
     assert any("linearly interpolated" in n for n in out.notes)
 
 
+@pytest.mark.parametrize(("phase_s", "copied"), [(3e-6, True), (5e-4, False)])
+def test_a_device_a_few_microseconds_off_the_grid_is_copied(phase_s, copied):
+    # x-IMU3 devices keep clocks of their own: 3 us apart (0.03 % of a sample) they were
+    # interpolated, with a warning, and no such recording could be "good" (a new-user
+    # trial); half a millisecond (5 % of a sample) still is interpolated
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+
+    t = np.arange(2000) / 100.0
+    sig = np.column_stack([np.sin(2 * np.pi * 0.5 * t)] * 3)
+    out = align([RawSensor("a", sig, sig + 9.0, "rad/s", "m/s^2", time=t),
+                 RawSensor("b", sig, sig + 9.0, "rad/s", "m/s^2", time=t + phase_s)],
+                "<test>")
+    assert out.info["b"]["interpolated"] is not copied
+    assert any("linearly interpolated" in n for n in out.notes) is not copied
+    if copied:
+        np.testing.assert_array_equal(out.data["b"][0], out.data["a"][0])
+
+
 def test_jittery_repeating_stamps_are_not_drops():
     """Millisecond stamps of a 128 Hz device jitter; no sample is 'dropped'. (Jitter
     beyond half a sample period cannot be told from drops: docs/formats.md.)"""
