@@ -466,7 +466,8 @@ def _parse_hdf5(file, source: str):
             time = None
             if "time" in h5:
                 time = _numeric_dataset(h5["time"], f"{source}: 'time'")
-            for name, obj in h5.items():
+            for name in h5:
+                obj = _member(h5, name, source)
                 if not isinstance(obj, h5py.Group):
                     continue
                 present = [k for k in _KINDS if k in obj]
@@ -476,8 +477,9 @@ def _parse_hdf5(file, source: str):
                 units[name] = {}
                 for kind in present:
                     what = f"{source}: sensor '{name}' {kind}"
-                    sensors[name][kind] = _numeric_dataset(obj[kind], what)
-                    unit = _attr_text(obj[kind].attrs.get("units"))
+                    data = _member(obj, kind, source, f"{name}/{kind}")
+                    sensors[name][kind] = _numeric_dataset(data, what)
+                    unit = _attr_text(data.attrs.get("units"))
                     if unit is not None:
                         units[name][kind] = unit
             if not sensors:
@@ -490,6 +492,23 @@ def _parse_hdf5(file, source: str):
             f"{source}: corrupted or truncated HDF5 file ({_one_line(str(err))})"
         ) from None
     return sensors, rate, time, units, []
+
+
+def _member(group, name: str, source: str, path: str | None = None):
+    """``group[name]``; a link that leads nowhere (a soft link to a removed object, an
+    external link to a file not beside it) is an InputError naming it: h5py's "Unable to
+    synchronously open object (component not found)" named nothing."""
+    try:
+        return group[name]
+    except (KeyError, OSError):
+        link = group.get(name, getlink=True)
+        kind = {"SoftLink": "a soft link", "ExternalLink": "an external link"}.get(
+            type(link).__name__, "an object")
+        target = (f" to '{link.path}'" if isinstance(link, h5py.SoftLink) else
+                  f" to '{link.path}' in '{link.filename}'"
+                  if isinstance(link, h5py.ExternalLink) else "")
+        raise InputError(f"{source}: '{path or name}' is {kind}{target} that cannot be "
+                         "opened; remove it or copy in what it points to") from None
 
 
 def _starts_with_signature(file) -> bool:
