@@ -480,7 +480,8 @@ def angles(
         "--tables", metavar="DIR", show_default=False, parser=_output_folder,
         help="A study (of one REC or several): write each recording's table as DIR/NAME.csv "
         "(NAME: its file or folder name without suffix; DIR is made when the first table "
-        "is written; none may be a recording or the calibration) and print one JSON "
+        "is written, or at the start for an --out inside it; none may be a recording or "
+        "the calibration) and print one JSON "
         "line per recording {file, exit_code, error, warnings, result}, result the angles' "
         "summary with its 'table' (docs/angles.md); a recording whose angles do not fit "
         "gets exit_code 1 and no table (--force writes it).")] = None,

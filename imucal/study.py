@@ -218,9 +218,10 @@ def _checked_study(job: Job, files: list[str], out: Path | None, plot: Path | No
         job = replace(job, sensor_map_pairs=tuple(read_sensor_map(sensor_map).items()))
     if out is not None:
         check_not_inputs([("--out", out)], files + ([sensor_map] if sensor_map else []))
-        check_writable(out)
     if job.command == "angles":
         _check_tables(job, files, out)
+    if out is not None:
+        check_writable(out)
     return job
 
 
@@ -259,6 +260,16 @@ def _check_tables(job: Job, files: list[str], out: Path | None) -> None:
         raise InputError(f"{tables}: the tables folder cannot be written ({folder} is not "
                          "writable)")
     load_calibration(s.calibration)
+    if out is not None and not tables.exists() and Path(out).parent.resolve() == \
+            tables.resolve():
+        # the lines beside their tables: their file is opened as the study starts, the
+        # folder otherwise made with the first table ("folder does not exist", a
+        # new-user trial)
+        try:
+            tables.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise InputError(f"{tables}: the tables folder cannot be made "
+                             f"({err.strerror or err})") from None
 
 
 def _workers(job: Job, files: list[str], scheduler: str | None, jobs: int, quiet: bool):

@@ -439,6 +439,22 @@ def test_angles_study_refuses_two_recordings_writing_one_table(cal_file, tmp_pat
     assert not (tmp_path / "t").exists()
 
 
+def test_angles_study_writes_its_lines_beside_its_tables(cal_file, tmp_path):
+    # --out inside the --tables folder that the study makes: "folder 'tabs' does not
+    # exist" (a new-user trial); a failing study's checks still make nothing
+    path, _ = cal_file
+    tables = tmp_path / "tabs"
+    run = cli("angles", SAMPLE / "walking.h5", "-c", path, "--tables", tables, "--out",
+              tables / "lines.jsonl", "-q")
+    assert run.returncode == 0, run.stderr
+    assert sorted(p.name for p in tables.iterdir()) == ["lines.jsonl", "walking.csv"]
+    assert json.loads((tables / "lines.jsonl").read_text())["exit_code"] == 0
+    other = tmp_path / "other"
+    run = cli("angles", SAMPLE / "walking.h5", "-c", tmp_path / "none.json", "--tables",
+              other, "--out", other / "lines.jsonl")
+    assert run.returncode == 2 and not other.exists()
+
+
 def test_angles_study_reads_a_broken_calibration_once(tmp_path):
     cal = tmp_path / "cal.json"
     cal.write_text("{")
