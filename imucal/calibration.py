@@ -703,9 +703,13 @@ def _study_lines_hint(data: bytes) -> str:
         return ""
     if not (isinstance(first, dict) and {"file", "exit_code", "result"} <= first.keys()):
         return ""
-    if b"\n" not in data.strip():  # one line of them: its result is the calibration
-        return ("; it is one line of a study's JSON Lines: its result is the calibration, "
-                "e.g. jq -c .result LINE > cal.json")
+    if b"\n" not in data.strip():  # one line of them
+        result = first.get("result")
+        if isinstance(result, dict) and result.get("format") == FORMAT:
+            return ("; it is one line of a calibrate study's JSON Lines: its result is the "
+                    "calibration, e.g. jq -c .result LINE > cal.json")
+        return ("; it is one line of an imucal study's JSON Lines, and its result is no "
+                "calibration")
     return ("; it is a study's JSON Lines, one line per recording: pick one recording's, "
             "e.g. jq -c 'select(.file == \"CAL.h5\") | .result' FILE > cal.json")
 

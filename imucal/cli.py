@@ -1058,6 +1058,9 @@ def _offset_text(offset: dict | None) -> str:
         if offset.get("estimated_s") is None or offset.get("sigma_s") is None:
             return f"{given} (not checked: too few samples)"
         verdict = ": contradicted" if offset.get("contradicted") else ""
+        if offset.get("at_edge"):  # the profile fell to the search's end: a bound
+            return (f"{given} (the data read at least {signed_ms(offset['estimated_s'], 1)}"
+                    f" ms, the end of the search{verdict})")
         return (f"{given} (the data read {signed_ms(offset['estimated_s'], 1)} ms, 1-sigma "
                 f"{1000 * offset['sigma_s']:.1f} ms{verdict})")
     if not isinstance(offset, dict) or offset.get("mode") != "auto":

@@ -49,13 +49,6 @@ RATE_REFUSE = 0.10
 #: s: a sensor losing more than this outside the span all sensors share gets a warning
 #: (devices started one after another lose less; a sensor started late costs more).
 CUT_WARN_S = 1.0
-#: A time stamp further than this from its device's clock line, in sample periods, is
-#: misplaced (jitter must stay below half a period, docs/formats.md) and left out of the
-#: line, where at most MISPLACED_SHARE of the stamps are; one further than MISPLACED_MAX
-#: is refused (a clock reset or a pause).
-MISPLACED_MIN = 0.75
-MISPLACED_MAX = 1.5
-MISPLACED_SHARE = 0.01
 #: Grid points this close to a device sample (in sample periods) are taken as that
 #: sample: float rounding of the time stamps must not turn a copy into an interpolation.
 SNAP = 1e-6
@@ -95,7 +88,6 @@ class _Clock:
     source_of_time: str  # "time stamps", "packet counter", "sample rate"
     stamp_rate: float | None = None  # Hz, from the stamps when --rate replaced it
     missing_stamp_row: int | None = None  # data row (1-based) of a stamp the counter replaced
-    misplaced_rows: tuple = ()  # data rows (1-based) whose stamp is a period off its place
 
 
 def unwrap(values: np.ndarray, wrap: float | None) -> np.ndarray:
@@ -193,16 +185,12 @@ def _from_stamps(t: np.ndarray, what: str) -> np.ndarray:
             f"{t[i + 1]:.6f} s after the first); rows out of order or a clock reset"
         )
     steps = np.maximum(1, np.rint(dt / period)).astype(np.int64)
-    # A long interval next to a short one is jitter, not a drop: two intervals together
-    # cover as many periods as their joint span says. Long then short is a late stamp;
-    # short (a repeated stamp) then long an early one, which read as a dropped packet and
-    # gave the sensor a false rate (+270 ppm per stamp, a new-user trial).
+    # A long interval followed by a short one is jitter, not a drop: two intervals
+    # together cover as many periods as their joint span says.
     pair = np.rint((dt[:-1] + dt[1:]) / period).astype(np.int64)
     excess = steps[:-1] + steps[1:] - np.maximum(pair, 2)
-    late = (steps[:-1] >= 2) & (excess > 0)
-    early = (steps[1:] >= 2) & (excess > 0) & ~late
-    steps[:-1][late] = np.maximum(1, steps[:-1][late] - excess[late])
-    steps[1:][early] = np.maximum(1, steps[1:][early] - excess[early])
+    fix = (steps[:-1] >= 2) & (excess > 0)
+    steps[:-1][fix] = np.maximum(1, steps[:-1][fix] - excess[fix])
     k = np.concatenate([[0], np.cumsum(steps)])
     worst = np.inf
     for _ in range(3):  # refine against the straight line through all stamps
@@ -232,11 +220,13 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
         # Relative to the first stamp: a large clock value would cost the fit precision.
         t0, t = t[0], t - t[0]
         k = _from_stamps(t, what)
-        period, a, residual, misplaced = _line(k, t)
-        if (residual > np.where(misplaced, MISPLACED_MAX, 1.0) * period).any():
+        period, a = np.polyfit(k, t, 1)
+        residual = np.abs(t - (a + period * k))
+        worst = float(np.max(residual))
+        if worst > period:
             i = int(np.argmax(residual))
             raise InputError(
-                f"{what}: time stamp at data row {i + 1} lies {residual[i]:g} s off the "
+                f"{what}: time stamp at data row {i + 1} lies {worst:g} s off the "
                 "device's regular clock (a clock reset or a pause in logging); cut the file there"
             )
         a += t0
@@ -275,28 +265,9 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
                              "at, Hz)")
         period = 1.0 / float(use)
         a = float(c[0]) * period  # the counters of one export are shared: align on them
-        misplaced = np.zeros(n, bool)
     _check_dropped(k, period, what, origin)
     return _Clock(k=k, a=float(a), period=float(period), dropped=int(k[-1] + 1 - n),
-                  source_of_time=origin, stamp_rate=stamps, missing_stamp_row=missing,
-                  misplaced_rows=tuple(int(i) + 1 for i in np.flatnonzero(misplaced)))
-
-
-def _line(k: np.ndarray, t: np.ndarray) -> tuple:
-    """The device's clock line ``t = a + period k`` through its stamps ``t`` (s) at sample
-    indices ``k``: (period, a, |residual| per stamp, misplaced), where a few stamps a whole
-    period off their place (a repeated stamp between neighbours in place: beyond
-    ``MISPLACED_MIN`` periods, at most ``MISPLACED_SHARE`` of them) are left out of the
-    fit: one such stamp in 2000 moved the line enough to interpolate the whole sensor."""
-    period, a = np.polyfit(k, t, 1)
-    residual = np.abs(t - (a + period * k))
-    misplaced = residual > MISPLACED_MIN * period
-    if misplaced.any() and misplaced.sum() <= MISPLACED_SHARE * t.size:
-        period, a = np.polyfit(k[~misplaced], t[~misplaced], 1)
-        residual = np.abs(t - (a + period * k))
-    else:
-        misplaced[:] = False
-    return float(period), float(a), residual, misplaced
+                  source_of_time=origin, stamp_rate=stamps, missing_stamp_row=missing)
 
 
 def _check_dropped(k: np.ndarray, period: float, what: str, origin: str) -> None:
@@ -470,8 +441,8 @@ def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
             out = np.where(frac == 0, filled[i], (1 - frac) * filled[i] + frac * filled[nxt])
         arrays.append(out)
     times = clk.a + clk.period * clk.k
-    cut0 = int(np.sum(times < grid[0] - SNAP * clk.period))
-    cut1 = int(np.sum(times > grid[-1] + SNAP * clk.period))
+    cut0 = int(np.sum(times < grid[0] - snap * clk.period))  # (a copied one is used)
+    cut1 = int(np.sum(times > grid[-1] + snap * clk.period))
     info = {
         "label": s.name,
         "serial": s.serial,
@@ -488,13 +459,6 @@ def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
         "files": list(s.files),
     }
     notes = []
-    if clk.misplaced_rows:
-        rows = ", ".join(map(str, clk.misplaced_rows[:5]))
-        more = f" and {len(clk.misplaced_rows) - 5} more" if len(clk.misplaced_rows) > 5 else ""
-        notes.append(
-            f"sensor '{s.name}': {len(clk.misplaced_rows)} time stamp(s) about a sample "
-            f"period off their place (data row {rows}{more}; a repeated or glitched stamp): "
-            "read at their place in the sequence")
     if clk.dropped:
         notes.append(
             f"sensor '{s.name}': {clk.dropped} sample(s) missing from its "

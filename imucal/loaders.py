@@ -465,7 +465,7 @@ def _parse_hdf5(file, source: str):
             rate = _scalar(rate)
             time = None
             if "time" in h5:
-                time = _numeric_dataset(h5["time"], f"{source}: 'time'")
+                time = _numeric_dataset(_member(h5, "time", source), f"{source}: 'time'")
             for name in h5:
                 obj = _member(h5, name, source)
                 if not isinstance(obj, h5py.Group):

@@ -545,3 +545,14 @@ def test_the_summary_says_what_the_check_of_a_given_offset_read():
         f"clock offset of shank: +30.0 ms given (the data read "
         f"{1000 * block['estimated_s']:+.1f} ms, 1-sigma {1000 * block['sigma_s']:.1f} ms: "
         "contradicted)")
+
+
+def test_a_given_offsets_check_at_the_search_end_reads_as_a_bound():
+    # the summary printed "the data read +100.0 ms, 1-sigma 2.1 ms" where the warning said
+    # "beyond the search's end" (an independent review)
+    from imucal.cli import _offset_text
+
+    block = {"mode": "given", "time_offset_s": 0.0, "estimated_s": 0.1, "sigma_s": 0.0021,
+             "at_edge": True, "contradicted": True}
+    assert _offset_text(block) == ("+0.0 ms given (the data read at least +100.0 ms, the end "
+                                   "of the search: contradicted)")

@@ -191,9 +191,14 @@ def test_another_mounting_exits_1_with_the_evidence_unless_force(cal_file, tmp_p
      "'select(.file == \"CAL.h5\") | .result' FILE > cal.json"),
     # one line of it, and a recording given as the calibration: "no format" and a codec's
     # complaint about byte 0x89 (a new-user trial)
-    ('{"file": "a.h5", "exit_code": 0, "error": null, "warnings": [], "result": {}}\n',
-     "it is one line of a study's JSON Lines: its result is the calibration, e.g. jq -c "
-     ".result LINE > cal.json"),
+    ('{"file": "a.h5", "exit_code": 0, "error": null, "warnings": [], "result": '
+     '{"format": "imucal-calibration"}}\n',
+     "it is one line of a calibrate study's JSON Lines: its result is the calibration, e.g. "
+     "jq -c .result LINE > cal.json"),
+    # (an axis study's line, or a failed one, holds no calibration: an independent review)
+    ('{"file": "a.h5", "exit_code": 2, "error": "a.h5: no such file", "warnings": [], '
+     '"result": null}\n', "it is one line of an imucal study's JSON Lines, and its result is "
+     "no calibration"),
     (b"\x89HDF\r\n\x1a\n" + bytes(64), "not a calibration file (an HDF5 file: a recording? "
      "make the calibration from it with imucal calibrate)"),
 ])

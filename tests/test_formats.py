@@ -349,29 +349,6 @@ def test_jittery_repeating_stamps_are_not_drops():
     assert out.info["s"]["dropped"] == 2
 
 
-def test_a_repeated_stamp_is_no_dropped_packet_and_no_other_rate():
-    """One stamp repeating the one before (its values its own: a glitched stamp, not a
-    packet logged twice) read as a dropped packet next to it, gave the sensor 100.027 Hz
-    and interpolated all of it onto the grid (a new-user trial); five: 100.29 Hz."""
-    from imucal.clock import align
-    from imucal.formats import RawSensor
-
-    n = 2000
-    t = np.arange(n) / 100.0
-    sig = np.column_stack([np.sin(2 * np.pi * 0.5 * t)] * 3)
-    glitched = t.copy()
-    rows = [200, 500, 800, 1100, 1400]
-    glitched[rows] = glitched[[r - 1 for r in rows]]
-    out = align([RawSensor("a", sig, sig + 9.0, "rad/s", "m/s^2", time=t),
-                 RawSensor("b", sig, sig + 9.0, "rad/s", "m/s^2", time=glitched)], "<test>")
-    assert out.info["b"]["dropped"] == 0 and not out.info["b"]["interpolated"]
-    assert out.info["b"]["rate_hz"] == pytest.approx(100.0, rel=1e-9)
-    np.testing.assert_array_equal(out.data["b"][0], sig)
-    assert out.notes == ["sensor 'b': 5 time stamp(s) about a sample period off their place "
-                         "(data row 201, 501, 801, 1101, 1401; a repeated or glitched stamp): "
-                         "read at their place in the sequence"]
-
-
 def test_bids_units_from_channels_and_missing_sidecar(tmp_path):
     rec = short()
     folder = vw.bids(rec, tmp_path / "b", gyr_units="deg/s", gyr_scale=vw.RAD2DEG)
@@ -1058,3 +1035,56 @@ def test_a_row_logged_twice_is_named_not_read_as_another_rate(fmt, tmp_path):
     with pytest.raises(InputError, match=r"data row \d+ repeats row \d+ \(the same time "
                                          r"stamp and values: a packet logged twice\?\)"):
         load_recording(folder)
+
+
+# ------------------------------------------------ encodings and padding (an independent review)
+
+@pytest.mark.parametrize("fmt", ["ximu3", "dot", "xsens", "bids"])
+def test_nul_padding_at_the_end_is_a_cut_off_file_not_binary(tmp_path, fmt):
+    # a vendor export cut off by a power loss may end in NUL padding: its reader drops
+    # the cut row with a warning, as before one decoder served every text file (then the
+    # whole file was searched for NULs and refused as binary)
+    folder = write(fmt, short(), tmp_path)
+    victim = sorted(p for p in folder.rglob("*") if p.suffix in (".csv", ".txt", ".tsv")
+                    and "channels" not in p.name and p.name != "Battery.csv")[0]
+    victim.write_bytes(victim.read_bytes() + b"\x00" * 512)
+    assert any("cut off" in w for w in load_recording(folder).warnings)
+
+
+@pytest.mark.parametrize("fmt", ["ximu3", "dot", "xsens", "bids"])
+def test_utf16_vendor_exports_are_recognised(tmp_path, fmt):
+    # the formats' sniffers read '' of any file with a NUL byte, so a UTF-16 export was
+    # "not an export imucal reads" (an independent review)
+    rec = short()
+    folder = write(fmt, rec, tmp_path)
+    for p in folder.rglob("*"):
+        if p.is_file() and p.suffix in (".csv", ".txt", ".tsv"):
+            p.write_bytes(p.read_bytes().decode("utf-8").encode("utf-16"))
+    loaded = load_recording(folder)
+    assert len(loaded.sensor_info) == 3
+
+
+@pytest.mark.parametrize("data", [b"\xff\xfe" + bytes(4000),
+                                  "time,a\n".encode("utf-32")])
+def test_what_only_starts_like_utf16_is_binary(tmp_path, data):
+    path = tmp_path / "x.csv"
+    path.write_bytes(data)
+    with pytest.raises(InputError, match="binary data"):
+        load_recording(path)
+
+
+def test_a_copied_device_counts_no_copied_sample_as_cut():
+    # a device half a percent of a period off the grid is copied; its first sample, copied
+    # onto the grid's first point, was counted as not used
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+
+    n = 2000
+    t = np.arange(n) / 100.0
+    sig = np.column_stack([np.sin(2 * np.pi * 0.5 * t)] * 3)
+    out = align([RawSensor("a", sig, sig + 9.0, "rad/s", "m/s^2", time=t),
+                 RawSensor("b", sig, sig + 9.0, "rad/s", "m/s^2", time=t + 0.995 / 100)],
+                "<test>")
+    used = out.data["b"][0]
+    assert np.isfinite(used).all() and not out.info["b"]["interpolated"]
+    assert sum(out.info["b"]["cut"]) == n - len(used) == 1

@@ -334,19 +334,20 @@ def test_utf16_with_its_byte_order_mark(tmp_path, encoding):
 # ---------------------------------------------------------------------------------- errors
 
 
-@pytest.mark.parametrize("link", ["soft", "external"])
-def test_a_link_that_leads_nowhere_is_named(tmp_path, link):
+@pytest.mark.parametrize(("link", "name"), [("soft", "meta"), ("external", "meta"),
+                                            ("soft", "time")])
+def test_a_link_that_leads_nowhere_is_named(tmp_path, link, name):
     # "could not read HDF5 file: 'Unable to synchronously open object (component not
-    # found)'" named no object (a new-user trial)
+    # found)'" named no object (a new-user trial; 'time', an independent review)
     path = tmp_path / "linked.h5"
     rec = random_recording()
     write_h5(path, {n: {"gyr": s.gyr, "acc": s.acc} for n, s in rec.sensors.items()})
     with h5py.File(path, "a") as h5:
-        h5["meta"] = (h5py.SoftLink("/nothere") if link == "soft"
-                      else h5py.ExternalLink("missing.h5", "/x"))
+        h5[name] = (h5py.SoftLink("/nothere") if link == "soft"
+                    else h5py.ExternalLink("missing.h5", "/x"))
     target = "'/nothere'" if link == "soft" else "'/x' in 'missing.h5'"
-    expect_error(path, f"'meta' is {'a soft' if link == 'soft' else 'an external'} link to "
-                 f"{target} that cannot be opened")
+    expect_error(path, f"'{name}' is {'a soft' if link == 'soft' else 'an external'} link "
+                 f"to {target} that cannot be opened")
 
 
 def test_missing_file(tmp_path):

@@ -191,7 +191,18 @@ def detect(path: Path):
 # ------------------------------------------------------------------------- text helpers
 
 
-def decode_text(data: bytes, source: str, what: str, hint: str = "") -> str:
+def _utf16(data: bytes) -> str | None:
+    """``data`` as UTF-16 text where it starts with a UTF-16 byte-order mark and decodes
+    to text without NUL characters (UTF-32, zeros or binary after FF FE do not), else
+    None; an odd last byte (a file cut off) is dropped."""
+    if data[:2] not in (b"\xff\xfe", b"\xfe\xff"):
+        return None
+    text = data[:len(data) // 2 * 2].decode("utf-16", errors="replace")
+    return None if "\x00" in text else text
+
+
+def decode_text(data: bytes, source: str, what: str, hint: str = "",
+                scan: int | None = None) -> str:
     """The text of a file's bytes: UTF-16 with its byte-order mark (Excel's "Unicode
     text"), else UTF-8 (with or without a byte-order mark), else Latin-1.
 
@@ -204,14 +215,13 @@ def decode_text(data: bytes, source: str, what: str, hint: str = "") -> str:
     ------
     InputError
         "``source``: not a ``what`` (it contains binary data``hint``)": NUL bytes
-        outside UTF-16.
+        outside UTF-16, among the first ``scan`` bytes (None: anywhere; a vendor export
+        cut off by a power loss may end in NUL padding, which its reader reports).
     """
-    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
-        try:
-            return data.decode("utf-16")
-        except UnicodeDecodeError:
-            pass  # (a binary file that happens to start so)
-    if b"\x00" in data:
+    text = _utf16(data)
+    if text is not None:
+        return text
+    if b"\x00" in (data if scan is None else data[:scan]):
         raise InputError(f"{source}: not a {what} (it contains binary data{hint})")
     try:
         return data.decode("utf-8-sig")
@@ -237,7 +247,7 @@ def read_text(path: Path, source: str | None = None) -> str:
         data = Path(path).read_bytes()
     except OSError as err:
         raise InputError(f"{source or path}: cannot read file ({err.strerror or err})") from None
-    return decode_text(data, source or str(path), "text file")
+    return decode_text(data, source or str(path), "text file", scan=4096)
 
 
 def is_empty(path: Path) -> bool:
@@ -263,14 +273,18 @@ def head_text(path: Path, limit: int = 8192) -> str:
     Returns
     -------
     str
-        Decoded as UTF-8 (a byte-order mark dropped, undecodable bytes replaced by
-        U+FFFD); '' for a file that cannot be read or has a NUL byte there (binary).
+        Decoded as UTF-8 or, with its byte-order mark, UTF-16 (the mark dropped,
+        undecodable bytes replaced by U+FFFD); '' for a file that cannot be read or has
+        a NUL byte there (binary).
     """
     try:
         with open(path, "rb") as fh:
             data = fh.read(limit)
     except OSError:
         return ""
+    text = _utf16(data)
+    if text is not None:
+        return text
     if b"\x00" in data:
         return ""
     return data.decode("utf-8-sig", errors="replace")
