@@ -88,6 +88,7 @@ class _Clock:
     source_of_time: str  # "time stamps", "packet counter", "sample rate"
     stamp_rate: float | None = None  # Hz, from the stamps when --rate replaced it
     missing_stamp_row: int | None = None  # data row (1-based) of a stamp the counter replaced
+    repeated_rows: tuple = ()  # data rows (1-based) of stamps put between their neighbours
 
 
 def unwrap(values: np.ndarray, wrap: float | None) -> np.ndarray:
@@ -154,6 +155,52 @@ def _check_repeated_rows(s: RawSensor, t: np.ndarray, what: str) -> None:
         )
 
 
+def _repeated_stamps(t: np.ndarray) -> tuple[np.ndarray, tuple]:
+    """Stamps that repeat their neighbour's while the values are their own (a glitched
+    stamp, not a packet logged twice: :func:`_check_repeated_rows`), put between their
+    neighbours where the intervals around the pair say which one is off: two periods
+    after the pair and one before, the second is early; two before and one after, the
+    first is late. A repeat next to a dropped packet on both sides, or three equal stamps,
+    is left as it is (read as a drop). Before, every such stamp read as a dropped packet
+    beside it and the line through the stamps gave the sensor a false rate (+270 ppm per
+    repeat in 2000 samples) and interpolated it whole (a new-user trial).
+
+    Returns
+    -------
+    t : (N,) float64
+        The stamps, s, with those put between their neighbours.
+    rows : tuple of int
+        Their data rows (1-based).
+    """
+    dt = np.diff(t)
+    if dt.size < 3 or not (dt == 0).any():
+        return t, ()
+    positive = dt[dt > 0]
+    period = float(np.median(positive)) if positive.size else 0.0
+    if not period > 0:
+        return t, ()
+    steps = np.rint(dt / period)
+    i = np.flatnonzero(dt == 0)  # rows i and i + 1 share a stamp
+    first, last = i == 0, i + 1 == dt.size  # (the file's first or last two rows)
+    before = np.where(first, np.nan, steps[np.maximum(i - 1, 0)])
+    after = np.where(last, np.nan, steps[np.minimum(i + 1, dt.size - 1)])
+    alone = ~np.isin(i - 1, i) & ~np.isin(i + 1, i)  # (three equal stamps: left)
+    # the second a period early: two periods after it, one (or the file's start) before;
+    # the first a period late: two before it, one (or the file's end) after; at the ends
+    # one period on the inner side says which
+    early = alone & (((after == 2) & ((before == 1) | first)) | (last & (before == 1)))
+    late = alone & ~early & (((before == 2) & ((after == 1) | last)) | (first & (after == 1)))
+    t = t.copy()
+    for rows in (i[early] + 1, i[late]):
+        inner = (rows > 0) & (rows < t.size - 1)
+        mid = rows[inner]
+        t[mid] = 0.5 * (t[mid - 1] + t[mid + 1])
+        end = rows[~inner]  # the first or last row: a period beyond its neighbour
+        t[end] = np.where(end == 0, t[1] - period, t[-2] + period)
+    rows = np.sort(np.concatenate([i[early] + 1, i[late]]))
+    return t, tuple(int(r) + 1 for r in rows)
+
+
 def _from_counter(counter: np.ndarray, what: str) -> np.ndarray:
     k = counter - counter[0]
     steps = np.diff(k)
@@ -213,9 +260,11 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
         # whose clocks are their stamps: the counter's zero is not theirs)
         missing = int(np.flatnonzero(~np.isfinite(t))[0]) + 1
         t = None
+    repeated = ()
     if t is not None:
         _check_values(t, "time stamp", "s", what)
         _check_repeated_rows(s, t, what)
+        t, repeated = _repeated_stamps(t)
     if t is not None and n >= 3:
         # Relative to the first stamp: a large clock value would cost the fit precision.
         t0, t = t[0], t - t[0]
@@ -267,7 +316,8 @@ def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:
         a = float(c[0]) * period  # the counters of one export are shared: align on them
     _check_dropped(k, period, what, origin)
     return _Clock(k=k, a=float(a), period=float(period), dropped=int(k[-1] + 1 - n),
-                  source_of_time=origin, stamp_rate=stamps, missing_stamp_row=missing)
+                  source_of_time=origin, stamp_rate=stamps, missing_stamp_row=missing,
+                  repeated_rows=repeated)
 
 
 def _check_dropped(k: np.ndarray, period: float, what: str, origin: str) -> None:
@@ -459,6 +509,12 @@ def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
         "files": list(s.files),
     }
     notes = []
+    if clk.repeated_rows:
+        rows, count = clk.repeated_rows, len(clk.repeated_rows)
+        listed = ", ".join(map(str, rows[:5])) + (f" and {count - 5} more" if count > 5 else "")
+        notes.append(
+            f"sensor '{s.name}': {count} time stamp(s) repeat a neighbour's while the values "
+            f"are their own (data row {listed}): read as the sample between their neighbours")
     if clk.dropped:
         notes.append(
             f"sensor '{s.name}': {clk.dropped} sample(s) missing from its "

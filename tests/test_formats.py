@@ -349,6 +349,58 @@ def test_jittery_repeating_stamps_are_not_drops():
     assert out.info["s"]["dropped"] == 2
 
 
+def _second_sensor(stamps):
+    """align() of a sensor on 100 Hz stamps and one on ``stamps`` (same signal)."""
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+
+    n = len(stamps)
+    t = np.arange(n) / 100.0
+    sig = np.column_stack([np.sin(2 * np.pi * 0.5 * t), np.cos(t), t])
+    return align([RawSensor("a", sig, sig + 9.0, "rad/s", "m/s^2", time=t),
+                  RawSensor("b", sig, sig + 9.0, "rad/s", "m/s^2", time=np.asarray(stamps))],
+                 "<test>"), sig
+
+
+@pytest.mark.parametrize(("glitch", "row"), [
+    ("early", 201), ("late", 1001), ("first", 1), ("last", 2000)])
+def test_a_stamp_repeating_its_neighbours_is_read_in_place(glitch, row):
+    """A stamp repeating its neighbour's, its values its own (a glitch, not a packet logged
+    twice), read as a dropped packet beside it: the sensor got 100.027 Hz and was
+    interpolated whole (a new-user trial)."""
+    n = 2000
+    t = np.arange(n) / 100.0
+    i = row - 1
+    t[i] = t[i - 1] if glitch in ("early", "last") else t[i + 1]
+    out, sig = _second_sensor(t)
+    assert out.info["b"]["dropped"] == 0 and not out.info["b"]["interpolated"]
+    assert out.info["b"]["rate_hz"] == pytest.approx(100.0, rel=1e-9)
+    np.testing.assert_array_equal(out.data["b"][0], sig)
+    assert out.notes == [f"sensor 'b': 1 time stamp(s) repeat a neighbour's while the values "
+                         f"are their own (data row {row}): read as the sample between their "
+                         "neighbours"]
+
+
+def test_many_repeated_stamps_are_named_and_a_drop_beside_one_kept():
+    # 40 repeats: all read in place and named (the first five); a repeat right after a
+    # dropped packet (7.99, 8.01, 8.01, 8.03) cannot say which stamp is off, and keeps the
+    # drop: a first attempt took the missing period away there, 99.93 Hz (a review)
+    n = 2000
+    t = np.arange(n) / 100.0
+    rows = np.linspace(50, n - 50, 40).astype(int)
+    t[rows] = t[rows - 1]
+    out, _ = _second_sensor(t)
+    assert out.info["b"]["dropped"] == 0 and out.info["b"]["rate_hz"] == pytest.approx(100.0)
+    assert out.notes[0].startswith("sensor 'b': 40 time stamp(s) repeat a neighbour's") and \
+        f"(data row {', '.join(str(r + 1) for r in rows[:5])} and 35 more)" in out.notes[0]
+    k = np.delete(np.arange(n + 1), 800)  # sample 800 dropped
+    t = k / 100.0
+    t[801] = t[800]
+    out, _ = _second_sensor(t)
+    assert out.info["b"]["dropped"] == 1
+    assert out.info["b"]["rate_hz"] == pytest.approx(100.0, rel=1e-5)
+
+
 def test_bids_units_from_channels_and_missing_sidecar(tmp_path):
     rec = short()
     folder = vw.bids(rec, tmp_path / "b", gyr_units="deg/s", gyr_scale=vw.RAD2DEG)
