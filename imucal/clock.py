@@ -49,6 +49,10 @@ RATE_REFUSE = 0.10
 #: s: a sensor losing more than this outside the span all sensors share gets a warning
 #: (devices started one after another lose less; a sensor started late costs more).
 CUT_WARN_S = 1.0
+#: Repeated stamps (:func:`_repeated_stamps`) are glitches to put in place only in files
+#: of at least REPEAT_MIN_ROWS rows where at most REPEAT_MAX_SHARE of the intervals are 0.
+REPEAT_MIN_ROWS = 8
+REPEAT_MAX_SHARE = 0.01
 #: Grid points this close to a device sample (in sample periods) are taken as that
 #: sample: float rounding of the time stamps must not turn a copy into an interpolation.
 SNAP = 1e-6
@@ -173,32 +177,51 @@ def _repeated_stamps(t: np.ndarray) -> tuple[np.ndarray, tuple]:
         Their data rows (1-based).
     """
     dt = np.diff(t)
-    if dt.size < 3 or not (dt == 0).any():
+    zero = int(np.sum(dt == 0))
+    # equal stamps that are common are the stamps' rounding (ms stamps at 2 kHz) or one
+    # stamp per packet of samples, not glitches: left to the jitter rules (moving them
+    # put false drops at a file's ends, a review)
+    if t.size < REPEAT_MIN_ROWS or zero == 0 or zero > REPEAT_MAX_SHARE * dt.size:
         return t, ()
-    positive = dt[dt > 0]
-    period = float(np.median(positive)) if positive.size else 0.0
+    m = min(32, t.size - 1)
+    period = float(np.median((t[m:] - t[:-m]) / m))  # (as _from_stamps: spans of samples)
     if not period > 0:
         return t, ()
+    t, moved = t.copy(), []
+    for _ in range(3):  # a repeat fixed can settle its neighbour's (two, two rows apart)
+        rows = _one_pass(t, period)
+        if not rows.size:
+            break
+        moved.extend(rows.tolist())
+    return t, tuple(int(r) + 1 for r in sorted(moved))
+
+
+def _one_pass(t: np.ndarray, period: float) -> np.ndarray:
+    """One pass of :func:`_repeated_stamps` over ``t`` (changed in place): the rows moved."""
+    dt = np.diff(t)
     steps = np.rint(dt / period)
     i = np.flatnonzero(dt == 0)  # rows i and i + 1 share a stamp
     first, last = i == 0, i + 1 == dt.size  # (the file's first or last two rows)
-    before = np.where(first, np.nan, steps[np.maximum(i - 1, 0)])
-    after = np.where(last, np.nan, steps[np.minimum(i + 1, dt.size - 1)])
+
+    def interval(k):  # steps of interval k, NaN beyond the file
+        return np.where((k >= 0) & (k < dt.size), steps[np.clip(k, 0, dt.size - 1)], np.nan)
+
+    before, after = interval(i - 1), interval(i + 1)
     alone = ~np.isin(i - 1, i) & ~np.isin(i + 1, i)  # (three equal stamps: left)
     # the second a period early: two periods after it, one (or the file's start) before;
     # the first a period late: two before it, one (or the file's end) after; at the ends
-    # one period on the inner side says which
-    early = alone & (((after == 2) & ((before == 1) | first)) | (last & (before == 1)))
-    late = alone & ~early & (((before == 2) & ((after == 1) | last)) | (first & (after == 1)))
-    t = t.copy()
+    # two one-period intervals on the inner side say which
+    early = alone & (((after == 2) & ((before == 1) | first))
+                     | (last & (before == 1) & (interval(i - 2) == 1)))
+    late = alone & ~early & (((before == 2) & ((after == 1) | last))
+                             | (first & (after == 1) & (interval(i + 2) == 1)))
     for rows in (i[early] + 1, i[late]):
         inner = (rows > 0) & (rows < t.size - 1)
         mid = rows[inner]
         t[mid] = 0.5 * (t[mid - 1] + t[mid + 1])
         end = rows[~inner]  # the first or last row: a period beyond its neighbour
         t[end] = np.where(end == 0, t[1] - period, t[-2] + period)
-    rows = np.sort(np.concatenate([i[early] + 1, i[late]]))
-    return t, tuple(int(r) + 1 for r in rows)
+    return np.concatenate([i[early] + 1, i[late]])
 
 
 def _from_counter(counter: np.ndarray, what: str) -> np.ndarray:

@@ -198,7 +198,9 @@ def _utf16(data: bytes) -> str | None:
     if data[:2] not in (b"\xff\xfe", b"\xfe\xff"):
         return None
     text = data[:len(data) // 2 * 2].decode("utf-16", errors="replace")
-    return None if "\x00" in text else text
+    # (NUL padding after text, a file cut off, is the reader's to report, as in UTF-8)
+    body = text.rstrip("\x00")
+    return None if "\x00" in body or (body.strip() == "" and body != text) else text
 
 
 def decode_text(data: bytes, source: str, what: str, hint: str = "",
