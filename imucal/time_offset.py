@@ -480,7 +480,8 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     The offset's own 1-sigma is the profile's sampling error, which a model error does
     not show in: :func:`model_sigma` joins it in the reported ``sigma_s`` and is reported
     as ``time_offset.model_sigma_s``, for an offset applied or not (one not applied is
-    still the data's reading of the clock: the angles widen their band by it). Which
+    still the data's reading of the clock; the knee angles' spread reads its sampling
+    part, :func:`imucal.angles.unapplied_offset_spread`). Which
     offset is applied, and the estimate's ``time_offset`` entry, rest on the sampling
     error as before (the axis's model bound and its move from offset 0 already carry a
     model error's share).
@@ -513,7 +514,7 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
         applied, found, result = _trial(fit, profile, rate, search, first, found)
         how = "trial" if applied else "profile"
     # applied or not, the number reported is the data's best reading of the clock, and a
-    # model error moves it alike (the reading decides nothing unapplied: angles widen by it)
+    # model error moves it alike
     reported = replace(found, model_sigma_s=model_sigma(result, found))
     result.time_offset = {**offset_report(reported, rate), "found_by": how}
     result.settings["time_offset"] = "auto"
