@@ -784,7 +784,10 @@ def load_calibration(path: str | Path) -> Calibration:
         if len(data) > MAX_FILE_BYTES:
             raise InputError(f"{path}: not a calibration file (more than {MAX_FILE_BYTES} "
                              "bytes; is it a recording?)")
-        doc = json.loads(data.decode("utf-8-sig"))  # (a BOM: a Notepad edit)
+        from .formats import utf16_text
+
+        # a BOM: a Notepad edit; UTF-16: Windows PowerShell's `>` (jq .result > cal.json)
+        doc = json.loads(utf16_text(data) or data.decode("utf-8-sig"))
     # ValueError: json's own errors, and integers of thousands of digits; RecursionError:
     # arrays nested a hundred thousand deep
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as err:

@@ -460,6 +460,16 @@ def test_angles_study_writes_its_lines_beside_its_tables(cal_file, tmp_path):
     assert run.returncode == 2 and not other.exists()
 
 
+def test_a_utf16_calibration_file_is_read(cal_file, tmp_path):
+    # Windows PowerShell's `>` writes UTF-16 (jq .result line > cal.json): it was "not
+    # readable as JSON: 'utf-8' codec can't decode byte 0xff"
+    path, _ = cal_file
+    utf16 = tmp_path / "cal16.json"
+    utf16.write_bytes(path.read_text().encode("utf-16"))
+    runs = [cli("angles", SAMPLE / "walking.h5", "-c", c, "-q") for c in (path, utf16)]
+    assert [r.returncode for r in runs] == [0, 0] and runs[0].stdout == runs[1].stdout
+
+
 def test_angles_study_reads_a_broken_calibration_once(tmp_path):
     cal = tmp_path / "cal.json"
     cal.write_text("{")

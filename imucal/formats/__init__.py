@@ -191,10 +191,17 @@ def detect(path: Path):
 # ------------------------------------------------------------------------- text helpers
 
 
-def _utf16(data: bytes) -> str | None:
-    """``data`` as UTF-16 text where it starts with a UTF-16 byte-order mark and decodes
-    to text without NUL characters (UTF-32, zeros or binary after FF FE do not), else
-    None; an odd last byte (a file cut off) is dropped."""
+def utf16_text(data: bytes) -> str | None:
+    """A file's bytes as UTF-16 text, where they are that.
+
+    Returns
+    -------
+    str or None
+        ``data`` decoded where it starts with a UTF-16 byte-order mark and decodes to
+        text without NUL characters before any NUL padding at its end (UTF-32, zeros or
+        binary after FF FE do not), the mark dropped; an odd last byte (a file cut off)
+        is dropped. None otherwise.
+    """
     if data[:2] not in (b"\xff\xfe", b"\xfe\xff"):
         return None
     text = data[:len(data) // 2 * 2].decode("utf-16", errors="replace")
@@ -220,7 +227,7 @@ def decode_text(data: bytes, source: str, what: str, hint: str = "",
         outside UTF-16, among the first ``scan`` bytes (None: anywhere; a vendor export
         cut off by a power loss may end in NUL padding, which its reader reports).
     """
-    text = _utf16(data)
+    text = utf16_text(data)
     if text is not None:
         return text
     if b"\x00" in (data if scan is None else data[:scan]):
@@ -284,7 +291,7 @@ def head_text(path: Path, limit: int = 8192) -> str:
             data = fh.read(limit)
     except OSError:
         return ""
-    text = _utf16(data)
+    text = utf16_text(data)
     if text is not None:
         return text
     if b"\x00" in data:
