@@ -50,7 +50,8 @@ RATE_REFUSE = 0.10
 #: (devices started one after another lose less; a sensor started late costs more).
 CUT_WARN_S = 1.0
 #: Repeated stamps (:func:`_repeated_stamps`) are glitches to put in place only in files
-#: of at least REPEAT_MIN_ROWS rows where at most REPEAT_MAX_SHARE of the intervals are 0.
+#: of at least REPEAT_MIN_ROWS rows where one, or at most REPEAT_MAX_SHARE of the
+#: intervals, are 0.
 REPEAT_MIN_ROWS = 8
 REPEAT_MAX_SHARE = 0.01
 #: Grid points this close to a device sample (in sample periods) are taken as that
@@ -181,7 +182,7 @@ def _repeated_stamps(t: np.ndarray) -> tuple[np.ndarray, tuple]:
     # equal stamps that are common are the stamps' rounding (ms stamps at 2 kHz) or one
     # stamp per packet of samples, not glitches: left to the jitter rules (moving them
     # put false drops at a file's ends, a review)
-    if t.size < REPEAT_MIN_ROWS or zero == 0 or zero > REPEAT_MAX_SHARE * dt.size:
+    if t.size < REPEAT_MIN_ROWS or zero == 0 or zero > max(1, REPEAT_MAX_SHARE * dt.size):
         return t, ()
     m = min(32, t.size - 1)
     period = float(np.median((t[m:] - t[:-m]) / m))  # (as _from_stamps: spans of samples)
@@ -537,7 +538,7 @@ def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
         listed = ", ".join(map(str, rows[:5])) + (f" and {count - 5} more" if count > 5 else "")
         notes.append(
             f"sensor '{s.name}': {count} time stamp(s) repeat a neighbour's while the values "
-            f"are their own (data row {listed}): read as the sample between their neighbours")
+            f"are their own (data row {listed}): read at their place in the sequence")
     if clk.dropped:
         notes.append(
             f"sensor '{s.name}': {clk.dropped} sample(s) missing from its "
