@@ -427,6 +427,26 @@ def test_stamps_that_repeat_by_rounding_are_no_glitches(rate):
     assert out.info["b"]["dropped"] == 0
 
 
+def test_an_early_stamp_is_jitter_not_a_drop():
+    """Only a late stamp (a long interval, then a short one) counted as jitter; an early
+    one read as a dropped packet: stamps jittering uniformly by +-0.3 of a period, 2000
+    samples, were read right in 15 of 200 files (a review), now 154; +-0.2 in all."""
+    from imucal.clock import _from_stamps
+
+    def right(amp, seed):
+        rng = np.random.default_rng(seed)
+        k = np.arange(2000)
+        t = (k + rng.uniform(-amp, amp, k.size)) / 100.0
+        return np.array_equal(_from_stamps(t - t[0], "x"), k)
+
+    assert sum(right(0.3, seed) for seed in range(50)) >= 35
+    assert all(right(0.2, seed) for seed in range(20))
+    # a late and an early stamp around one short interval: only one of them is jitter
+    t = np.delete(np.arange(2001), 800) / 100.0  # sample 800 dropped ...
+    t[800] += 0.004  # ... and the next stamp early
+    assert _from_stamps(t - t[0], "x")[-1] == 2000
+
+
 def test_bids_units_from_channels_and_missing_sidecar(tmp_path):
     rec = short()
     folder = vw.bids(rec, tmp_path / "b", gyr_units="deg/s", gyr_scale=vw.RAD2DEG)
