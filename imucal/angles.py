@@ -32,7 +32,7 @@ from .rest import (
     still_periods,
 )
 from .settings import check_time_offset, is_bool
-from .time_offset import shifted
+from .time_offset import sampling_sigma, shifted
 
 if TYPE_CHECKING:
     from .calibration import Calibration
@@ -320,10 +320,10 @@ def _sampling_part(jc, doc, sigma: float) -> float:
     it: a knee whose axis applied nothing and won over its centre's offset keeps that in
     its angles' spread (4.9 ms, not 0.4 ms, on gait with the shank 10 ms late, a
     review)."""
-    sampling = _offset_number(jc, "sampling_sigma_s", doc)
-    if sampling is None:
-        share = _offset_number(jc, "model_sigma_s", doc) or 0.0
-        sampling = math.sqrt(max(sigma**2 - share**2, 0.0))
+    numbers = {k: _offset_number(jc, k, doc)  # (checked: a calibration file is text)
+               for k in ("model_sigma_s", "sampling_sigma_s")}
+    sampling = sampling_sigma({"sigma_s": sigma,
+                               **{k: v for k, v in numbers.items() if v is not None}})
     gap = _offset_number(jc, "disagreement_s", doc) or 0.0
     return math.hypot(sampling, gap / 2)
 
