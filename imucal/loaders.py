@@ -45,7 +45,7 @@ if TYPE_CHECKING:  # pandas is imported where CSV is parsed: it costs ~0.2 s of 
 
 from .errors import InputError
 from .errors import one_line as _one_line
-from .formats import HDF5_SIGNATURE, HDF5_SUFFIXES, decode_text
+from .formats import HDF5_SIGNATURE, HDF5_SUFFIXES, cut_in_number, decode_text, ends_line
 from .recording import Recording, make_recording
 from .sensor_checks import check_units
 from .timing import check_rate
@@ -558,6 +558,7 @@ def _parse_csv(data: bytes, source: str):
     if data.startswith(HDF5_SIGNATURE):
         raise InputError(f"{source}: not a CSV file; it looks like an HDF5 file, use a .h5 name")
     text = decode_text(data, source, "CSV file")
+    ended = ends_line(text)
     # Trailing blank lines and spaces carry no data; leading ones would shift the header.
     text = text.rstrip()
     if not text:
@@ -571,6 +572,8 @@ def _parse_csv(data: bytes, source: str):
     header = [str(h).strip() for h in header_row.iloc[0].tolist()]
     columns = _map_columns(header, source)
     _check_short_rows(text, len(header), source)
+    if not ended:
+        _check_cut_number(text, source)
 
     try:
         table = pd.read_csv(io.StringIO(text), skiprows=1, na_values=list(_NAN_TEXT), **options)
@@ -638,6 +641,16 @@ def _check_short_rows(text: str, n_header: int, source: str) -> None:
                          "(cut short while written or copied?); delete that row or get the "
                          "whole file")
     raise InputError(f"{source}: {what}; complete or delete that row")
+
+
+def _check_cut_number(text: str, source: str) -> None:
+    """Refuse a file whose text stops inside its last number (:func:`cut_in_number`), as
+    a row cut short is refused: the number would be read shorter than it was written."""
+    cut = cut_in_number(text.rsplit("\n", 22)[1:], ",")  # header excluded
+    if cut:
+        raise InputError(f"{source}: row {text.count(chr(10)) + 1} {cut}: the file ends in the "
+                         "middle of its last row (cut short while written or copied?); "
+                         "delete that row or get the whole file")
 
 
 def _parser_detail(err: Exception) -> str:

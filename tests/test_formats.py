@@ -167,6 +167,52 @@ def test_truncated_text_file(fmt, tmp_path):
     assert loaded.n_samples == rec.n_samples - 1
 
 
+def _last_data_file(folder):
+    if folder.is_file():
+        return folder
+    return sorted(p for p in folder.rglob("*") if p.suffix in (".csv", ".txt", ".tsv")
+                  and "channels" not in p.name and p.name != "Battery.csv")[-1]
+
+
+@pytest.mark.parametrize("fmt", ["xsens", "dot", "bids", "ximu3", "shimmer"])
+def test_a_file_cut_inside_its_last_number_drops_that_row(fmt, tmp_path):
+    # every field there, the last one shorter ("-0" of "-0.061035"): the number was read
+    # as written short, without a word (a new-user trial of x-IMU3 exports)
+    rec = short()
+    victim = _last_data_file(write(fmt, rec, tmp_path))
+    text = victim.read_text()
+    victim.write_text(text[:len(text) - 1 - 6])  # its line break and six of nine decimals
+    loaded = load_recording(victim.parent if fmt != "shimmer" else victim)
+    cut = [w for w in loaded.warnings if "cut off" in w]
+    assert len(cut) == 1 and "where the rows above write 9 characters after the point" in cut[0]
+    assert loaded.n_samples == rec.n_samples - 1
+
+
+@pytest.mark.parametrize("fmt", ["ximu3", "bids"])
+def test_a_whole_last_row_without_a_line_break_is_kept(fmt, tmp_path):
+    rec = short()
+    victim = _last_data_file(write(fmt, rec, tmp_path))
+    victim.write_text(victim.read_text().rstrip("\n"))
+    loaded = load_recording(victim.parent)
+    assert not any("cut off" in w for w in loaded.warnings)
+    assert loaded.n_samples == rec.n_samples
+
+
+def test_the_cut_rule_judges_fixed_decimals_only():
+    from imucal.formats import cut_in_number
+
+    fixed = [f"{i},{v:.4f}" for i, v in enumerate(np.linspace(-1, 1, 30))]
+    assert cut_in_number(fixed[:-1] + ["29,-0"], ",") == (
+        "ends in '-0' where the rows above write 4 characters after the point")
+    assert cut_in_number(fixed[:-1] + ["29,0.12"], ",") is not None
+    assert cut_in_number(fixed[:-1] + ["29,1.2345e-0"], ",") is None  # as long: not judged
+    assert cut_in_number(fixed, ",") is None
+    varying = [f"{i},{v:g}" for i, v in enumerate([0.5, 0.25, 0.125, 1.0, 0.75] * 5)]
+    assert cut_in_number(varying[:-1] + ["29,0"], ",") is None  # %g: never judged
+    whole = [f"{i},{i}" for i in range(30)]
+    assert cut_in_number(whole[:-1] + ["29,2"], ",") is None  # no decimals above
+
+
 @pytest.mark.parametrize("fmt", ["apdm", "apdm3"])
 def test_truncated_hdf5(fmt, tmp_path):
     path = write(fmt, short(), tmp_path)

@@ -358,14 +358,59 @@ def column_index(names: list[str], source: str, used) -> dict[str, int]:
     return col
 
 
+def ends_line(text: str) -> bool:
+    """Whether ``text`` ends with a line break (NUL padding after it ignored).
+
+    Returns
+    -------
+    bool
+        True where the last row was written whole, up to its line break; a writer that
+        never ends its last line looks the same as a file cut off after a number.
+    """
+    return text.rstrip("\x00").endswith(("\n", "\r"))
+
+
+def cut_in_number(lines: list[str], sep: str) -> str | None:
+    """Why the last of ``lines`` looks cut off inside its last number, or None.
+
+    A file cut off while written can stop inside its last row's last field and leave a
+    shorter number ("-0" of "-0.061035") with every field present. Where the 20 rows
+    before it write that field with one fixed number of characters after the decimal
+    point (exponent included), a last field with fewer is taken as cut; numbers written
+    with varying decimals (``%g``) are never judged, so a whole row is not dropped for
+    its format. Call it for a file whose text
+    does not end with a line break only (:func:`ends_line`).
+
+    Returns
+    -------
+    str or None
+        e.g. "ends in '-0' where the rows above write 6 characters after the point";
+        None where the last row is not judged cut (fewer than 3 rows, varying or no
+        decimals above).
+    """
+    if len(lines) < 3:
+        return None
+    field = lines[-1].rstrip("\r\n\x00").rsplit(sep, 1)[-1].strip()
+    above = [ln.rstrip("\r\n").rsplit(sep, 1)[-1].strip() for ln in lines[-21:-1]]
+    # the characters after the point, exponent included: "1.234e-0" is cut too
+    tails = {len(a.partition(".")[2]) if "." in a else -1 for a in above}
+    if len(tails) != 1 or (d := tails.pop()) < 1:
+        return None
+    if "." in field and len(field.partition(".")[2]) >= d:
+        return None
+    return f"ends in {field[:30]!r} where the rows above write {d} characters after the point"
+
+
 def parse_table(lines: list[str], sep: str, first_row: int, source: str,
-                names: list[str]) -> tuple[np.ndarray, list[str]]:
+                names: list[str], ended: bool = True) -> tuple[np.ndarray, list[str]]:
     """Numbers of the data ``lines`` as a float (rows, len(names)) array.
 
-    ``first_row`` is the line number of ``lines[0]`` in the file (1-based), for messages.
+    ``first_row`` is the line number of ``lines[0]`` in the file (1-based), for messages;
+    ``ended`` says whether the file's text ends with a line break (:func:`ends_line`).
     Empty cells and ``NaN`` read as NaN. A last row with fewer fields than the header
-    (a truncated file) is dropped with a note; a cell holding text stops loading with its
-    row and column.
+    (a truncated file) is dropped with a note, and so is an unended last row whose last
+    number is shorter than the rows above write it (:func:`cut_in_number`); a cell
+    holding text stops loading with its row and column.
 
     Raises
     ------
@@ -394,6 +439,10 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
         lines = lines[:-1]
         notes.append(f"the last row (row {first_row + len(lines)}) has {len(last)} of {width} "
                      "fields: the file was cut off; that row is dropped")
+    elif not ended and (cut := cut_in_number(lines, sep)):
+        lines = lines[:-1]
+        notes.append(f"the last row (row {first_row + len(lines)}) {cut}: the file was cut "
+                     "off; that row is dropped")
     try:
         table = pd.read_csv(io.StringIO("\n".join(lines)), sep=sep, header=None, dtype=str,
                             keep_default_na=False, skip_blank_lines=False, engine="c",

@@ -16,7 +16,15 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from . import RawRecording, RawSensor, normalise_units, parse_table, read_text, twice
+from . import (
+    RawRecording,
+    RawSensor,
+    ends_line,
+    normalise_units,
+    parse_table,
+    read_text,
+    twice,
+)
 
 NAME = "BIDS-motion"
 
@@ -118,7 +126,8 @@ def read(path: Path, source: str | None = None) -> RawRecording:
                          f"got {meta['SamplingFrequency']!r}")
     rows = _channels(channels_path)
     names = [r.get("name", f"column {i + 1}") for i, r in enumerate(rows)]
-    data = read_text(motion, source).splitlines()
+    text = read_text(motion, source)
+    data = text.splitlines()
     first = next((ln for ln in data if ln.strip()), "")
     cells = first.split("\t")
     while len(cells) > len(rows) and not cells[-1].strip():  # a tab at each row's end
@@ -130,7 +139,7 @@ def read(path: Path, source: str | None = None) -> RawRecording:
         raise InputError(f"{channels_path}: lists {len(rows)} channels, but {motion.name} has "
                          f"{width} columns; the channels file needs one row per column, in "
                          "order")
-    values, notes = parse_table(data, "\t", 1, source, names)
+    values, notes = parse_table(data, "\t", 1, source, names, ended=ends_line(text))
     time = None
     by_point: dict[str, dict] = {}
     for i, r in enumerate(rows):

@@ -21,6 +21,7 @@ from . import (
     RawRecording,
     RawSensor,
     column_index,
+    ends_line,
     export_files,
     head_text,
     header_rate,
@@ -105,7 +106,8 @@ def read(path: Path, source: str | None = None) -> RawRecording:
 
 def _read_file(file: Path, source: str, many: bool) -> RawSensor:
     where = f"{source}/{file.name}" if many else source
-    lines = read_text(file, where).splitlines()
+    text = read_text(file, where)
+    lines = text.splitlines()
     start = next((i for i, ln in enumerate(lines) if ln.startswith("PacketCounter")), None)
     if start is None:
         raise InputError(f"{where}: no 'PacketCounter,SampleTimeFine,...' header row")
@@ -124,7 +126,8 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
             f"velocity (not only orientation or free acceleration); columns found: "
             f"{', '.join(names[:12])}"
         )
-    values, notes = parse_table(lines[start + 1:], ",", start + 2, where, names)
+    values, notes = parse_table(lines[start + 1:], ",", start + 2, where, names,
+                                 ended=ends_line(text))
     mac = _MAC.search(file.stem)
     # without the metadata lines, the file name <tag>_<address>_<date> still holds the tag
     tag = (meta.get("devicetag") or (mac and file.stem[:mac.start()].strip("_- "))

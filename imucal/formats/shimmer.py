@@ -20,6 +20,7 @@ from ..errors import InputError
 from . import (
     RawRecording,
     RawSensor,
+    ends_line,
     head_text,
     normalise_units,
     parse_table,
@@ -81,7 +82,8 @@ def read(path: Path, source: str | None = None) -> RawRecording:
         gyroscope and Unix time stamps.
     """
     source = source or str(path)
-    lines = read_text(path, source).splitlines()
+    text = read_text(path, source)
+    lines = text.splitlines()
     sep, start = _split(lines)
     names = [c.strip().strip('"') for c in lines[start].split(sep)]
     row = start + 1
@@ -95,7 +97,8 @@ def read(path: Path, source: str | None = None) -> RawRecording:
             # there starts with an empty cell)
             units_row = cells
             row += 1
-    values, notes = parse_table(lines[row:], sep, row + 1, source, names)
+    values, notes = parse_table(lines[row:], sep, row + 1, source, names,
+                                 ended=ends_line(text))
     devices: dict[str, dict] = {}
     for i, c in enumerate(names):
         m = _COL.match(c)

@@ -19,6 +19,7 @@ from . import (
     UNIT_RE,
     RawRecording,
     RawSensor,
+    ends_line,
     head_text,
     is_empty,
     normalise_units,
@@ -113,7 +114,8 @@ def _read(file: Path, source: str) -> RawSensor:
     where = f"{source}/{folder}/Inertial.csv" if Path(source).is_dir() else source
     m = _FOLDER.match(folder)
     name, serial = (m["name"], m["serial"].upper()) if m else (folder, None)
-    lines = read_text(file, where).splitlines()
+    text = read_text(file, where)
+    lines = text.splitlines()
     cols = [c.strip() for c in lines[0].split(",")]
     index, units = {}, {}
     for i, c in enumerate(cols):
@@ -130,7 +132,7 @@ def _read(file: Path, source: str) -> RawSensor:
                for k in ("gyr", "acc") for a in "xyz" if (k, a) not in index]
     if missing:
         raise InputError(f"{where}: no {', '.join(missing)} column")
-    values, notes = parse_table(lines[1:], ",", 2, where, cols)
+    values, notes = parse_table(lines[1:], ",", 2, where, cols, ended=ends_line(text))
     return RawSensor(
         name=name, serial=serial,
         gyr=values[:, [index["gyr", a] for a in "xyz"]],

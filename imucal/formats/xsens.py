@@ -22,6 +22,7 @@ from . import (
     RawRecording,
     RawSensor,
     column_index,
+    ends_line,
     export_files,
     head_text,
     header_rate,
@@ -113,7 +114,8 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
             f"{where}: no {', '.join(missing)} columns; export calibrated inertial data "
             f"(Acc and Gyr) from MT Manager (columns found: {', '.join(names[:12])})"
         )
-    values, notes = parse_table(lines[start + 1:], sep, start + 2, where, names)
+    values, notes = parse_table(lines[start + 1:], sep, start + 2, where, names,
+                                 ended=ends_line(text))
     gyr = values[:, [col["Gyr_X"], col["Gyr_Y"], col["Gyr_Z"]]]
     acc = values[:, [col["Acc_X"], col["Acc_Y"], col["Acc_Z"]]]
     counter = values[:, col["PacketCounter"]]
