@@ -7,9 +7,10 @@ For every device (:class:`imucal.formats.RawSensor`):
    sequence. With time stamps (all formats but old Xsens exports) ``k`` is found from the
    stamps: the local interval ``dt`` is rounded to whole sample periods (a dropped packet
    is a step of two or more periods), then refined against a straight-line fit of the
-   stamps, so jitter and quantised stamps (Shimmer's repeating milliseconds) do not count
-   as drops as long as they stay below about a quarter of a sample period (docs/
-   formats.md). Without usable stamps ``k``
+   stamps or taken from the stamps' phase (:func:`_from_phase`) where that fits the line
+   better, so jitter and quantised stamps (Shimmer's repeating milliseconds) do not count
+   as drops as long as they stay below about 0.4 of a sample period (docs/formats.md).
+   Without usable stamps ``k``
    is the unwrapped packet counter. Missing ``k`` are the dropped samples.
 2. **Device time.** The stamps are fitted by a straight line ``t = a + T k`` (least
    squares): ``T`` is the device's true sample period on the shared clock (its rate is
@@ -278,7 +279,50 @@ def _from_stamps(t: np.ndarray, what: str) -> np.ndarray:
         best, worst = k, now
         est = np.rint((t - intercept) / slope).astype(np.int64)
         k = np.maximum.accumulate(est - np.arange(n)) + np.arange(n)  # strictly increasing
+    # Neighbours' intervals misread stamps jittered by a third of a period or more
+    # (uniform +-0.3: 52 of 200 files with false drops; with 1 % real drops, 131); the
+    # stamps' phase against the period does not, where it fits the line better. The
+    # period from the spans, or from the line through the indices above (the better where
+    # spans hold many drops), each refined once by the line through its own indices.
+    for start in (period, np.polyfit(best, t, 1)[0]):
+        slope = start
+        for _ in range(2):
+            if not slope > 0:
+                break
+            k = _from_phase(t, slope)
+            slope, intercept = np.polyfit(k, t, 1)
+            now = float(np.max(np.abs(t - intercept - slope * k)))
+            if now < worst:
+                best, worst = k, now
     return best - best[0]
+
+
+#: Samples per window over which :func:`_from_phase` averages the stamps' phase.
+PHASE_WINDOW = 128
+
+
+def _from_phase(t: np.ndarray, period: float) -> np.ndarray:
+    """Sample indices as the stamps' whole periods after their local phase is taken off.
+
+    Each stamp is a whole number of periods plus one phase (the clock's start) plus its
+    jitter. The phase is the circular mean of the stamps' fractional periods over windows
+    of :data:`PHASE_WINDOW` samples (dropped samples change no stamp's phase), followed
+    between windows (a rate a little off ``period`` turns it slowly); a stamp jittered by
+    less than half a period minus the phase's error then rounds to its own index.
+
+    Returns
+    -------
+    (N,) int64
+        Strictly increasing indices (two stamps within one period get consecutive ones).
+    """
+    n = t.size
+    u = (t - t[0]) / period
+    z = np.concatenate([[0], np.cumsum(np.exp(2j * np.pi * u))])
+    edges = np.linspace(0, n, max(1, n // PHASE_WINDOW) + 1).astype(np.int64)
+    phase = np.unwrap(np.angle(z[edges[1:]] - z[edges[:-1]])) / (2 * np.pi)
+    centres = 0.5 * (edges[1:] + edges[:-1] - 1)
+    est = np.rint(u - np.interp(np.arange(n), centres, phase)).astype(np.int64)
+    return np.maximum.accumulate(est - np.arange(n)) + np.arange(n)
 
 
 def _clock(s: RawSensor, what: str, rate: float | None) -> _Clock:

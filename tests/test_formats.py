@@ -493,6 +493,25 @@ def test_an_early_stamp_is_jitter_not_a_drop():
     assert _from_stamps(t - t[0], "x")[-1] == 2000
 
 
+@pytest.mark.parametrize("amp, drops, least", [(0.3, 0, 50), (0.3, 20, 50), (0.4, 20, 45)])
+def test_stamps_jittered_by_a_third_of_a_period_or_more_keep_their_indices(amp, drops, least):
+    """Read from the neighbours' intervals, +-0.3 of a period gave 54 of 200 files false
+    drops, 127 of 200 with 20 real drops besides, +-0.4 nearly all; the stamps' phase
+    reads them right (formats.md's numbers)."""
+    from imucal.clock import _from_stamps
+
+    def right(seed):
+        rng = np.random.default_rng(seed)
+        k = np.arange(2000 + drops)
+        if drops:
+            k = np.r_[0, np.sort(rng.choice(np.arange(1, k.size - 1), 1998, replace=False)),
+                      k.size - 1]
+        t = (k * 1.0001 + rng.uniform(-amp, amp, k.size)) / 100.0
+        return np.array_equal(_from_stamps(t - t[0], "x"), k)
+
+    assert sum(right(seed) for seed in range(50)) >= least
+
+
 def test_bids_units_from_channels_and_missing_sidecar(tmp_path):
     rec = short()
     folder = vw.bids(rec, tmp_path / "b", gyr_units="deg/s", gyr_scale=vw.RAD2DEG)
