@@ -284,7 +284,9 @@ def _from_stamps(t: np.ndarray, what: str) -> np.ndarray:
     # stamps' phase against the period does not, where it fits the line better. The
     # period from the spans, or from the line through the indices above (the better where
     # spans hold many drops), each refined once by the line through its own indices.
-    for start in (period, np.polyfit(best, t, 1)[0]):
+    # Stamps all within a quarter period of the line are read: another index would put
+    # its stamp three quarters of a period off.
+    for start in (period, np.polyfit(best, t, 1)[0]) if worst > 0.25 * period else ():
         slope = start
         for _ in range(2):
             if not slope > 0:
