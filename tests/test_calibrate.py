@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from conftest import axis_error_deg
 
 from imucal import make_recording
 from imucal.calibration import (
@@ -393,6 +394,23 @@ def test_a_knee_whose_axis_offset_is_reworded_gives_its_axis_one_1_sigma(tmp_pat
     copies = [w.removeprefix("axis: ") for w in knee.position["quality"]["warnings"]
               if w.startswith("axis: ")]
     assert copies == knee.axis["quality"]["warnings"]
+
+
+def test_a_refused_knee_axis_is_fitted_again_at_its_centres_clock():
+    # the axis, fitted with the shank's 20 ms ignored, was refused ("two different axes
+    # fit equally well") and kept 0 ms beside its centre's 21.3 ms: the knee had two
+    # clocks, and its angles read 3.7 deg RMS off at the axis's (a new-user trial)
+    rec, truth = simulate(seed=230, mounting_seed=23, motion="protocol", rate=100.0,
+                          duration=30.0, gyr_noise=0.01, acc_noise=0.05, soft_tissue_deg=1.0,
+                          soft_tissue_mm=2.0, clock_offset={"shank": 0.02}, gyr_bias=0.02)
+    knee = calibrate(rec, seed=1, joints=["knee=hinge:thigh,shank"]).joints["knee"]
+    axis, centre = knee.axis["time_offset"], knee.position["time_offset"]
+    assert axis["time_offset_s"] == centre["time_offset_s"]
+    assert abs(axis["time_offset_s"] - 0.02) < 0.003 and axis["found_by"] == "knee centre"
+    assert knee.verdict != "not identifiable"
+    e1, e2 = axis_error_deg(knee.j1, knee.j2, truth["knee"]["j1"], truth["knee"]["j2"])
+    assert max(e1, e2) < 3 * max(knee.axis["quality"]["j1_uncertainty_deg"],
+                                 knee.axis["quality"]["j2_uncertainty_deg"])
 
 
 @pytest.mark.parametrize("warnings", [5, "text", ["the reason", 5]])
