@@ -1059,7 +1059,7 @@ def _choose_sign(jc, raw: np.ndarray, evidence: float, pinned: int | None, rate:
     calibration's guess with a warning."""
     ref = jc.angle
     if pinned is not None:
-        return pinned, "user", []
+        return pinned, "user", _pinned_flexion_doubt(jc, pinned, raw, evidence, rate)
     if abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN:
         return int(ref["flexion_sign"]), "calibration", []
     doubt = _sign_doubt(raw, evidence, rate)
@@ -1081,6 +1081,23 @@ def _choose_sign(jc, raw: np.ndarray, evidence: float, pinned: int | None, rate:
         f"{jc.name}: the flexion direction is ambiguous in the calibration trial (evidence "
         f"{ref['sign_evidence']:+.2f}) and here ({doubt}); the calibration's guess is kept: "
         "pin it (flexion_sign '+' or '-') if the angles look inverted"]
+
+
+def _pinned_flexion_doubt(jc, pinned: int, raw: np.ndarray, evidence: float,
+                       rate: float) -> list[str]:
+    """The warning for a pinned flexion sign that the calibration trial's or this
+    recording's clear evidence contradicts (as a pinned j2 sign gets one): pinned the
+    wrong way, the demo's walk read a mirror image of its knee, 0.3-62.5 deg, that
+    "fits", with no word (a new-user trial)."""
+    ref = jc.angle
+    if abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN and int(ref["flexion_sign"]) != pinned:
+        where = f"the calibration trial's (evidence {ref['sign_evidence']:+.2f})"
+    elif _sign_doubt(raw, evidence, rate) is None and (1 if evidence >= 0 else -1) != pinned:
+        where = f"this recording's (evidence {evidence:+.2f})"
+    else:
+        return []
+    return [f"{jc.name}: the pinned flexion sign ({pinned:+d}) contradicts {where}: the "
+            "angles may be inverted (flexion read as extension); check how the sensors sit"]
 
 
 def _choose_zero(jc, raw: np.ndarray, sign: int, reference, rec,

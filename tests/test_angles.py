@@ -443,6 +443,26 @@ def test_sign_and_zero_can_be_pinned(session):
     flipped = joint_angles(walk, calibration, end=20.0,
                            flexion_sign="-" if auto.sign > 0 else "+").joints["knee"]
     np.testing.assert_allclose(flipped.flexion_deg, -auto.flexion_deg, atol=1e-9)
+    # pinned against clear evidence, a mirror image that looks like a knee read with no
+    # word (a new-user trial); pinned with it, nothing is said
+    assert abs(calibration.joints["knee"].angle["sign_evidence"]) >= 0.15
+    assert [w for w in flipped.warnings if "pinned flexion sign" in w] == [
+        f"knee: the pinned flexion sign ({-auto.sign:+d}) contradicts the calibration trial's "
+        f"(evidence {calibration.joints['knee'].angle['sign_evidence']:+.2f}): the angles may "
+        "be inverted (flexion read as extension); check how the sensors sit"]
+    same = joint_angles(walk, calibration, end=20.0, flexion_sign="+" if auto.sign > 0 else "-")
+    assert not any("pinned" in w for w in same.joints["knee"].warnings)
+    # a calibration that could not tell: this recording's own clear evidence speaks
+    from dataclasses import replace
+
+    knee = calibration.joints["knee"]
+    unsure = replace(calibration, joints={"knee": replace(knee, angle=dict(
+        knee.angle, sign_evidence=0.0))})
+    against = joint_angles(walk, unsure, end=20.0,
+                           flexion_sign="-" if auto.sign > 0 else "+").joints["knee"]
+    pinned = [w for w in against.warnings if "pinned flexion sign" in w]
+    assert len(pinned) == 1 and pinned[0].startswith(
+        f"knee: the pinned flexion sign ({-auto.sign:+d}) contradicts this recording's (evidence ")
     at = joint_angles(walk, calibration, end=20.0, reference=5.0).joints["knee"]
     assert abs(at.flexion_deg[500]) < 1.0 and at.sign_source == "calibration"
     with pytest.raises(InputError, match="outside the window measured"):
