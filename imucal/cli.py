@@ -74,15 +74,17 @@ Recs = Annotated[list[str], typer.Argument(
     help="Recording(s): files or folders, imucal's HDF5/CSV or vendor exports "
     "(docs/formats.md); - reads CSV from stdin. Several RECs: one JSON "
     "line per recording, in order (see --jobs).")]
-Jobs = Annotated[int, typer.Option(
-    "--jobs", "-j", min=0, help="With several RECs: recordings processed at once, in separate "
+Jobs = Annotated[int | None, typer.Option(
+    "--jobs", "-j", min=0, show_default="1", help="A study (several RECs, or one with "
+    "--jobs or --scheduler given): recordings processed at once, in separate "
     "processes (0: one per CPU core). Output is JSON Lines in input order, one object "
     "{file, exit_code, error, warnings, result} per recording; a failed recording gets an "
     "error line and the others go on; exit status: the highest of the recordings' codes "
     "(0 ok, 1 not identifiable, 2 bad input, 3 internal error). --out writes the lines "
-    "to a file (complete or not at all); --plot needs a single REC.")]
-CalibrateJobs = Annotated[int, typer.Option(
-    "--jobs", "-j", min=0, help="With several RECs: recordings processed at once, in separate "
+    "to a file (complete or not at all); --plot needs a single REC without --jobs.")]
+CalibrateJobs = Annotated[int | None, typer.Option(
+    "--jobs", "-j", min=0, show_default="1", help="A study (several RECs, or one with "
+    "--jobs or --scheduler given): recordings processed at once, in separate "
     "processes (0: one per CPU core). Output is JSON Lines in input order, one object "
     "{file, exit_code, error, warnings, result} per recording, result the calibration "
     "(also with exit_code 1: a joint not usable, marked); a failed recording gets an error "
@@ -194,9 +196,10 @@ AccError = Annotated[float, typer.Option(
     "centre (steady circling). 0.02-0.1 after factory calibration; 0: calibrated.")]
 Scheduler = Annotated[str | None, typer.Option(
     "--scheduler", metavar="ADDRESS", show_default=False,
-    help="With several RECs: run the study on the Dask cluster whose scheduler listens "
-    "at ADDRESS (e.g. tcp://host:8786) instead of local processes; same output and exit "
-    "status as --jobs. Needs the dask extra (docs/performance.md). One REC runs here.")]
+    help="Run the study (several RECs, or one) on the Dask cluster whose scheduler "
+    "listens at ADDRESS (e.g. tcp://host:8786) instead of local processes; same output and "
+    "exit status as --jobs. Needs the dask extra (docs/performance.md). angles without "
+    "--tables runs here.")]
 Force = Annotated[bool, typer.Option(
     "--force", help="Write the result even when the data cannot identify it (exit 0; the "
     "JSON carries the warnings). Without it such a run writes nothing and exits 1.")]
@@ -244,7 +247,7 @@ def axis(
     offset_search: OffsetSearch = 0.2,  # imucal.settings.OFFSET_SEARCH_S
     force: Force = False,
     trace: Trace = False,
-    jobs: Jobs = 1,
+    jobs: Jobs = None,
     scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
@@ -308,7 +311,7 @@ def position(
     acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     force: Force = False,
     trace: Trace = False,
-    jobs: Jobs = 1,
+    jobs: Jobs = None,
     scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
@@ -378,7 +381,7 @@ def calibrate(
         "failed. The calibration is written either way, such joints marked by their "
         "verdict (a failed one without vectors); without --force the exit status is 1.")]
     = False,
-    jobs: CalibrateJobs = 1,
+    jobs: CalibrateJobs = None,
     scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
@@ -397,10 +400,10 @@ def calibrate(
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)
         _one_or_study(rec, scheduler, quiet)
-        if len(rec) > 1:
+        if _is_study(rec, jobs, scheduler):
             from .study import run_study
 
-            raise typer.Exit(run_study(job, rec, out=out, jobs=jobs, scheduler=scheduler,
+            raise typer.Exit(run_study(job, rec, out=out, jobs=jobs or 1, scheduler=scheduler,
                                        quiet=quiet))
         from .runner import run
 
@@ -510,7 +513,7 @@ def angles(
         if tables is not None or len(rec) > 1:
             raise typer.Exit(_angles_study(ctx, job, rec, out=out, plot=plot, jobs=jobs,
                                            scheduler=scheduler, quiet=quiet))
-        _one_or_study(rec, scheduler, quiet)
+        _one_or_study(rec, scheduler, quiet, runs_here=True)
         from .formats import HDF5_SUFFIXES
 
         if out is not None and out.suffix.lower() not in {".csv", *HDF5_SUFFIXES}:
@@ -893,26 +896,35 @@ def _usage_error(ctx: typer.Context, text: str) -> typer.BadParameter:
     return typer.BadParameter(text, ctx=ctx)
 
 
-def _one_or_study(recs, scheduler, quiet) -> None:
+def _one_or_study(recs, scheduler, quiet, runs_here: bool = False) -> None:
     """``--scheduler``'s form checked whatever the number of recordings (a bad address
-    passed silently with one); with one recording, say that it runs here."""
+    passed silently with one); where the recording runs here all the same (``angles``
+    without ``--tables``), say so."""
     if scheduler is None:
         return
     from .cluster import check_address
 
     check_address(scheduler)
-    if len(recs) == 1 and not quiet:
-        say(f"imucal: warning: --scheduler {scheduler} is for studies of several "
-            "recordings; this one runs here")
+    if runs_here and not quiet:
+        say(f"imucal: warning: --scheduler {scheduler} is for studies (--tables); this "
+            "recording runs here")
+
+
+def _is_study(recs, jobs, scheduler) -> bool:
+    """Several recordings, or one with ``--jobs`` or ``--scheduler`` given: a study's
+    JSON Lines. A glob that matched one file turned a study into one pretty-printed
+    document, which the study's jq line then read as nothing, exit 0 (a new-user
+    trial)."""
+    return len(recs) > 1 or jobs is not None or scheduler is not None
 
 
 def _estimate(job, recs, *, out, plot, jobs, scheduler, quiet) -> int:
     """Run ``job`` on one recording (print its document) or a study; the exit status."""
     _one_or_study(recs, scheduler, quiet)
-    if len(recs) > 1:
+    if _is_study(recs, jobs, scheduler):
         from .study import run_study
 
-        return run_study(job, recs, out=out, plot=plot, jobs=jobs, scheduler=scheduler,
+        return run_study(job, recs, out=out, plot=plot, jobs=jobs or 1, scheduler=scheduler,
                          quiet=quiet)
     from .runner import run
 

@@ -82,14 +82,27 @@ def test_a_bad_scheduler_address_is_refused_before_anything_runs(files, command,
                                    "it)\n")
 
 
-def test_one_recording_runs_here_and_says_so(files):
+def test_one_recording_with_a_scheduler_is_a_study(files):
+    # it ran here and printed one document: a study's glob that matched one file gave
+    # another format, which the study's jq line read as nothing (a new-user trial)
     folder, _ = files
     run = imucal("axis", "a.h5", "--scheduler", "tcp://127.0.0.1:1", "--restarts", "5",
                  "--seed", "1", cwd=folder)
-    assert run.returncode == 0 and run.stdout.startswith(b"{")
+    assert run.returncode == 2 and run.stdout == b""
+    assert "tcp://127.0.0.1:1: cannot reach the Dask scheduler" in run.stderr.decode()
+
+
+def test_angles_of_one_recording_without_tables_run_here_and_say_so(files, tmp_path):
+    folder, _ = files
+    cal = tmp_path / "cal.json"
+    assert imucal("calibrate", "a.h5", "--restarts", "5", "--seed", "1", "--joint",
+                  "knee=hinge:thigh,shank", "--out", cal, "--force", cwd=folder).returncode == 0
+    run = imucal("angles", "a.h5", "-c", cal, "--scheduler", "tcp://127.0.0.1:1", "--force",
+                 cwd=folder)
+    assert run.stdout.startswith(b"time,")
     assert run.stderr.decode().startswith(
-        "imucal: warning: --scheduler tcp://127.0.0.1:1 is for studies of several "
-        "recordings; this one runs here\n")
+        "imucal: warning: --scheduler tcp://127.0.0.1:1 is for studies (--tables); this "
+        "recording runs here\n")
 
 
 def test_a_port_that_is_no_scheduler_fails_instead_of_hanging(monkeypatch):

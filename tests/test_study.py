@@ -177,10 +177,19 @@ def test_a_folder_named_imucal_where_the_study_runs_changes_nothing(study, tmp_p
     assert [o["exit_code"] for o in lines(run.stdout)] == [0, 0]
 
 
-def test_single_rec_keeps_pretty_json(study):
-    run = imucal("axis", study["a"], *FAST, "--jobs", 2)
+def test_single_rec_keeps_pretty_json_and_with_jobs_is_a_study(study, tmp_path):
+    run = imucal("axis", study["a"], *FAST)
     assert run.returncode == 0
     assert run.stdout.startswith(b"{\n  ")
+    # --jobs says "a study": a glob that matched one file gave one pretty document, which
+    # the study's jq line read as nothing, exit 0 (a new-user trial)
+    for command in ("axis", "calibrate"):
+        out = tmp_path / f"{command}.jsonl"
+        run = imucal(command, study["a"], *FAST, "--jobs", 2, "--out", out, "--force")
+        assert run.returncode == 0 and run.stdout == b""
+        (line,) = lines(out.read_bytes())
+        assert line["file"] == str(study["a"]) and line["exit_code"] == 0
+        assert line["result"]["settings" if command == "axis" else "joints"]
 
 
 JOB = Job("axis", ("thigh", "shank"), AxisSettings(restarts=10, seed=1))
