@@ -1081,6 +1081,10 @@ def _offset_text(offset: dict | None) -> str:
     sigma, found = offset["sigma_s"], offset["estimated_s"]
     if sigma is None and found != 0 and not offset["applied"]:  # the search's end: a bound
         return f"at least {signed_ms(found, 1)} ms (the end of the search, {applied})"
+    if sigma is None and not offset["applied"]:
+        # a window too short for the search: nothing was estimated (it printed "+0.0 ms
+        # (1-sigma - ms, not applied)", a new-user trial)
+        return "not estimated (too few usable samples for the search)"
     return (f"{signed_ms(found, 1)} ms (1-sigma "
             f"{'-' if sigma is None else f'{1000 * sigma:.1f}'} ms, {applied})")
 

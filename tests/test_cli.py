@@ -547,6 +547,18 @@ def test_the_summary_says_what_the_check_of_a_given_offset_read():
         "contradicted)")
 
 
+def test_an_offset_a_short_window_could_not_estimate_is_not_read_as_zero():
+    # it printed "+0.0 ms (1-sigma - ms, not applied)" where nothing was estimated (a
+    # new-user trial)
+    sample = ROOT / "sample_data" / "circling.h5"
+    run = run_imucal("axis", sample, "--sensors", "thigh,shank", "--restarts", "5", "--seed",
+                     "1", "--start", "0", "--end", "0.3", "--force", text=True)
+    block = json.loads(run.stdout)["time_offset"]
+    assert block["sigma_s"] is None and block["estimated_s"] == 0.0
+    assert "clock offset of shank: not estimated (too few usable samples for the search)" in [
+        line.strip() for line in run.stderr.splitlines()]
+
+
 def test_a_given_offsets_check_at_the_search_end_reads_as_a_bound():
     # the summary printed "the data read +100.0 ms, 1-sigma 2.1 ms" where the warning said
     # "beyond the search's end" (an independent review)
