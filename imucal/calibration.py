@@ -846,8 +846,14 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
         a = np.asarray(v, dtype=float)
         if a.shape != (3,) or not np.all(np.isfinite(a)):
             raise ValueError(f"joint '{name}' {key} is not a finite 3-vector")
-        if key in ("j1", "j2") and not np.linalg.norm(a) > 0:
-            raise ValueError(f"joint '{name}' {key} is a zero vector, not an axis")
+        if key in ("j1", "j2"):
+            big = np.abs(a).max()
+            if not big > 0:
+                raise ValueError(f"joint '{name}' {key} is a zero vector, not an axis")
+            # a direction (1e300 overflowed the products with the rates); a unit vector as
+            # written is kept to the last bit
+            if not abs(np.linalg.norm(a / big) * big - 1.0) <= 1e-9:
+                a = (a / big) / np.linalg.norm(a / big)
         return a
 
     if e["joint"] not in KINDS:
@@ -857,20 +863,51 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
             and all(isinstance(n, str) for n in sensors)):
         raise ValueError(f"joint '{name}' sensors is {repr(sensors)[:80]}, not "
                          "the names of its two sensors")
+    if sensors[0] == sensors[1]:  # (read as "does not fit this recording", exit 1)
+        raise ValueError(f"joint '{name}' sensors names {sensors[0]!r} twice")
     for block in ("axis", "position", "angle"):
         if e.get(block) is not None and not isinstance(e[block], dict):
             raise ValueError(f"joint '{name}' {block} is not a JSON object")
+        _check_offset_block(name, block, (e.get(block) or {}).get("time_offset"))
     # (a hand-edited null verdict wrote angles, exit 0; a failed joint may keep the
     # vectors that came before it stopped, and is not used: JointCalibration.usable)
     if e["verdict"] not in _ORDER:
         raise ValueError(f"joint '{name}' verdict is {e['verdict']!r}, not one of "
                          f"{', '.join(_ORDER)}")
+    if (e["joint"] == "hinge" and e["verdict"] in ("good", "use with care")
+            and e.get("angle") is None):  # (read as "no usable hinge joint")
+        raise ValueError(f"joint '{name}' has no angle block, which calibrate writes for "
+                         "every hinge it identifies")
     return JointCalibration(name=name, kind=e["joint"], sensors=tuple(sensors),
                             verdict=str(e["verdict"]), j1=vec("j1"), j2=vec("j2"),
                             o1=vec("o1"), o2=vec("o2"), warnings=list(e.get("warnings", [])),
                             axis=e.get("axis"), position=e.get("position"),
                             angle=_angle_from_doc(name, e.get("angle"),
                                                   str(e["verdict"]) != NOT_IDENTIFIABLE))
+
+
+#: The numbers of a ``time_offset`` block that the angles read (a hand-edited "abc" was
+#: skipped as no number, and the angles' band lost the offset's part without a word).
+_OFFSET_NUMBERS = ("time_offset_s", "estimated_s", "sigma_s", "model_sigma_s",
+                   "sampling_sigma_s", "disagreement_s", "cost_ratio")
+
+
+def _check_offset_block(name: str, where: str, block) -> None:
+    """A ``time_offset`` block of a calibration file: a JSON object whose numbers are
+    finite numbers or null and whose flags are true, false or absent."""
+    if block is None:
+        return
+    if not isinstance(block, dict):
+        raise ValueError(f"joint '{name}' {where}.time_offset is not a JSON object")
+    for key in _OFFSET_NUMBERS:
+        value = block.get(key)
+        if value is not None and not _finite(value):
+            raise ValueError(f"joint '{name}' {where}.time_offset.{key} is {value!r:.40}, "
+                             "not a finite number")
+    for key in ("applied", "at_edge", "contradicted"):
+        if block.get(key) is not None and not isinstance(block[key], bool):
+            raise ValueError(f"joint '{name}' {where}.time_offset.{key} is "
+                             f"{block[key]!r:.40}, not true or false")
 
 
 #: No angle a calibration file stores lies beyond this, deg: the raw angle is the fused

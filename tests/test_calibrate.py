@@ -206,6 +206,9 @@ def test_load_calibration_errors(calibration, tmp_path):
     ("verdict", None, "knee' verdict is None, not one of good, use with care"),
     ("j1", [1, 2, "3"], "knee' j1 is \\[1, 2, '3'\\], not three numbers"),
     ("j1", [True, False, False], "knee' j1 is \\[True, False, False\\], not three numbers"),
+    # read as "does not fit this recording" (exit 1) and "no usable hinge joint" (a trial)
+    ("sensors", ["thigh", "thigh"], "knee' sensors names 'thigh' twice"),
+    ("angle", None, "knee' has no angle block"),
 ])
 def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, key, value,
                                                          match):
@@ -217,6 +220,34 @@ def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, 
     (tmp_path / "edited.json").write_text(json.dumps(doc))
     with pytest.raises(InputError, match="edited.json: damaged calibration file.*" + match):
         load_calibration(tmp_path / "edited.json")
+
+
+@pytest.mark.parametrize(("key", "value", "match"), [
+    ("sigma_s", "abc", "axis.time_offset.sigma_s is 'abc', not a finite number"),
+    ("time_offset_s", None, None),  # null where nothing was applied: read as 0
+    ("applied", "yes", "axis.time_offset.applied is 'yes', not true or false"),
+])
+def test_a_hand_edited_clock_offset_is_checked_on_loading(calibration, tmp_path, key, value,
+                                                          match):
+    # sigma_s "abc" was skipped as no number: the angles' band lost the offset's part
+    # without a word (a new-user trial)
+    doc = calibration[0].to_document()
+    doc["joints"]["knee"]["axis"]["time_offset"][key] = value
+    (tmp_path / "edited.json").write_text(json.dumps(doc))
+    if match is None:
+        load_calibration(tmp_path / "edited.json")
+        return
+    with pytest.raises(InputError, match="edited.json: damaged calibration file.*" + match):
+        load_calibration(tmp_path / "edited.json")
+
+
+def test_a_hand_edited_axis_of_any_length_is_a_direction(calibration, tmp_path):
+    # [1e300, 1e300, 0] overflowed the products with the rates (numpy's warning on stderr)
+    doc = calibration[0].to_document()
+    doc["joints"]["knee"]["j1"] = [1e300, 1e300, 0.0]
+    (tmp_path / "edited.json").write_text(json.dumps(doc))
+    j1 = load_calibration(tmp_path / "edited.json").joints["knee"].j1
+    np.testing.assert_allclose(j1, [2 ** -0.5, 2 ** -0.5, 0.0])
 
 
 def test_a_joint_that_cannot_be_identified_does_not_lose_the_others():
