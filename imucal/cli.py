@@ -459,7 +459,8 @@ def angles(
         help="What 0 deg means. Default: the calibration's zero (its trial's most extended "
         "still period, else its most extended posture), shared by every trial of the "
         "mounting; standing: this recording's most extended still period; a number: the "
-        "angle at that time (s on this recording's time axis).")] = None,
+        "angle at that time (s on this recording's time axis; its mean over +-0.1 s, so a "
+        "single sample there need not read 0).")] = None,
     flexion_sign: Annotated[str, typer.Option(
         "--flexion-sign", metavar="auto|+|-",
         help="auto: decided on the calibration trial (knees flex more than they "
