@@ -315,22 +315,32 @@ def _write_lines(consume: Callable, out: Path | None) -> None:
 
 
 class _Tally:
-    """The study's exit status (the highest of the recordings') and its failures."""
+    """The study's exit status (the highest of the recordings') and the recordings that
+    did not succeed: ``refused`` (exit 1: the data could not identify the answer, or a
+    calibration written with a joint marked) and ``failed`` (2 or 3: bad input, an
+    internal error). A calibration written with one knee not identifiable was counted as
+    "1 failed" (a new-user trial)."""
 
     def __init__(self):
         self.worst = 0
+        self.refused: list[str] = []
         self.failed: list[str] = []
 
     def add(self, result) -> None:
         if result.error is not None:
-            self.failed.append(result.file)
+            (self.refused if result.exit_code == 1 else self.failed).append(result.file)
         self.worst = max(self.worst, result.exit_code)
 
     def summary(self, who: str, n: int, elapsed: float, where: str,
                 out: Path | None) -> str:
         target = "" if out is None else f" -> {out}"
-        status = "all succeeded" if not self.failed else (
-            f"{len(self.failed)} failed ({_short(self.failed)}), exit status {self.worst}")
+        refused = {"imucal calibrate": "with a joint not usable",
+                   "imucal angles": "not measured (does not fit, or a knee not "
+                                    "identifiable)"}.get(who, "not identifiable")
+        parts = [f"{len(names)} {what} ({_short(names)})" for what, names in (
+            (refused, self.refused), ("failed", self.failed)) if names]
+        status = ("all succeeded" if not parts else
+                  f"{', '.join(parts)}, exit status {self.worst}")
         return (f"{who}: {n} recording{'s' if n != 1 else ''} in {elapsed:.1f} s {where}"
                 f"{target}: {status}")
 

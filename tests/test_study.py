@@ -127,6 +127,12 @@ def test_not_identifiable_is_exit_1_unless_force(study):
     assert ok["exit_code"] == 0
     assert still["exit_code"] == 1 and still["result"] is None
     assert "cannot identify" in still["error"] and "barely rotate" in still["error"]
+    # not "1 failed": the data could not tell, nothing broke (a new-user trial)
+    assert run.stderr.decode().splitlines()[-1].endswith(
+        f": 1 not identifiable ({study['still']}), exit status 1")
+    both = imucal("axis", study["still"], study["bad"], *FAST)
+    assert both.stderr.decode().splitlines()[-1].endswith(
+        f": 1 not identifiable ({study['still']}), 1 failed ({study['bad']}), exit status 2")
     forced = imucal("axis", study["a"], study["still"], *FAST, "--force")
     assert forced.returncode == 0
     still = lines(forced.stdout)[1]
