@@ -846,6 +846,10 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
         a = np.asarray(v, dtype=float)
         if a.shape != (3,) or not np.all(np.isfinite(a)):
             raise ValueError(f"joint '{name}' {key} is not a finite 3-vector")
+        if key in ("o1", "o2") and not np.abs(a).max() <= MAX_CENTRE_M:
+            # (1e308 overflowed to NaN angles that "fit", exit 3 after the table was written)
+            raise ValueError(f"joint '{name}' {key} lies {np.abs(a).max():.3g} m from its "
+                             f"sensor, not within {MAX_CENTRE_M:g} m")
         if key in ("j1", "j2"):
             big = np.abs(a).max()
             if not big > 0:
@@ -878,14 +882,22 @@ def _joint_from_doc(name: str, e: dict) -> JointCalibration:
             and e.get("angle") is None):  # (read as "no usable hinge joint")
         raise ValueError(f"joint '{name}' has no angle block, which calibrate writes for "
                          "every hinge it identifies")
+    vectors = {key: vec(key) for key in ("j1", "j2", "o1", "o2")}
+    for pair in (("j1", "j2"), ("o1", "o2")):  # (one of a pair missing: exit 3 in angles)
+        if (vectors[pair[0]] is None) != (vectors[pair[1]] is None):
+            given, missing = pair if vectors[pair[1]] is None else pair[::-1]
+            raise ValueError(f"joint '{name}' has {given} but no {missing}")
     return JointCalibration(name=name, kind=e["joint"], sensors=tuple(sensors),
-                            verdict=str(e["verdict"]), j1=vec("j1"), j2=vec("j2"),
-                            o1=vec("o1"), o2=vec("o2"), warnings=list(e.get("warnings", [])),
+                            verdict=str(e["verdict"]), **vectors,
+                            warnings=list(e.get("warnings", [])),
                             axis=e.get("axis"), position=e.get("position"),
                             angle=_angle_from_doc(name, e.get("angle"),
                                                   str(e["verdict"]) != NOT_IDENTIFIABLE))
 
 
+#: No joint centre a calibration file stores lies further from its sensor than this, m
+#: (estimates beyond 1 m are refused, and a refused one is still written).
+MAX_CENTRE_M = 1000.0
 #: The numbers of a ``time_offset`` block that the angles read (a hand-edited "abc" was
 #: skipped as no number, and the angles' band lost the offset's part without a word).
 _OFFSET_NUMBERS = ("time_offset_s", "estimated_s", "sigma_s", "model_sigma_s",
@@ -899,11 +911,17 @@ def _check_offset_block(name: str, where: str, block) -> None:
         return
     if not isinstance(block, dict):
         raise ValueError(f"joint '{name}' {where}.time_offset is not a JSON object")
+    from .settings import MAX_TIME_OFFSET_S
+
     for key in _OFFSET_NUMBERS:
         value = block.get(key)
         if value is not None and not _finite(value):
             raise ValueError(f"joint '{name}' {where}.time_offset.{key} is {value!r:.40}, "
                              "not a finite number")
+    for key in ("time_offset_s", "estimated_s"):  # (1e6 s read as "never in the plane")
+        if block.get(key) is not None and not abs(block[key]) <= MAX_TIME_OFFSET_S:
+            raise ValueError(f"joint '{name}' {where}.time_offset.{key} is {block[key]!r:.40}"
+                             f" s, beyond the +-{MAX_TIME_OFFSET_S:g} s a clock offset can be")
     for key in ("applied", "at_edge", "contradicted"):
         if block.get(key) is not None and not isinstance(block[key], bool):
             raise ValueError(f"joint '{name}' {where}.time_offset.{key} is "
@@ -931,9 +949,11 @@ def _angle_from_doc(name: str, angle: dict | None, identified: bool = True) -> d
     sign = angle["flexion_sign"]
     if isinstance(sign, bool) or sign not in (1, -1):
         raise bad("flexion_sign", "+1 or -1")
+    # the fit check's two references: null switched its test off ("limit -", "fits")
     for key, may_be_null in (("zero_deg", False), ("sign_evidence", False),
                              ("smoothing_s", False), ("zero_time_s", True),
-                             ("hinge_residual", True), ("acc_gyro_disagreement_deg", True)):
+                             ("hinge_residual", not identified),
+                             ("acc_gyro_disagreement_deg", not identified)):
         if not (_finite(angle[key]) or (may_be_null and angle[key] is None)):
             raise bad(key, "a finite number")
     from .fusion import SMOOTHING_RANGE_S, check_smoothing

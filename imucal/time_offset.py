@@ -918,13 +918,21 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
     Returns
     -------
     warnings : list of str
-        At most one: the profile falling to the search's end (:func:`offset_edge_reason`),
-        an offset that lowers the cost by ``MIN_COST_RATIO`` but is too uncertain to
-        apply, or a :meth:`Offset.suspicious` one; empty for an applied or refused
+        At most one: no search at all (:func:`not_searched`), the profile falling to the
+        search's end (:func:`offset_edge_reason`), an offset that lowers the cost by
+        ``MIN_COST_RATIO`` but is too uncertain to apply, or a :meth:`Offset.suspicious`
+        one; empty for an applied or refused
         offset, or where aligning lowers the cost not at all.
     """
     if refused_at_edge(found) or found.significant(rate):
         return []
+    if not_searched(found):
+        # (an --offset-search of half a 20 s recording left a shank 30 ms late unsearched:
+        # an axis 3.9 deg off at a 1-sigma of 1.0, good, and no word: a fuzz review)
+        return [f"the clock offset was not searched: too few samples lie more than the "
+                f"search's +-{1000 * found.search_s:.0f} ms from the window's ends; the "
+                "estimate assumes synchronised clocks. Give the offset with --time-offset "
+                "if they are not, or search a shorter range (--offset-search)"]
     if not found.cost_ratio > 1.0:
         # aligning gains nothing: no motion leaves a residual of 0 at every offset, and the
         # warning said "lowers it only by a factor 0.00" (a new-user review)
@@ -945,6 +953,18 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
                 "model error (soft tissue, not a hinge); not applied. Check the "
                 "synchronisation, or pass the offset with --time-offset"]
     return []
+
+
+def not_searched(found: Offset) -> bool:
+    """Whether :func:`estimate_offset` could not compare shifts (too few samples away from
+    the ends, or residuals not finite): its 0 s is no reading of the clocks.
+
+    Returns
+    -------
+    bool
+        True for the offset it returns then (0 s, 1-sigma infinite, not at the edge).
+    """
+    return not np.isfinite(found.sigma_s) and found.delta_s == 0.0 and not found.at_edge
 
 
 def refused_at_edge(found: Offset) -> bool:

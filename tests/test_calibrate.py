@@ -209,6 +209,12 @@ def test_load_calibration_errors(calibration, tmp_path):
     # read as "does not fit this recording" (exit 1) and "no usable hinge joint" (a trial)
     ("sensors", ["thigh", "thigh"], "knee' sensors names 'thigh' twice"),
     ("angle", None, "knee' has no angle block"),
+    # exit 3 in angles, the last after its table of NaN angles was written (a fuzz review)
+    ("j2", None, "knee' has j1 but no j2"),
+    ("o2", None, "knee' has o1 but no o2"),
+    ("o1", [1e308, 1e308, 0.0], "knee' o1 lies 1e\\+308 m from its sensor, not within 1000 m"),
+    # null switched the fit check's test off ("limit -", "fits")
+    ("hinge_residual", None, "angle.hinge_residual is None, not a finite number"),
 ])
 def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, key, value,
                                                          match):
@@ -216,7 +222,8 @@ def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, 
     # mirrored without a word, when the file was applied
     doc = calibration[0].to_document()
     knee = doc["joints"]["knee"]
-    (knee if key in ("j1", "axis", "sensors", "angle", "verdict") else knee["angle"])[key] = value
+    (knee if key in ("j1", "j2", "o1", "o2", "axis", "sensors", "angle", "verdict")
+     else knee["angle"])[key] = value
     (tmp_path / "edited.json").write_text(json.dumps(doc))
     with pytest.raises(InputError, match="edited.json: damaged calibration file.*" + match):
         load_calibration(tmp_path / "edited.json")
@@ -226,6 +233,8 @@ def test_a_hand_edited_calibration_is_refused_on_loading(calibration, tmp_path, 
     ("sigma_s", "abc", "axis.time_offset.sigma_s is 'abc', not a finite number"),
     ("time_offset_s", None, None),  # null where nothing was applied: read as 0
     ("applied", "yes", "axis.time_offset.applied is 'yes', not true or false"),
+    ("time_offset_s", float("nan"), "axis.time_offset.time_offset_s is nan, not a finite"),
+    ("time_offset_s", 1e6, "time_offset_s is 1000000.0 s, beyond the \\+-10 s"),
 ])
 def test_a_hand_edited_clock_offset_is_checked_on_loading(calibration, tmp_path, key, value,
                                                           match):
