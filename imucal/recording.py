@@ -336,8 +336,8 @@ class Recording:
         for (name, kind), runs in gaps.items():
             if sum(g.length for g in runs) == n:
                 raise InputError(
-                    f"{self.source}: sensor '{name}' {kind} has no finite sample (all NaN or "
-                    "Inf)"
+                    f"{self.source}: sensor '{name}' {kind} has no finite sample (all NaN, Inf "
+                    "or beyond any body-worn sensor's range)"
                 )
         lead = max((g.length for r in gaps.values() for g in r if g.start == 0), default=0)
         trail = max((g.length for r in gaps.values() for g in r if g.start + g.length == n),

@@ -259,7 +259,8 @@ def gap_warnings(gaps, raw, rate: float, n: int) -> list[str]:
                 continue
             count = sum(g.length for g in runs)
             if count == n:
-                notes.append(f"sensor '{name}' {kind} has no finite sample (all NaN or Inf): "
+                notes.append(f"sensor '{name}' {kind} has no finite sample (all NaN, Inf or "
+                             "beyond any body-worn sensor's range): "
                              "estimates that use it cannot run")
                 continue
             longest = max(runs, key=lambda g: g.length)

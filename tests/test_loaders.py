@@ -905,6 +905,12 @@ def test_sensor_with_no_finite_sample(tmp_path):
     data["shank"]["acc"][:] = np.nan
     expect_error(write_h5(tmp_path / "dead.h5", data), "sensor 'shank' acc has no finite sample",
                  use=True)
+    # finite readings of 1e30 are corrupt packets, read as missing: the message said "all
+    # NaN or Inf" of a file without either (a fuzz review)
+    data = sensor_pair()
+    data["thigh"]["gyr"] = data["thigh"]["gyr"] * 1e30 + 1e30
+    expect_error(write_h5(tmp_path / "huge.h5", data), "sensor 'thigh' gyr has no finite "
+                 "sample (all NaN, Inf or beyond any body-worn sensor's range)", use=True)
 
 
 def test_overflow_in_unit_conversion_is_non_finite_not_a_crash(tmp_path):
