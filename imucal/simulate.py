@@ -38,6 +38,7 @@ import numpy as np
 
 from .errors import InputError
 from .recording import Recording, make_recording
+from .sensor_checks import SENSOR_RANGE
 from .timing import check_plausible_rate
 
 MOTIONS = ("circling", "walking", "rigid-knee", "static", "gait", "protocol")
@@ -427,10 +428,12 @@ def _simulate_with_internals(*, seed, rate, duration, snr="auto", motion="circli
     """:func:`simulate` plus internals for tests: clean signals, knee angle, sensor poses."""
     seed, rate, duration, snr, motion = _check_args(seed, rate, duration, snr, motion,
                                                     gyr_noise, acc_noise)
-    gyr_noise = _check_level("gyr_noise", gyr_noise, "rad/s")
-    acc_noise = _check_level("acc_noise", acc_noise, "m/s^2")
-    soft_tissue_deg = _check_level("soft_tissue_deg", soft_tissue_deg, "deg") or 0.0
-    soft_tissue_mm = _check_level("soft_tissue_mm", soft_tissue_mm, "mm") or 0.0
+    gyr_noise = _check_level("gyr_noise", gyr_noise, "rad/s", SENSOR_RANGE["gyr"])
+    acc_noise = _check_level("acc_noise", acc_noise, "m/s^2", SENSOR_RANGE["acc"])
+    soft_tissue_deg = _check_level("soft_tissue_deg", soft_tissue_deg, "deg",
+                                   MAX_SOFT_TISSUE["deg"]) or 0.0
+    soft_tissue_mm = _check_level("soft_tissue_mm", soft_tissue_mm, "mm",
+                                  MAX_SOFT_TISSUE["mm"]) or 0.0
     clock = _check_clock_offset(clock_offset, duration)
     n = int(round(rate * duration))
     if n < 2:
@@ -552,6 +555,9 @@ def _check_args(seed, rate, duration, snr, motion, gyr_noise=None, acc_noise=Non
             raise InputError(f"simulate: snr '{snr}' is not a number") from None
         if math.isnan(snr) or snr <= 0:
             raise InputError(f"simulate: snr must be positive (or None for no noise), got {snr}")
+        if snr < MIN_SNR:  # (1e-300: noise beyond any sensor's range, a file none reads)
+            raise InputError(f"simulate: snr {snr:g} is below {MIN_SNR:g}: the noise would "
+                             f"be more than {1 / MIN_SNR:g} x the signal")
         if math.isinf(snr):
             snr = None
         elif physical:
@@ -566,13 +572,23 @@ def _check_seed(seed, label: str) -> int:
     return int(seed)
 
 
-def _check_level(label: str, value, unit: str) -> float | None:
-    """A non-negative finite amount in ``unit``, or None."""
+#: The lowest signal-to-noise ratio the simulator accepts.
+MIN_SNR = 0.01
+#: The most soft tissue the simulator moves a sensor on its segment (the amplitudes'
+#: scale): beyond, the "sensor" no longer follows its segment at all.
+MAX_SOFT_TISSUE = {"deg": 45.0, "mm": 100.0}
+
+
+def _check_level(label: str, value, unit: str, high: float = math.inf) -> float | None:
+    """A non-negative finite amount in ``unit``, at most ``high``, or None."""
     if value is None:
         return None
     x = _number(label, value)
     if not math.isfinite(x) or x < 0:
         raise InputError(f"simulate: {label} must be a non-negative number of {unit}, got {x:g}")
+    if x > high:  # (1e300 wrote a file that every estimator refused)
+        raise InputError(f"simulate: {label} {x:g} {unit} is beyond what a body-worn sensor "
+                         f"reads or soft tissue moves (at most {high:g} {unit})")
     return x
 
 
@@ -629,6 +645,11 @@ def _sensor_bias(label: str, value, rng: np.random.Generator, unit: str
             if vec.shape != (3,) or not np.all(np.isfinite(vec)):
                 raise InputError(f"simulate: {label} of {name} must be a magnitude or a "
                                  f"finite 3-vector ({unit}), got {_one_line(given)}")
+        limit = SENSOR_RANGE[label[:3]]
+        size = mag if np.ndim(given) == 0 else float(np.abs(vec).max())
+        if not size <= limit:  # (1e300 wrote a file that every estimator refused)
+            raise InputError(f"simulate: {label} of {name} {size:g} {unit} is beyond a "
+                             f"body-worn sensor's range ({limit:g} {unit})")
         if np.any(vec != 0.0):
             out[name] = vec
     return out

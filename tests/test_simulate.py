@@ -608,3 +608,19 @@ def test_the_shipped_sample_data_are_what_make_sample_data_makes():
                                            atol=1e-12 if kind == "gyr" else 1e-9)
         written = json.loads((sample / f"{name}.truth.json").read_text())
         assert set(written) == set(truth) and written["settings"] == truth["settings"]
+
+
+@pytest.mark.parametrize("kwargs, phrase", [
+    ({"gyr_bias": 1e300}, "gyr_bias of thigh 1e+300 rad/s is beyond a body-worn sensor's range"),
+    ({"acc_bias": [0.0, 5e3, 0.0]}, "acc_bias of thigh 5000 m/s^2 is beyond"),
+    ({"acc_noise": 1e300}, "acc_noise 1e+300 m/s^2 is beyond"),
+    ({"soft_tissue_mm": 1e9}, "soft_tissue_mm 1e+09 mm is beyond"),
+    ({"soft_tissue_deg": 1e6}, "soft_tissue_deg 1e+06 deg is beyond"),
+    ({"snr": 1e-300}, "snr 1e-300 is below 0.01"),
+])
+def test_settings_no_sensor_could_record_are_refused(kwargs, phrase):
+    # each wrote a file that every estimator then refused, or that meant nothing (a fuzz
+    # review)
+    with pytest.raises(InputError) as info:
+        simulate(seed=1, duration=2.0, **kwargs)
+    assert phrase in str(info.value)
