@@ -812,9 +812,11 @@ def load_calibration(path: str | Path) -> Calibration:
         raise InputError(f"{path}: not a calibration file (not readable as JSON: "
                          f"{_json_problem(err)}){_study_lines_hint(data)}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        hint = (f" (an imucal '{doc['command']}' result; make one with imucal calibrate)"
-                if isinstance(doc, dict) and isinstance(doc.get("command"), str) else
-                _study_lines_hint(data))
+        command = doc.get("command") if isinstance(doc, dict) else None
+        hint = (" (an imucal 'calibrate' result whose \"format\" was changed: restore it or "
+                "calibrate again)" if command == "calibrate" else
+                f" (an imucal '{command}' result; make one with imucal calibrate)"
+                if isinstance(command, str) else _study_lines_hint(data))
         raise InputError(f"{path}: not a calibration file (no \"format\": \"{FORMAT}\"){hint}")
     version = doc.get("format_version")
     if version != FORMAT_VERSION:

@@ -160,6 +160,11 @@ def test_load_calibration_errors(calibration, tmp_path):
     with pytest.raises(InputError, match="an imucal 'axis' result"):
         load_calibration(tmp_path / "axis.json")
     doc = calibration[0].to_document()
+    # a calibrate result was told to "make one with imucal calibrate" (a fuzz review)
+    (tmp_path / "fmt.json").write_text(json.dumps({**doc, "format": "x"}))
+    with pytest.raises(InputError, match="an imucal 'calibrate' result whose \"format\" was "
+                                         "changed: restore it or calibrate again"):
+        load_calibration(tmp_path / "fmt.json")
     (tmp_path / "v9.json").write_text(json.dumps({**doc, "format_version": 9}))
     with pytest.raises(InputError, match="format version 9.*calibrate again"):
         load_calibration(tmp_path / "v9.json")
