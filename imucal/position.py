@@ -129,6 +129,18 @@ MIN_SINGULAR_RATIO = 0.04
 MAX_UNCERTAINTY_MM = 10.0
 #: A sensor strapped to a thigh, shank or foot is never this far from the joint, m.
 MAX_PLAUSIBLE_OFFSET_M = 1.0
+#: The rates' derivative (``Gamma``'s dw/dt, per second: the sample rate's) is tried
+#: scaled by these factors, the estimate refitted at each (:func:`_rate_doubt`).
+RATE_SCALES = (0.1, 0.25, 0.5, 2.0, 4.0, 10.0)
+#: A scale that lowers eq. (3)'s mean squared residual this many times says the sample
+#: rate is wrong. Simulated ankles (circling, gait, protocol; 40-200 Hz; soft tissue up to
+#: 2 deg / 3 mm) at their true rate: the best scale is 1 (gain 1.00); the shared real
+#: recording's ankles and knees in 10 windows: at most 1.09. A rate 2 x off gained
+#: 3-1300 x; 10 x too high 1.4-8.8 x (the low-pass, set in Hz, is off too). At a rate
+#: 10 x too high, a circling ankle was `good` at a 1-sigma of 6 mm, 78-80 mm off (a fuzz
+#: review): a file's rate attribute or ``--rate`` is the only clock a file without time
+#: stamps has.
+RATE_DOUBT_GAIN = 2.0
 #: The joint centre's model term is this many times the move of the refit on eq. (3)'s
 #: squared-norm weighting (:func:`_refits`). Set on imucal's simulator (ankles, 20 s at
 #: 100 Hz, soft tissue 0.5 deg / 1 mm to 2 deg / 3 mm, circling and protocol seeds 1-70,
@@ -637,7 +649,32 @@ def _blocking(p: Prepared, x: np.ndarray, q: dict, weak: int) -> list[str]:
     if far > MAX_PLAUSIBLE_OFFSET_M:
         return [f"the estimate puts the joint {far:.2f} m from a sensor, implausible on a "
                 "limb: the data do not determine the joint position"]
-    return []
+    return _rate_doubt(p, x)
+
+
+def _rate_doubt(p: Prepared, x: np.ndarray) -> list[str]:
+    """The reason, if any, to believe the sample rate is wrong: eq. (3) refitted from ``x``
+    with the rates' derivative scaled by each of :data:`RATE_SCALES` (a rate ``s`` times
+    the one given would scale it so) fits :data:`RATE_DOUBT_GAIN` times better than as
+    given. Eq. (1) does not see the rate; eq. (3) does, through dw/dt."""
+    g1, d1, a1, g2, d2, a2 = p.data
+    scales = np.array((1.0, *RATE_SCALES))
+    n = scales.size
+
+    def each(arr, scaled=False):  # (D, M, 3): one per scale
+        return (scales[:, None, None] * arr if scaled else np.broadcast_to(arr, (n, *arr.shape)))
+
+    e, _ = _refit_offsets([each(g1), each(d1, True), each(a1)],
+                          [each(g2), each(d2, True), each(a2)], x)
+    given, *costs = np.mean(np.square(e), axis=1)
+    k = int(np.argmin(costs))
+    if not (np.isfinite(given) and costs[k] > 0 and given >= RATE_DOUBT_GAIN * costs[k]):
+        return []
+    scale = RATE_SCALES[k]
+    return [f"the joint-centre constraint fits {given / costs[k]:.1f} x better with the "
+            f"angular accelerations scaled by {scale:g}, as at {scale * p.rate:g} Hz: the "
+            f"sample rate of {p.rate:g} Hz looks wrong (a file's rate attribute, or --rate); "
+            "give the right one"]
 
 
 def _result(p: Prepared, s: PositionSettings, fit: Multistart, q: dict, axis_result, line,
@@ -934,27 +971,30 @@ def offset_profile(signals, rate, search):
 def _refit_offsets(own, other, x) -> tuple[np.ndarray, np.ndarray]:
     """(D, M) residuals of eq. (3) and the (D, 6) positions after ``OFFSET_STEPS`` plain
     Gauss-Newton steps from ``x`` (6,), for each of D offset candidates at once: ``own``
-    the first sensor's (g, dg/dt, a), each (M, 3), ``other`` the second's, each (D, M, 3)
-    (the profile cost of each, without the solver's restart machinery).
+    the first sensor's (g, dg/dt, a), each (M, 3) (or (D, M, 3), one per candidate:
+    :func:`_rate_doubt`), ``other`` the second's, each (D, M, 3) (the profile cost of
+    each, without the solver's restart machinery).
 
     Each step is the minimum-norm least-squares step, as ``numpy.linalg.lstsq`` takes it:
     along a hinge's axis the data do not fix the position (a singular value below
     ``eps max(M, 6)`` times the largest counts as zero).
     """
-    # component-major (k, i, M) layouts: every operation below runs over samples
-    gam1 = np.ascontiguousarray(np.moveaxis(gamma_rows(*own[:2]), -3, -1))  # (3, 3, M)
+    # component-major (k, i, M) layouts: every operation below runs over samples; the
+    # first sensor's are shared by every candidate, or one per candidate (D, M, 3)
+    own = [arr if arr.ndim == 3 else arr[None] for arr in own]
+    gam1 = np.ascontiguousarray(np.moveaxis(gamma_rows(*own[:2]), -3, -1))  # (1|D, 3, 3, M)
     gam2 = np.ascontiguousarray(np.moveaxis(gamma_rows(*other[:2]), -3, -1))  # (D, 3, 3, M)
-    a1, a2 = own[2].T, np.swapaxes(other[2], 1, 2)  # (3, M), (D, 3, M)
+    a1, a2 = np.swapaxes(own[2], 1, 2), np.swapaxes(other[2], 1, 2)  # (1|D, 3, M), (D, 3, M)
     y = np.repeat(x[None, :], a2.shape[0], axis=0)
 
     def linearise(y):
-        r1 = a1 - sum(gam1[None, :, i] * y[:, i, None, None] for i in range(3))
+        r1 = a1 - sum(gam1[:, :, i] * y[:, i, None, None] for i in range(3))
         r2 = a2 - sum(gam2[:, :, i] * y[:, 3 + i, None, None] for i in range(3))
         n1, n2 = (np.sqrt(np.sum(r * r, axis=1)) for r in (r1, r2))
         # d|a - Gamma o| / do = -Gamma^T (a - Gamma o) / |a - Gamma o| (eq. 4); e = |r1| -
         # |r2|, so the second sensor's enters negated
         jac = np.concatenate([
-            -sum(gam1[None, k] * r1[:, k, None] for k in range(3)) / np.maximum(n1, 1e-12)[:, None],
+            -sum(gam1[:, k] * r1[:, k, None] for k in range(3)) / np.maximum(n1, 1e-12)[:, None],
             sum(gam2[:, k] * r2[:, k, None] for k in range(3)) / np.maximum(n2, 1e-12)[:, None],
         ], axis=1)
         return n1 - n2, np.swapaxes(jac, 1, 2)

@@ -155,3 +155,20 @@ def test_an_accelerometer_off_at_rest_is_named():
     assert _acc_at_rest_warnings(((still, off), (still, off)), 100.0, 0.1) == []
     moving = np.tile([1.0, 0.0, 0.0], (500, 1))  # never at rest: nothing to compare
     assert _acc_at_rest_warnings(((moving, off), (moving, off)), 100.0, 0.05) == []
+
+
+@pytest.mark.parametrize("factor", [0.5, 2.0])
+def test_a_wrong_sample_rate_is_a_refusal_not_a_confident_centre(factor):
+    # eq. (3) reads the rate through dw/dt; a file without time stamps has no other clock
+    # than its rate attribute or --rate (at 10 x the rate a circling ankle was `good`,
+    # 78-80 mm off at a 1-sigma of 6 mm: a fuzz review)
+    rec, _ = simulated(2, motion="circling", duration=20.0)
+    shank, foot = rec.sensor("shank"), rec.sensor("foot")
+    right = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, rate=rec.rate, seed=1,
+                              restarts=20)
+    assert not any("looks wrong" in b for b in right.blocking)
+    wrong = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, seed=1, restarts=20,
+                              rate=rec.rate * factor)
+    assert wrong.verdict == "not identifiable"
+    reason = next(b for b in wrong.blocking if "looks wrong" in b)
+    assert f"as at {rec.rate:g} Hz: the sample rate of {rec.rate * factor:g} Hz looks wrong" in reason
