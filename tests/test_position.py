@@ -171,4 +171,5 @@ def test_a_wrong_sample_rate_is_a_refusal_not_a_confident_centre(factor):
                               rate=rec.rate * factor)
     assert wrong.verdict == "not identifiable"
     reason = next(b for b in wrong.blocking if "looks wrong" in b)
-    assert f"as at {rec.rate:g} Hz: the sample rate of {rec.rate * factor:g} Hz looks wrong" in reason
+    assert (f"as at {rec.rate:g} Hz: the sample rate of {rec.rate * factor:g} Hz looks "
+            "wrong") in reason
