@@ -860,3 +860,87 @@ def test_a_misfit_after_a_contradicted_sign_pin_names_the_pin_first():
     assert ("the calibration's pinned j2 sign, which its own data contradicted, is the "
             "likelier cause (calibrate again without --j2-sign); else sensors re-strapped"
             in knee.check["message"])
+
+
+# ----------------------------------------------------------------------------- the band's
+# soft-tissue part: the relative rotation across the axis (imucal.fusion.across_axis_wobble)
+
+
+def test_across_axis_wobble_is_zero_for_a_rigid_hinge_and_the_wobble_otherwise():
+    from imucal.fusion import across_axis_wobble
+
+    rate, n = 100.0, 6000
+    t = np.arange(n) / rate
+    theta = np.radians(30.0) * (1 - np.cos(2 * np.pi * t))  # flexing at 1 Hz
+    g = np.stack([np.cos(3 * t), np.sin(2 * t)], axis=1)  # the thigh's rates across
+    # a rigid hinge: the shank's rates across are the thigh's turned back by theta
+    c, s = np.cos(theta), np.sin(theta)
+    g2 = np.stack([c * g[:, 0] + s * g[:, 1], -s * g[:, 0] + c * g[:, 1]], axis=1)
+    assert np.max(across_axis_wobble(g, g2, theta, rate, 300.0)) < 1e-4
+    # plus a wobble of 1 deg amplitude at 1.5 Hz along either direction across:
+    # RMS 1/sqrt(2) deg in one component, none in the other -> 0.5 deg per component
+    amp = np.radians(1.0)
+    for k in range(2):
+        extra = np.zeros((n, 2))
+        extra[:, k] = amp * 2 * np.pi * 1.5 * np.cos(2 * np.pi * 1.5 * t)
+        turned = np.stack([c * extra[:, 0] + s * extra[:, 1],
+                           -s * extra[:, 0] + c * extra[:, 1]], axis=1)
+        band = np.degrees(across_axis_wobble(g, g2 + turned, theta, rate, 300.0))
+        assert np.allclose(np.median(band), 0.5, atol=0.02)
+
+
+def test_hinge_signals_without_the_rates_across_keep_the_discrepancy_band():
+    # HingeSignals built by hand (the two new fields left out) still fuse: the band's
+    # soft-tissue part falls back to the integral of |g1 x j1| - |g2 x j2|
+    from dataclasses import replace
+
+    from imucal.fusion import fuse, hinge_signals
+
+    walk, truth = simulate(seed=5, mounting_seed=MOUNTING, motion="gait", duration=20.0,
+                           soft_tissue_deg=1.0, soft_tissue_mm=2.0, **NOISE)
+    k = truth["knee"]
+    t, s = walk.sensor("thigh"), walk.sensor("shank")
+    sig = hinge_signals(t.gyr, t.acc, s.gyr, s.acc, rate=walk.rate, j1=k["j1"], j2=k["j2"],
+                        o1=k["o1"], o2=k["o2"])
+    new, old = fuse(sig, walk.rate), fuse(replace(sig, across1=None, across2=None), walk.rate)
+    assert np.array_equal(new.theta, old.theta)
+    assert np.all(np.isfinite(old.sigma)) and not np.allclose(new.sigma, old.sigma)
+
+
+@pytest.mark.parametrize("mounting", [12, 14])
+def test_the_band_covers_soft_tissue_about_the_axis(mounting):
+    # An honesty sweep (30 s protocol calibration with the clocks given in sync, 60 s
+    # gait, soft tissue 1 deg / 2 mm): these mountings' walks read 0.54 deg RMS off at a
+    # median 1-sigma of 0.22-0.35 deg, 73-91 % of the samples within 3 sigma, "fits":
+    # the band's soft-tissue part saw one direction across the axis at most. Now the
+    # relative rotation across the axis: 100 %.
+    from imucal.angles import joint_angles
+    from imucal.calibration import calibrate
+
+    tissue = {"soft_tissue_deg": 1.0, "soft_tissue_mm": 2.0, **NOISE}
+    cal, _ = simulate(seed=10 * mounting, mounting_seed=mounting, motion="protocol",
+                      duration=30.0, **tissue)
+    walk, truth = simulate(seed=10 * mounting + 1, mounting_seed=mounting, motion="gait",
+                           duration=60.0, **tissue)
+    knee = joint_angles(walk, calibrate(cal, seed=1, time_offset=0.0,
+                                        joints=["knee=hinge:thigh,shank"])).joints["knee"]
+    err = knee.flexion_deg - np.asarray(truth["knee_flexion_deg"])
+    err -= np.median(err)
+    assert np.mean(np.abs(err) < 3 * knee.sigma_deg) > 0.95
+    assert np.median(knee.sigma_deg) < 1.5 * np.sqrt(np.mean(err**2))  # not a blanket
+
+
+def test_the_soft_tissue_part_leaves_rigid_bands_as_they_were():
+    # rigid sensors: the relative rotation across the axis is the gyros' noise, as the
+    # rotation about it is (median 1-sigma 0.07 deg for 0.07 deg RMS, 10 mountings)
+    from imucal.angles import joint_angles
+    from imucal.calibration import calibrate
+
+    cal, _ = simulate(seed=30, mounting_seed=3, motion="protocol", duration=30.0, **NOISE)
+    walk, truth = simulate(seed=31, mounting_seed=3, motion="gait", duration=60.0, **NOISE)
+    knee = joint_angles(walk, calibrate(cal, seed=1, time_offset=0.0,
+                                        joints=["knee=hinge:thigh,shank"])).joints["knee"]
+    err = knee.flexion_deg - np.asarray(truth["knee_flexion_deg"])
+    err -= np.median(err)
+    assert np.median(knee.sigma_deg) < 0.12
+    assert np.mean(np.abs(err) < 3 * knee.sigma_deg) > 0.99
