@@ -1085,7 +1085,7 @@ def _offset_text(offset: dict | None) -> str:
     if sigma is None and not offset["applied"]:
         # a window too short for the search: nothing was estimated (it printed "+0.0 ms
         # (1-sigma - ms, not applied)", a new-user trial)
-        return "not estimated (too few usable samples for the search)"
+        return "not estimated (too few usable samples for the search)"  # (or none finite)
     return (f"{signed_ms(found, 1)} ms (1-sigma "
             f"{'-' if sigma is None else f'{1000 * sigma:.1f}'} ms, {applied})")
 

@@ -45,7 +45,14 @@ if TYPE_CHECKING:  # pandas is imported where CSV is parsed: it costs ~0.2 s of 
 
 from .errors import InputError
 from .errors import one_line as _one_line
-from .formats import HDF5_SIGNATURE, HDF5_SUFFIXES, cut_in_number, decode_text, ends_line
+from .formats import (
+    CUT_RULE_ROWS,
+    HDF5_SIGNATURE,
+    HDF5_SUFFIXES,
+    cut_in_number,
+    decode_text,
+    ends_line,
+)
 from .recording import Recording, make_recording
 from .sensor_checks import check_units
 from .timing import check_rate
@@ -646,7 +653,7 @@ def _check_short_rows(text: str, n_header: int, source: str) -> None:
 def _check_cut_number(text: str, source: str) -> None:
     """Refuse a file whose text stops inside its last number (:func:`cut_in_number`), as
     a row cut short is refused: the number would be read shorter than it was written."""
-    cut = cut_in_number(text.rsplit("\n", 22)[1:], ",")  # header excluded
+    cut = cut_in_number(text.rsplit("\n", CUT_RULE_ROWS + 1)[1:], ",")  # header excluded
     if cut:
         raise InputError(f"{source}: row {text.count(chr(10)) + 1} {cut}: the file ends in the "
                          "middle of its last row (cut short while written or copied?); "

@@ -930,9 +930,10 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
         # (an --offset-search of half a 20 s recording left a shank 30 ms late unsearched:
         # an axis 3.9 deg off at a 1-sigma of 1.0, good, and no word: a fuzz review)
         return [f"the clock offset was not searched: too few samples lie more than the "
-                f"search's +-{1000 * found.search_s:.0f} ms from the window's ends; the "
-                "estimate assumes synchronised clocks. Give the offset with --time-offset "
-                "if they are not, or search a shorter range (--offset-search)"]
+                f"search's +-{1000 * found.search_s:.0f} ms from the window's ends (or their "
+                "residuals were not finite); the estimate assumes synchronised clocks. Give "
+                "the offset with --time-offset if they are not, or search a shorter range "
+                "(--offset-search)"]
     if not found.cost_ratio > 1.0:
         # aligning gains nothing: no motion leaves a residual of 0 at every offset, and the
         # warning said "lowers it only by a factor 0.00" (a new-user review)

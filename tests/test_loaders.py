@@ -557,13 +557,15 @@ def test_csv_cut_inside_its_last_number_is_refused(tmp_path):
     # all seven fields there, the last one shorter than the rows above write it: read as
     # 5.1 where 5.123456 was written, without a word
     rows = "".join(",".join(f"{v:.6f}" for v in [i / RATE, 1, 2, 3, 4, 5, 6 + i / 7]) + "\n"
-                   for i in range(6))
+                   for i in range(30))
     path = tmp_path / "cut.csv"
     path.write_text(HEADER + rows[:-6])
-    what = "row 7 ends in '6.7' where the rows above write 6 characters after the point"
+    what = "row 31 ends in '10.1' where the rows above write 6 characters after the point"
     assert expect_error(path, what) == f"{path}: {what}: {CUT}"
     path.write_text(HEADER + rows.rstrip("\n"))  # whole, only its line break missing
-    assert load_recording(path).n_samples == 6
+    assert load_recording(path).n_samples == 30
+    path.write_text(HEADER + rows + "0.3,1,2,3,4,5,NaN")  # a NaN sample, not a cut number
+    assert load_recording(path).n_samples == 31
 
 
 @pytest.mark.parametrize("end", ["\n", ""])

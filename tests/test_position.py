@@ -158,18 +158,23 @@ def test_an_accelerometer_off_at_rest_is_named():
 
 
 @pytest.mark.parametrize("factor", [0.5, 2.0])
-def test_a_wrong_sample_rate_is_a_refusal_not_a_confident_centre(factor):
+def test_a_wrong_sample_rate_is_asked_about_not_a_confident_centre(factor):
     # eq. (3) reads the rate through dw/dt; a file without time stamps has no other clock
-    # than its rate attribute or --rate (at 10 x the rate a circling ankle was `good`,
-    # 78-80 mm off at a 1-sigma of 6 mm: a fuzz review)
+    # than its rate attribute or --rate (at a rate 2 x off a circling ankle was `good` tens
+    # of mm off: a fuzz review)
     rec, _ = simulated(2, motion="circling", duration=20.0)
     shank, foot = rec.sensor("shank"), rec.sensor("foot")
     right = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, rate=rec.rate, seed=1,
                               restarts=20)
-    assert not any("looks wrong" in b for b in right.blocking)
+    assert not any("is the sample rate" in w for w in right.warnings)
     wrong = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, seed=1, restarts=20,
                               rate=rec.rate * factor)
-    assert wrong.verdict == "not identifiable"
-    reason = next(b for b in wrong.blocking if "looks wrong" in b)
-    assert (f"as at {rec.rate:g} Hz: the sample rate of {rec.rate * factor:g} Hz looks "
-            "wrong") in reason
+    assert wrong.verdict != "good"
+    doubt = next(w for w in wrong.warnings if "is the sample rate" in w)
+    assert (f"is the sample rate of {rec.rate * factor:g} Hz right? The data fit as if "
+            f"recorded at {rec.rate:g} Hz") in doubt
+    # without a low-pass dw/dt is noisy and fits better scaled down at any rate: not asked
+    # (1000 Hz with --cutoff 0 was refused as a wrong rate, a review)
+    raw = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, seed=1, restarts=20,
+                            rate=rec.rate * factor, cutoff=0)
+    assert not any("is the sample rate" in w for w in raw.warnings)
