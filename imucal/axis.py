@@ -700,7 +700,9 @@ def offset_profile(g1, g2, rate, search, biases: bool = False):
         d1, read2 = both[index, :3], delayed(both[:, 3:], rate)
         x = np.concatenate([first.j1, first.j2])
         start = b if biases else None
-        return lambda deltas: _refit_residuals(d1, read2(index, deltas), x, start)
+        # (every: a coarser look, one sample in so many, :func:`estimate_offset`)
+        return lambda deltas, every=1: _refit_residuals(d1[::every],
+                                                        read2(index[::every], deltas), x, start)
     return profile
 
 

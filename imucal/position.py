@@ -973,7 +973,9 @@ def offset_profile(signals, rate, search):
         own = [arr[index] for arr in first_f]
         read = delayed(np.concatenate(second_f, axis=1), rate)
         x = np.concatenate([first.o1, first.o2])
-        return lambda deltas: _refit_offsets(own, np.split(read(index, deltas), 3, axis=2), x)
+        # (every: a coarser look, one sample in so many, :func:`estimate_offset`)
+        return lambda deltas, every=1: _refit_offsets(
+            [arr[::every] for arr in own], np.split(read(index[::every], deltas), 3, axis=2), x)
     return profile
 
 
