@@ -399,7 +399,7 @@ def calibrate(
         job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)
-        _one_or_study(rec, scheduler, quiet)
+        _check_scheduler(scheduler, quiet)
         if _is_study(rec, jobs, scheduler):
             from .study import run_study
 
@@ -514,7 +514,7 @@ def angles(
         if tables is not None or len(rec) > 1:
             raise typer.Exit(_angles_study(ctx, job, rec, out=out, plot=plot, jobs=jobs,
                                            scheduler=scheduler, quiet=quiet))
-        _one_or_study(rec, scheduler, quiet, runs_here=True)
+        _check_scheduler(scheduler, quiet, runs_here=True)
         from .formats import HDF5_SUFFIXES
 
         if out is not None and out.suffix.lower() not in {".csv", *HDF5_SUFFIXES}:
@@ -583,7 +583,7 @@ def _angles_study(ctx: typer.Context, job, recs, *, out, plot, jobs, scheduler,
         raise typer.BadParameter("each table is named after its recording's file, and - "
                                  "(standard input) has none: write its table with --out",
                                  ctx=ctx, param_hint="'--tables'")
-    _one_or_study(recs, scheduler, quiet)
+    _check_scheduler(scheduler, quiet)
     if len(recs) == 1:
         scheduler = None  # (said so: one recording runs here)
     return run_study(job, recs, out=out, plot=plot, jobs=jobs, scheduler=scheduler,
@@ -897,7 +897,7 @@ def _usage_error(ctx: typer.Context, text: str) -> typer.BadParameter:
     return typer.BadParameter(text, ctx=ctx)
 
 
-def _one_or_study(recs, scheduler, quiet, runs_here: bool = False) -> None:
+def _check_scheduler(scheduler, quiet, runs_here: bool = False) -> None:
     """``--scheduler``'s form checked whatever the number of recordings (a bad address
     passed silently with one); where the recording runs here all the same (``angles``
     without ``--tables``), say so."""
@@ -921,7 +921,7 @@ def _is_study(recs, jobs, scheduler) -> bool:
 
 def _estimate(job, recs, *, out, plot, jobs, scheduler, quiet) -> int:
     """Run ``job`` on one recording (print its document) or a study; the exit status."""
-    _one_or_study(recs, scheduler, quiet)
+    _check_scheduler(scheduler, quiet)
     if _is_study(recs, jobs, scheduler):
         from .study import run_study
 

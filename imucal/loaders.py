@@ -655,9 +655,10 @@ def _check_cut_number(text: str, source: str) -> None:
     a row cut short is refused: the number would be read shorter than it was written."""
     cut = cut_in_number(text.rsplit("\n", CUT_RULE_ROWS + 1)[1:], ",")  # header excluded
     if cut:
-        raise InputError(f"{source}: row {text.count(chr(10)) + 1} {cut}: the file ends in the "
-                         "middle of its last row (cut short while written or copied?); "
-                         "delete that row or get the whole file")
+        row = text.count("\n") + 1
+        raise InputError(f"{source}: row {row} {cut}: the file ends in the middle of its last "
+                         "row (cut short while written or copied?); delete that row or get the "
+                         "whole file")
 
 
 def _parser_detail(err: Exception) -> str:

@@ -645,7 +645,7 @@ def _sensor_bias(label: str, value, rng: np.random.Generator, unit: str
             if vec.shape != (3,) or not np.all(np.isfinite(vec)):
                 raise InputError(f"simulate: {label} of {name} must be a magnitude or a "
                                  f"finite 3-vector ({unit}), got {_one_line(given)}")
-        limit = SENSOR_RANGE[label[:3]]
+        limit = SENSOR_RANGE[label.removesuffix("_bias")]
         size = mag if np.ndim(given) == 0 else float(np.abs(vec).max())
         if not size <= limit:  # (1e300 wrote a file that every estimator refused)
             raise InputError(f"simulate: {label} of {name} {size:g} {unit} is beyond a "

@@ -167,7 +167,7 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
     client, jobs, where = _workers(job, files, scheduler, jobs, quiet)
     progress = _Progress(len(files), f"imucal {job.command}",
                          enabled=not quiet and _is_terminal(sys.stderr))
-    tally = _Tally()
+    tally = _Tally(job.command)
     started = time.perf_counter()
 
     def consume(write_line: Callable[[str], None]) -> None:
@@ -321,7 +321,12 @@ class _Tally:
     internal error). A calibration written with one knee not identifiable was counted as
     "1 failed" (a new-user trial)."""
 
-    def __init__(self):
+    #: How a command's exit 1 reads in the summary.
+    REFUSED = {"calibrate": "with a joint not usable",
+               "angles": "not measured (does not fit, or a knee not identifiable)"}
+
+    def __init__(self, command: str):
+        self.refused_words = self.REFUSED.get(command, "not identifiable")
         self.worst = 0
         self.refused: list[str] = []
         self.failed: list[str] = []
@@ -334,11 +339,8 @@ class _Tally:
     def summary(self, who: str, n: int, elapsed: float, where: str,
                 out: Path | None) -> str:
         target = "" if out is None else f" -> {out}"
-        refused = {"imucal calibrate": "with a joint not usable",
-                   "imucal angles": "not measured (does not fit, or a knee not "
-                                    "identifiable)"}.get(who, "not identifiable")
         parts = [f"{len(names)} {what} ({_short(names)})" for what, names in (
-            (refused, self.refused), ("failed", self.failed)) if names]
+            (self.refused_words, self.refused), ("failed", self.failed)) if names]
         status = ("all succeeded" if not parts else
                   f"{', '.join(parts)}, exit status {self.worst}")
         return (f"{who}: {n} recording{'s' if n != 1 else ''} in {elapsed:.1f} s {where}"

@@ -241,7 +241,7 @@ def shifted(x: np.ndarray, rate: float, delta: float) -> np.ndarray:
     return spline(np.clip(t + delta, 0.0, t[-1]))
 
 
-def estimate_offset(refit: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+def estimate_offset(refit: Callable[..., tuple[np.ndarray, np.ndarray]],
                     rate: float, search: float = OFFSET_SEARCH_S) -> Offset:
     """Minimise the profile cost: for candidate offsets over +-``search`` s,
     ``refit(deltas, every=1)`` (D,) refits the estimate with the second sensor read at
@@ -350,11 +350,11 @@ def _coarse_basins(rough: np.ndarray, coarse: np.ndarray, thin: int) -> list[int
     picks = [int(coarse[order[0]])]
     if thin == 1:
         return picks
-    interior = (np.r_[True, rough[1:] <= rough[:-1]] & np.r_[rough[:-1] <= rough[1:], True])
+    local_min = np.r_[True, rough[1:] <= rough[:-1]] & np.r_[rough[:-1] <= rough[1:], True]
     for i in order[1:]:
         if rough[i] > rough[order[0]] * (1 + COARSE_TIE):
             break
-        if interior[i] and abs(int(coarse[i]) - picks[0]) > 1:
+        if local_min[i] and abs(int(coarse[i]) - picks[0]) > 1:
             picks.append(int(coarse[i]))
             break
     return picks
@@ -956,8 +956,8 @@ def offset_warnings(found: Offset, rate: float) -> list[str]:
         At most one: no search at all (:func:`not_searched`), the profile falling to the
         search's end (:func:`offset_edge_reason`), an offset that lowers the cost by
         ``MIN_COST_RATIO`` but is too uncertain to apply, or a :meth:`Offset.suspicious`
-        one; empty for an applied or refused
-        offset, or where aligning lowers the cost not at all.
+        one; empty for an applied or refused offset, or where aligning lowers the cost
+        not at all.
     """
     if refused_at_edge(found) or found.significant(rate):
         return []

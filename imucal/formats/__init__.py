@@ -370,6 +370,12 @@ def ends_line(text: str) -> bool:
     return text.rstrip("\x00").endswith(("\n", "\r"))
 
 
+#: :func:`cut_in_number` compares the last number with this many rows above it, and judges
+#: only files with at least ``CUT_RULE_MIN_ROWS`` rows above it.
+CUT_RULE_ROWS = 200
+CUT_RULE_MIN_ROWS = 20
+
+
 def cut_in_number(lines: list[str], sep: str) -> str | None:
     """Why the last of ``lines`` looks cut off inside its last number, or None.
 
@@ -402,12 +408,6 @@ def cut_in_number(lines: list[str], sep: str) -> str | None:
     if "." in field and len(field.partition(".")[2]) >= d:
         return None
     return f"ends in {field[:30]!r} where the rows above write {d} characters after the point"
-
-
-#: :func:`cut_in_number` compares the last number with this many rows above it, and judges
-#: only files with at least ``CUT_RULE_MIN_ROWS`` rows above it.
-CUT_RULE_ROWS = 200
-CUT_RULE_MIN_ROWS = 20
 
 
 def parse_table(lines: list[str], sep: str, first_row: int, source: str,
