@@ -208,8 +208,6 @@ class HingeSignals:
     rate : j2.g2 - j1.g1, rad/s. theta_gyro : its integral from 0, rad.
     theta_acc : the acc angle, rad, wrapped to (-pi, pi]. inplane : the smaller of the two
     in-plane magnitudes of c_i, m/s^2. weight : fusion weight (inplane^2, 0 where unusable).
-    discrepancy : |g1 x j1| - |g2 x j2|, rad/s: the rates across the axis that a rigid
-    hinge would make equal (soft tissue, a joint that is no hinge, a wrong axis).
     across1, across2 : (N, 2) each sensor's rate across the axis in its joint-plane
     coordinates (``g_i . x_i``, ``g_i . y_i``, :func:`plane_basis`), rad/s: turned by the
     fused angle into one frame they give the relative rotation across the axis
@@ -221,9 +219,8 @@ class HingeSignals:
     theta_acc: np.ndarray
     inplane: np.ndarray
     weight: np.ndarray
-    discrepancy: np.ndarray
-    across1: np.ndarray | None = None
-    across2: np.ndarray | None = None
+    across1: np.ndarray
+    across2: np.ndarray
 
 
 def hinge_signals(g1, a1, g2, a2, *, rate: float, j1, j2, o1, o2) -> HingeSignals:
@@ -248,14 +245,14 @@ def hinge_signals(g1, a1, g2, a2, *, rate: float, j1, j2, o1, o2) -> HingeSignal
     HingeSignals
         (N,) arrays: ``rate`` (j2.g2 - j1.g1, rad/s), ``theta_gyro`` (its running
         integral from 0, :func:`integrate`, rad), ``theta_acc`` (rad, wrapped), ``inplane`` (m/s^2),
-        ``weight`` ((m/s^2)^2, 0 below :data:`MIN_INPLANE_ACC`) and ``discrepancy``
-        (rad/s); see :class:`HingeSignals`.
+        ``weight`` ((m/s^2)^2, 0 below :data:`MIN_INPLANE_ACC`), and (N, 2) ``across1``,
+        ``across2`` (rad/s); see :class:`HingeSignals`.
 
     References
     ----------
     Seel, Raisch, Schauer (2014), "IMU-based joint angle measurement for gait analysis",
     Sensors 14:6891 (the gyroscope angle and the accelerometer angle); Seel, Schauer,
-    Raisch (2012), IEEE CCA, eq. 1 (``discrepancy``) and eq. 3 (``Gamma_g``).
+    Raisch (2012), IEEE CCA, eq. 3 (``Gamma_g``).
     """
     j1, j2 = (np.asarray(v, float) / np.linalg.norm(v) for v in (j1, j2))
     w = j2 @ np.asarray(g2, float).T - j1 @ np.asarray(g1, float).T
@@ -275,9 +272,7 @@ def hinge_signals(g1, a1, g2, a2, *, rate: float, j1, j2, o1, o2) -> HingeSignal
     theta_a = np.angle(np.exp(1j * (angles[0] - angles[1])))
     inplane = np.minimum(mags[0], mags[1])
     weight = np.where(inplane >= MIN_INPLANE_ACC, inplane**2, 0.0)
-    g1, g2 = np.asarray(g1, float), np.asarray(g2, float)
-    disc = (np.linalg.norm(np.cross(g1, j1), axis=1) - np.linalg.norm(np.cross(g2, j2), axis=1))
-    return HingeSignals(w, theta_g, theta_a, inplane, weight, disc, across[0], across[1])
+    return HingeSignals(w, theta_g, theta_a, inplane, weight, across[0], across[1])
 
 
 # ----------------------------------------------------------------------------- fusion
@@ -369,13 +364,7 @@ def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fu
     # across the axis is seen: the relative rotation across it, less its slow part (which
     # the fusion would absorb), local RMS per component; as much is assumed about the axis.
     theta = sig.theta_gyro + offset
-    if sig.across1 is None or sig.across2 is None:  # signals made without the rates across
-        ones = np.ones(n)
-        walk = integrate(sig.discrepancy, rate)
-        fast = walk - _local_linear(walk, ones, s)[0]
-        sigma_shape = np.sqrt(_smooth(fast**2, s) / _smooth(ones, s))
-    else:
-        sigma_shape = across_axis_wobble(sig.across1, sig.across2, theta, rate, s)
+    sigma_shape = across_axis_wobble(sig.across1, sig.across2, theta, rate, s)
     sigma = np.hypot(sigma_offset, sigma_shape)
     disagreement = math.sqrt(float(np.sum(w * r0**2) / np.sum(w)))
     return Fusion(theta, offset, residual, sigma, disagreement, tau)

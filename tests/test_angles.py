@@ -889,24 +889,6 @@ def test_across_axis_wobble_is_zero_for_a_rigid_hinge_and_the_wobble_otherwise()
         assert np.allclose(np.median(band), 0.5, atol=0.02)
 
 
-def test_hinge_signals_without_the_rates_across_keep_the_discrepancy_band():
-    # HingeSignals built by hand (the two new fields left out) still fuse: the band's
-    # soft-tissue part falls back to the integral of |g1 x j1| - |g2 x j2|
-    from dataclasses import replace
-
-    from imucal.fusion import fuse, hinge_signals
-
-    walk, truth = simulate(seed=5, mounting_seed=MOUNTING, motion="gait", duration=20.0,
-                           soft_tissue_deg=1.0, soft_tissue_mm=2.0, **NOISE)
-    k = truth["knee"]
-    t, s = walk.sensor("thigh"), walk.sensor("shank")
-    sig = hinge_signals(t.gyr, t.acc, s.gyr, s.acc, rate=walk.rate, j1=k["j1"], j2=k["j2"],
-                        o1=k["o1"], o2=k["o2"])
-    new, old = fuse(sig, walk.rate), fuse(replace(sig, across1=None, across2=None), walk.rate)
-    assert np.array_equal(new.theta, old.theta)
-    assert np.all(np.isfinite(old.sigma)) and not np.allclose(new.sigma, old.sigma)
-
-
 @pytest.mark.parametrize("mounting", [12, 14])
 def test_the_band_covers_soft_tissue_about_the_axis(mounting):
     # An honesty sweep (30 s protocol calibration with the clocks given in sync, 60 s
