@@ -24,7 +24,7 @@ from .errors import ImucalError, InputError
 from .quality import NOT_IDENTIFIABLE
 from .recording import Recording, check_recording, estimator_window, input_info
 from .sensor_names import normalised_name, segment_of
-from .settings import ACC_ERROR_M_S2, OFFSET_SEARCH_S
+from .settings import ACC_ERROR_M_S2, MAX_TIME_OFFSET_S, OFFSET_SEARCH_S
 
 FORMAT = "imucal-calibration"
 #: 2: the angle block's ``hinge_residual`` is relative to the angular rates, and its
@@ -913,8 +913,6 @@ def _check_offset_block(name: str, where: str, block) -> None:
         return
     if not isinstance(block, dict):
         raise ValueError(f"joint '{name}' {where}.time_offset is not a JSON object")
-    from .settings import MAX_TIME_OFFSET_S
-
     for key in _OFFSET_NUMBERS:
         value = block.get(key)
         if value is not None and not _finite(value):
