@@ -51,25 +51,28 @@ def gait_cycles(flexion_deg: np.ndarray, peaks: np.ndarray) -> np.ndarray:
 def zero_label(zero: dict) -> str:
     """What 0 deg is, short enough for a title: the method's first clause (its details in
     parentheses stay in the JSON) and where the zero was taken, e.g. "calibration: most
-    extended still period at 3.2 s (calibration trial)". (Cut at a fixed length, the
-    title read "... the 1st percentile of flexion )".)
+    extended still period from 3.2 s (calibration trial)": a still period's zero is its
+    mean, so the period is named by its start ("at" read as the instant of the zero).
+    (Cut at a fixed length, the title read "... the 1st percentile of flexion )".)
 
     Returns
     -------
     str
         The text of ``zero["method"]`` before its first " (", plus " at T s (WHERE)"
-        when ``zero["time_s"]`` is given (s, in ``zero["time_in"]``).
+        (" from T s" for a still period) when ``zero["time_s"]`` is given (s, in
+        ``zero["time_in"]``).
 
     Examples
     --------
     >>> from imucal.angle_plots import zero_label
     >>> zero_label({"method": "most extended still period (gyro below 0.1 rad/s)",
     ...             "time_s": 3.21, "time_in": "calibration trial"})
-    'most extended still period at 3.2 s (calibration trial)'
+    'most extended still period from 3.2 s (calibration trial)'
     """
     label = zero["method"].split(" (")[0]
     if zero.get("time_s") is not None:
-        label += f" at {zero['time_s']:.1f} s ({zero['time_in']})"
+        when = "from" if label.endswith("still period") else "at"
+        label += f" {when} {zero['time_s']:.1f} s ({zero['time_in']})"
     return label
 
 

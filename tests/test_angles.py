@@ -591,7 +591,7 @@ def test_figure_title_names_the_zero_without_cutting_it():
 
     still = {"method": "calibration: most extended still period (>= 1 s, both sensors below "
                        "0.1 rad/s)", "time_s": 3.25, "time_in": "calibration trial"}
-    assert zero_label(still) == ("calibration: most extended still period at 3.2 s "
+    assert zero_label(still) == ("calibration: most extended still period from 3.2 s "
                                  "(calibration trial)")
     percentile = {"method": "calibration: no still period: the 1st percentile of flexion (the "
                             "most extended posture of the calibration trial, not necessarily a "
