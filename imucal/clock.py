@@ -17,12 +17,13 @@ For every device (:class:`imucal.formats.RawSensor`):
    ``1/T``, checked against what the header claims), and the jitter of individual stamps
    is removed. A stamp further than one period from the line (a clock reset) stops
    loading. With a counter only, ``T`` is one over the header's rate (or ``--rate``).
-3. **Common grid.** The first sensor is the reference: the grid is its sample times,
-   over the span every device covers (from the latest first sample to the earliest last
-   sample). Other devices are **linearly interpolated** onto the grid between their two
-   neighbouring samples. When a device runs at the same rate and phase as the reference
-   (the usual case of synchronised devices), every grid point falls on one of its
-   samples and its data are copied exactly, not interpolated.
+3. **Common grid.** The fastest device is the reference (the first of those within
+   :data:`RATE_TIE` of the fastest rate, in the order the sensors were read): the grid is
+   its sample times, over the span every device covers (from the latest first sample to
+   the earliest last sample). Other devices are **linearly interpolated** onto the grid
+   between their two neighbouring samples. When a device runs at the same rate and
+   phase as the reference (the usual case of synchronised devices), every grid point
+   falls on one of its samples and its data are copied exactly, not interpolated.
 4. **Dropped packets** leave NaN on the grid wherever a grid point's neighbours include a
    missing sample. :meth:`imucal.recording.Recording.select` then bridges the short gaps
    by linear interpolation and refuses the long ones (the existing gap rules,
@@ -55,6 +56,13 @@ CUT_WARN_S = 1.0
 #: of at least REPEAT_MIN_ROWS rows where one, or at most REPEAT_MAX_SHARE of the
 #: intervals, are 0.
 REPEAT_MIN_ROWS = 8
+#: Devices whose rates differ by less than this share run at one nominal rate: the grid
+#: is the first such device's of the fastest (its clock's own drift, some ppm, must not
+#: pick it). The first device alone, i.e. the file whose name sorts first, put a 60 Hz
+#: foot's grid under 120 Hz thigh and shank: every second sample of theirs dropped
+#: without a word, and the ankle centre 5 mm from the same export with the foot renamed
+#: (a new-user trial).
+RATE_TIE = 0.01
 REPEAT_MAX_SHARE = 0.01
 #: Grid points this close to a device sample (in sample periods) are taken as that
 #: sample: float rounding of the time stamps must not turn a copy into an interpolation.
@@ -76,7 +84,8 @@ class Aligned:
     """Devices on one grid: ``time`` (N,) s from 0, ``data[name] = (gyr, acc)`` (N, 3)
     each in the file's units with NaN where samples were dropped, ``info[name]`` what
     ``Recording.sensor_info`` holds, ``notes`` for the warnings, ``origin`` the shared
-    clock's time (s) at the first grid point."""
+    clock's time (s) at the first grid point, ``grid_sensor`` the device whose samples
+    form the grid."""
 
     time: np.ndarray
     rate: float
@@ -84,6 +93,7 @@ class Aligned:
     info: dict
     notes: list
     origin: float
+    grid_sensor: str = ""
 
 
 @dataclass
@@ -412,7 +422,8 @@ def _check_dropped(k: np.ndarray, period: float, what: str, origin: str) -> None
 
 
 def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> Aligned:
-    """Put ``sensors`` on the first one's sample grid over the span they share.
+    """Put ``sensors`` on the fastest one's sample grid over the span they share (the
+    first of those within :data:`RATE_TIE` of the fastest rate).
 
     ``rate`` (Hz, optional) replaces the devices' own rate (for files without time
     stamps or header rate); with time stamps it must agree with theirs within
@@ -422,7 +433,7 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
     -------
     Aligned
         ``time`` (N,) s from 0 at the first shared grid point, ``rate`` the first
-        sensor's rate from its clock (Hz), ``data[name] = (gyr, acc)`` (N, 3) each in the
+        reference sensor's rate from its clock (Hz), ``data[name] = (gyr, acc)`` (N, 3) each in the
         file's units (NaN at dropped samples), ``info`` per sensor, ``notes`` (dropped,
         cut or interpolated samples, rate disagreements) and ``origin`` (s on the
         devices' shared clock at the first grid point).
@@ -439,15 +450,21 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
     """
     sensors = _one_wrap_cycle(sensors)
     clocks, notes = _device_clocks(sensors, source, rate)
-    ref = clocks[sensors[0].name]
+    fastest = min(c.period for c in clocks.values())
+    ref_name = next(s.name for s in sensors
+                    if clocks[s.name].period <= fastest * (1 + RATE_TIE))
+    ref = clocks[ref_name]
     grid, firsts = _shared_grid(clocks, ref, source)
+    lasts = {n: c.a + c.period * c.k[-1] for n, c in clocks.items()}
+    # who cut the span: named in the warning of each sensor that lost data to it
+    cutters = (max(firsts, key=firsts.get), min(lasts, key=lasts.get))
     data, info = {}, {}
     for s in sensors:
         data[s.name], info[s.name], more = _onto_grid(s, clocks[s.name], grid, firsts[s.name],
-                                                      ref, sensors[0].name)
+                                                      ref, ref_name, cutters)
         notes += more
     return Aligned(time=grid - grid[0], rate=1.0 / ref.period, data=data, info=info,
-                   notes=notes, origin=float(grid[0]))
+                   notes=notes, origin=float(grid[0]), grid_sensor=ref_name)
 
 
 def _one_wrap_cycle(sensors: list[RawSensor]) -> list[RawSensor]:
@@ -518,7 +535,7 @@ def _device_clocks(sensors: list[RawSensor], source: str,
 
 
 def _shared_grid(clocks: dict, ref, source: str) -> tuple[np.ndarray, dict]:
-    """The first device's sample times (``ref``) over the span every device recorded, s on
+    """The reference device's sample times (``ref``) over the span every device recorded, s on
     the devices' shared clock, and each device's first sample time."""
     firsts = {n: c.a for n, c in clocks.items()}
     lasts = {n: c.a + c.period * c.k[-1] for n, c in clocks.items()}
@@ -542,10 +559,11 @@ def _shared_grid(clocks: dict, ref, source: str) -> tuple[np.ndarray, dict]:
 
 
 def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
-               ref_name: str) -> tuple[tuple, dict, list[str]]:
+               ref_name: str, cutters: tuple[str, str]) -> tuple[tuple, dict, list[str]]:
     """One device's (gyr, acc) on the grid (its samples where they fall on it, the
     straight line between them elsewhere, dropped samples NaN), its provenance entry,
-    and notes on what was dropped, cut or interpolated."""
+    and notes on what was dropped, cut or interpolated (``cutters``: the sensors that
+    start last and stop first)."""
     full = int(clk.k[-1]) + 1
     pos = (grid - clk.a) / clk.period
     near = np.rint(pos)
@@ -602,10 +620,14 @@ def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
     # export its "good" (its converted .h5 kept it); past CUT_WARN_S, though, a sensor
     # that started late takes the others' data with it (15 of 20 s, silently: a review)
     if (cut0 + cut1) * clk.period > CUT_WARN_S:
+        why = " and ".join(
+            f"'{name}' {what}" for name, what, cut in
+            ((cutters[0], "started last", cut0), (cutters[1], "stopped first", cut1))
+            if cut and name != s.name) or "a sensor started late or stopped early"
         notes.append(
             f"sensor '{s.name}': {cut0 * clk.period:.1f} s before and {cut1 * clk.period:.1f}"
-            " s after the span all sensors share are not used (a sensor started late or "
-            "stopped early; load the others without it, e.g. from their own files)"
+            f" s after the span all sensors share are not used ({why}; load the others "
+            "without it, e.g. from their own files)"
         )
     if interpolated:
         notes.append(

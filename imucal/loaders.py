@@ -292,13 +292,14 @@ def _from_vendor(module, path: Path, source: str, *, rate, gyr_units, acc_units)
         "serials": {s.name: s.serial for s in raw.sensors},
         "original_rates_hz": {n: i["rate_hz"] for n, i in aligned.info.items()},
         "time_origin": aligned.origin,
+        "grid_sensor": aligned.grid_sensor,
         "time_from": {n: i["time_from"] for n, i in aligned.info.items()},
         "dropped_samples": {n: i["dropped"] for n, i in aligned.info.items()},
         "notes": info,
     }
     # imucal info details it per device (imucal.provenance.rate_origin)
     return replace(recording, sensor_info=aligned.info, provenance=provenance,
-                   rate_from="--rate" if rate is not None else "the first device's clock")
+                   rate_from="--rate" if rate is not None else "the fastest device's clock")
 
 
 def _check_one_file_per_sensor(sensors, source: str) -> None:

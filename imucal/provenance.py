@@ -86,9 +86,9 @@ def rate_origin(recording: Recording) -> str:
     -------
     str
         ``recording.rate_from`` for imucal's own layouts (:attr:`Recording.rate_from`);
-        for a vendor export "the samples of sensor '<first>' (<its clock>), the common
-        grid", and "; interpolated onto it: '<name>' (<rate> Hz), ..." where devices
-        were.
+        for a vendor export "the samples of sensor '<name>' (<its clock>), the common
+        grid" (the fastest device, ``provenance["grid_sensor"]``), and "; interpolated
+        onto it: '<name>' (<rate> Hz), ..." where devices were.
 
     Examples
     --------
@@ -100,7 +100,10 @@ def rate_origin(recording: Recording) -> str:
     info = recording.sensor_info
     if not info:
         return recording.rate_from
-    first, head = next(iter(info.items()))
+    first = recording.provenance.get("grid_sensor")
+    if first not in info:  # (a selection without it)
+        first = next(iter(info))
+    head = info[first]
     how = "--rate" if recording.rate_from == "--rate" else _CLOCKS.get(head["time_from"],
                                                                         head["time_from"])
     text = f"the samples of sensor '{first}' ({how}), the common grid"

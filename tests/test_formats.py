@@ -103,8 +103,8 @@ def test_late_starting_sensor(fmt, tmp_path):
     assert sorted(w.split(":")[0] for w in late.warnings) == [
         f"sensor '{NAMES[fmt][k]}'" for k in sorted(("thigh", "foot"),
                                                      key=lambda k: NAMES[fmt][k])]
-    assert all("2.0 s before and 0.0 s after the span all sensors share are not used" in w
-               for w in late.warnings)
+    assert all("2.0 s before and 0.0 s after the span all sensors share are not used "
+               f"('{NAMES[fmt]['shank']}' started last;" in w for w in late.warnings)
 
 
 def test_dot_sensor_starting_after_its_clock_wrapped(tmp_path):
@@ -849,14 +849,37 @@ def test_rate_below_one_hz_message_does_not_contradict_itself():
         "outside the 1 to 10000 Hz of body-worn IMUs; check the time stamps' units")
 
 
+def test_the_grid_is_the_fastest_device_whatever_the_files_order():
+    # the first file's grid put 120 Hz devices on a 60 Hz foot's (the file sorting first):
+    # every second sample of theirs dropped without a word (a new-user trial)
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+
+    def device(name, rate, phase=0.0):
+        t = phase + np.arange(int(10 * rate)) / rate
+        sig = np.column_stack([np.sin(2 * np.pi * 0.5 * t)] * 3)
+        return RawSensor(name, sig, sig + 9.0, "rad/s", "m/s^2", time=t)
+
+    for order in ([device("Foot", 60.0), device("Shank", 120.0), device("Thigh", 120.0)],
+                  [device("Shank", 120.0), device("Foot", 60.0), device("Thigh", 120.0)]):
+        out = align(order, "<test>")
+        assert out.rate == pytest.approx(120.0) and out.grid_sensor == "Shank"
+        assert not out.info["Shank"]["interpolated"] and not out.info["Thigh"]["interpolated"]
+        assert out.info["Foot"]["interpolated"]
+    # devices at one nominal rate keep the first as the grid: a clock's ppm must not pick
+    out = align([device("a", 100.0), device("b", 100.003, 0.002)], "<test>")
+    assert out.grid_sensor == "a" and out.info["b"]["interpolated"]
+
+
 def test_info_names_the_grid_and_the_devices_interpolated_onto_it(tmp_path):
-    # a 60 Hz thigh next to a 120 Hz shank: info said "at 120.005 Hz" with nothing about
-    # whose rate that was, next to a "rate Hz" column of the devices' own rates
+    # a 60 Hz foot next to a 120 Hz shank: info said "at 120.005 Hz" with nothing about
+    # whose rate that was, next to a "rate Hz" column of the devices' own rates (and the
+    # foot's file, sorting first, gave the grid: the shank lost every second sample)
     fast = vw.dot(simulated(3, rate=120.0, duration=5.0)[0], tmp_path / "fast")
     slow = vw.dot(simulated(3, rate=60.0, duration=5.0)[0], tmp_path / "slow")
     mixed = tmp_path / "mixed"
     mixed.mkdir()
-    for folder, tag in ((fast, "Shank"), (slow, "Thigh")):
+    for folder, tag in ((fast, "Shank"), (slow, "Foot")):
         (f,) = folder.glob(f"{tag}_*.csv")
         (mixed / f.name).write_bytes(f.read_bytes())
     run = run_cli("info", mixed)
@@ -864,10 +887,10 @@ def test_info_names_the_grid_and_the_devices_interpolated_onto_it(tmp_path):
     lines = run.stdout.splitlines()
     assert lines[0] == f"{mixed}: 599 samples at 120.005 Hz (5.0 s, t = 0 to 4.98313 s)"
     assert lines[1] == ("sample rate from the samples of sensor 'Shank' (its time stamps), "
-                        "the common grid; interpolated onto it: 'Thigh' (59.9988 Hz)")
+                        "the common grid; interpolated onto it: 'Foot' (59.9988 Hz)")
     assert "own rate Hz" in run.stdout
-    thigh = [ln for ln in lines if ln.startswith("Thigh ")][-1]
-    assert thigh.split()[2] == "59.9988"
+    foot = [ln for ln in lines if ln.startswith("Foot ")][-1]
+    assert foot.split()[2] == "59.9988"
 
 
 # ------------------------------------------------ inputs a fuzz audit found crashing (exit 3)
