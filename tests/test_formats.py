@@ -1293,3 +1293,27 @@ def test_a_copied_device_counts_no_copied_sample_as_cut():
     used = out.data["b"][0]
     assert np.isfinite(used).all() and not out.info["b"]["interpolated"]
     assert sum(out.info["b"]["cut"]) == n - len(used) == 1
+
+
+@pytest.mark.parametrize("fmt", ["xsens", "dot", "ximu3", "shimmer", "bids"])
+@pytest.mark.parametrize("case", ["short", "long"])
+def test_a_damaged_row_inside_a_vendor_file_is_refused_with_its_row(fmt, case, tmp_path):
+    # a row cut after a few fields read as NaN, interpolated with a "NaN or Inf" warning
+    # naming no row; a row with one field too many stopped with pandas' line count
+    # ("line 988" for the file's row 1001; a new-user trial). imucal's CSV refuses both.
+    path = write(fmt, short(), tmp_path)
+    target = path if path.is_file() else sorted(
+        p for p in path.rglob("*") if p.suffix in (".txt", ".csv", ".tsv")
+        and "Battery" not in p.name and "channels" not in p.name)[0]
+    lines = target.read_text().split("\n")
+    row = len(lines) // 2  # a data row, file row row + 1
+    sep = "\t" if lines[row].count("\t") > lines[row].count(",") else ","
+    cells = lines[row].split(sep)
+    lines[row] = sep.join(cells[:3] if case == "short" else [*cells, "9.9"])
+    target.write_text("\n".join(lines))
+    run = run_cli("info", path)
+    what = (f"3 of the header's {len(cells)} fields; complete or delete that row"
+            if case == "short" else
+            f"{len(cells) + 1} fields, the header {len(cells)}; remove the extra fields")
+    assert run.returncode == 2, run.stderr
+    assert f"{target.name}: row {row + 1} has {what}" in run.stderr

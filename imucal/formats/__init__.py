@@ -452,6 +452,7 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
         lines = lines[:-1]
         notes.append(f"the last row (row {first_row + len(lines)}) {cut}: the file was cut "
                      "off; that row is dropped")
+    _check_row_widths(lines, sep, width, first_row, source)
     try:
         table = pd.read_csv(io.StringIO("\n".join(lines)), sep=sep, header=None, dtype=str,
                             keep_default_na=False, skip_blank_lines=False, engine="c",
@@ -471,6 +472,27 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
             f"{source}: row {first_row + i}, column '{names[j]}': {cell!r} is not a number"
         )
     return values.to_numpy(dtype=np.float64), notes
+
+
+def _check_row_widths(lines: list[str], sep: str, width: int, first_row: int,
+                      source: str) -> None:
+    """Refuse a data row with fewer fields than the header, or with more than the header
+    and the first row hold: the parser filled a short row's missing fields as NaN, read
+    as a dropped sample and interpolated with a "NaN or Inf" warning naming no row, and
+    a long row stopped loading with the parser's line count, not the file's (a new-user
+    trial). imucal's own CSV refuses both the same way. Blank lines are left to the
+    cells' rules."""
+    fields = np.fromiter((ln.count(sep) for ln in lines), np.int64, len(lines)) + 1
+    blank = np.fromiter((not ln.strip() for ln in lines), bool, len(lines))
+    short = (fields < width) & ~blank
+    first = fields[~blank][0] if (~blank).any() else width  # (a tab ending every row)
+    long = fields > max(width, int(first))
+    if short.any() or long.any():
+        i = int(np.argmax(short | long))
+        what = (f"{fields[i]} of the header's {width} fields; complete or delete that row"
+                if short[i] else
+                f"{fields[i]} fields, the header {width}; remove the extra fields")
+        raise InputError(f"{source}: row {first_row + i} has {what}")
 
 
 UNIT_RE = re.compile(r"\(([^()]*)\)\s*$")
