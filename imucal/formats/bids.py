@@ -139,7 +139,7 @@ def read(path: Path, source: str | None = None) -> RawRecording:
         raise InputError(f"{channels_path}: lists {len(rows)} channels, but {motion.name} has "
                          f"{width} columns; the channels file needs one row per column, in "
                          "order")
-    values, notes = parse_table(data, "\t", 1, source, names, ended=ends_line(text))
+    values, notes = parse_table(data, "\t", 1, str(motion), names, ended=ends_line(text))
     time = None
     by_point: dict[str, dict] = {}
     for i, r in enumerate(rows):
