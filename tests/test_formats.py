@@ -1317,3 +1317,24 @@ def test_a_damaged_row_inside_a_vendor_file_is_refused_with_its_row(fmt, case, t
             f"{len(cells) + 1} fields, the header {len(cells)}; remove the extra fields")
     assert run.returncode == 2, run.stderr
     assert f"{target.name}: row {row + 1} has {what}" in run.stderr
+
+
+@pytest.mark.parametrize("fmt", ["dot", "xsens", "ximu3"])
+def test_a_spreadsheet_resave_with_semicolons_and_decimal_commas_is_named(fmt, tmp_path):
+    # Excel in a German or French locale re-saves with ';' and decimal commas: a DOT file
+    # was told "no Acc/Gyr columns; export Acceleration and Angular velocity" with every
+    # column there, an Xsens file "'-9,013190' is not a number" (a new-user trial)
+    path = write(fmt, short(), tmp_path)
+    target = sorted(p for p in path.rglob("*") if p.suffix in (".txt", ".csv")
+                    and "Battery" not in p.name)[0]
+    text = target.read_text()
+    sep = "\t" if fmt == "xsens" else ","
+    text = re.sub(r"(\d)\.(\d)", r"\1,\2", text.replace(sep, ";"))
+    target.write_text(text)
+    run = run_cli("info", path)
+    assert run.returncode == 2, run.stderr
+    if fmt == "xsens":  # (it reads ';' files)
+        assert "is not a number; the file writes decimal commas" in run.stderr
+    else:
+        assert "the header is one column containing ';'" in run.stderr
+    assert run.stderr.count("\n") == 1

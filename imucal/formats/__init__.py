@@ -468,10 +468,30 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
     if bad.to_numpy().any():
         i, j = np.argwhere(bad.to_numpy())[0]
         cell = str(text.iat[i, j])[:30]
+        comma = bool(re.fullmatch(r"[-+]?\d*,\d+(?:[eE][-+]?\d+)?", cell))
         raise InputError(
             f"{source}: row {first_row + i}, column '{names[j]}': {cell!r} is not a number"
+            + ("; the file writes decimal commas (a spreadsheet's re-save, or an export in "
+               "a locale that does?): export it with decimal points" if comma else "")
         )
     return values.to_numpy(dtype=np.float64), notes
+
+
+def check_comma_separated(names: list[str], where: str, what: str) -> None:
+    """Refuse a comma-separated export's header that splits into one column holding ';'
+    or a tab: a spreadsheet's re-save (Excel in a locale with decimal commas). A DOT file
+    so re-saved was told to export other quantities, with every column there (a new-user
+    trial).
+
+    Raises
+    ------
+    InputError
+        Naming ``where``, the separator found and ``what`` the file should be.
+    """
+    if len(names) == 1 and (sep := next((c for c in ";\t" if c in names[0]), None)):
+        raise InputError(f"{where}: the header is one column containing {sep!r}; {what} is "
+                         "comma-separated (re-saved by a spreadsheet? use the file as the "
+                         "vendor's software exported it)")
 
 
 def _check_row_widths(lines: list[str], sep: str, width: int, first_row: int,

@@ -20,6 +20,7 @@ from ..errors import InputError
 from . import (
     RawRecording,
     RawSensor,
+    check_comma_separated,
     column_index,
     ends_line,
     export_files,
@@ -117,6 +118,7 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
         if len(fields) >= 2 and fields[0].strip().endswith(":"):
             meta[fields[0].strip().rstrip(":").lower()] = fields[1].strip()
     names = [c.strip() for c in lines[start].split(",")]
+    check_comma_separated(names, where, "a DOT export")
     need = ("SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z")
     col = column_index(names, where, (*need, "PacketCounter"))
     missing = [c for c in need if c not in col]

@@ -19,6 +19,7 @@ from . import (
     UNIT_RE,
     RawRecording,
     RawSensor,
+    check_comma_separated,
     ends_line,
     head_text,
     is_empty,
@@ -117,6 +118,7 @@ def _read(file: Path, source: str) -> RawSensor:
     text = read_text(file, where)
     lines = text.splitlines()
     cols = [c.strip() for c in lines[0].split(",")]
+    check_comma_separated(cols, where, "an x-IMU3 export")
     index, units = {}, {}
     for i, c in enumerate(cols):
         u = UNIT_RE.search(c)
