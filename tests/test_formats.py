@@ -283,15 +283,24 @@ def test_apdm_time_stored_as_whole_doubles_is_read(tmp_path):
     assert any("not whole microseconds" in w for w in load_recording(path).warnings)
 
 
-def test_apdm_sample_rate_of_zero_is_noted_and_the_stamps_used(tmp_path):
+@pytest.mark.parametrize(("value", "said"), [(np.uint16(0), "gives 0 Hz, no rate"),
+                                             (None, "gives no sample rate"),
+                                             ("fast", "gives no sample rate")])
+def test_apdm_sample_rate_of_zero_is_noted_and_the_stamps_used(tmp_path, value, said):
+    # (a file re-saved without the attribute was refused whole, quoting h5py: a new-user
+    # trial)
     import h5py
 
     path = vw.apdm(short(), tmp_path / "o.h5")
     with h5py.File(path, "r+") as h5:
-        h5["Sensors/1234/Configuration"].attrs["Sample Rate"] = np.uint16(0)
+        attrs = h5["Sensors/1234/Configuration"].attrs
+        if value is None:
+            del attrs["Sample Rate"]
+        else:
+            attrs["Sample Rate"] = value
     loaded = load_recording(path)
     assert loaded.rate == pytest.approx(100.0)
-    assert any("the file's sample rate 0 Hz is no rate" in w for w in loaded.warnings)
+    assert any(f"the file {said}; the time stamps' is used" in w for w in loaded.warnings)
 
 
 def test_a_vendor_sensor_whose_samples_do_not_line_up_is_refused():

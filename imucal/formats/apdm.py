@@ -140,12 +140,22 @@ def _read_v5(h5, source: str):
         try:
             config = g["Configuration"].attrs
             label = _text(config["Label 0"]) or serial
-            rate = float(np.asarray(config["Sample Rate"]).reshape(-1)[0])
+            rate = _rate_attribute(config, "Sample Rate")
             sensors.append(_sensor(label, str(serial), rate, g["Accelerometer"],
                                    g["Gyroscope"], g["Time"], source))
         except _UNREADABLE as err:
             notes.append(_skipped(serial, err))
     return sensors, notes
+
+
+def _rate_attribute(attrs, key: str) -> float:
+    """The rate attribute ``key`` (Hz), NaN where it is missing or no number: the time
+    stamps give the rate then (:func:`_sensor`). A file re-saved without it was refused
+    whole, quoting h5py's "can't locate attribute" (a new-user trial)."""
+    try:
+        return float(np.asarray(attrs[key]).reshape(-1)[0])
+    except (KeyError, OSError, TypeError, ValueError, IndexError):
+        return float("nan")
 
 
 #: What reading one sensor's configuration or data can raise in a damaged file.
@@ -180,8 +190,8 @@ def _sensor(label, serial, rate, acc_ds, gyr_ds, time_ds, source) -> RawSensor:
             raise ValueError(f"Time holds {np.abs(time).max():.3g} us, beyond any clock")
     notes = []
     if not (np.isfinite(rate) and rate > 0):  # checked against the stamps only if a rate
-        notes.append(f"sensor '{label}': the file's sample rate {rate:g} Hz is no rate; the "
-                     "time stamps' is used")
+        said = "gives no sample rate" if np.isnan(rate) else f"gives {rate:g} Hz, no rate"
+        notes.append(f"sensor '{label}': the file {said}; the time stamps' is used")
         rate = None
     return RawSensor(
         name=label, serial=serial, gyr=gyr, acc=acc,
@@ -211,7 +221,7 @@ def _read_v3(h5, source: str):
     for label, case in zip(labels, cases, strict=True):
         try:
             g = h5[case]
-            rate = float(np.asarray(g.attrs["SampleRate"]).reshape(-1)[0])
+            rate = _rate_attribute(g.attrs, "SampleRate")
             sensors.append(_sensor(label or case, case, rate,
                                    g["Calibrated/Accelerometers"], g["Calibrated/Gyroscopes"],
                                    g["Time"], source))
