@@ -1347,3 +1347,17 @@ def test_a_spreadsheet_resave_with_semicolons_and_decimal_commas_is_named(fmt, t
     else:
         assert "the header is one column containing ';'" in run.stderr
     assert run.stderr.count("\n") == 1
+
+
+def test_a_dot_file_name_without_an_address_gives_no_serial(tmp_path):
+    # the date of "Thigh_20230504_131211.csv" read as the Bluetooth address 20230504:1312,
+    # every device's serial (a new-user trial); a real address still is one
+    folder = write("dot", short(), tmp_path)
+    for f in folder.glob("*.csv"):
+        f.rename(f.with_name(f"{f.stem.split('_')[0]}_20230504_131211.csv"))
+    loaded = load_recording(folder)
+    assert [i["serial"] for i in loaded.sensor_info.values()] == [None, None, None]
+    assert sorted(loaded.sensors) == ["Foot", "Shank", "Thigh"]
+    f = next(folder.glob("Thigh_*.csv"))
+    f.rename(f.with_name("Thigh_D422CD001203_20230504_131211.csv"))
+    assert load_recording(folder).sensor_info["Thigh"]["serial"] == "D422CD001203"

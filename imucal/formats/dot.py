@@ -36,7 +36,12 @@ NAME = "Movella DOT"
 US_PER_S = 1e6
 TIME_WRAP = 2**32 / US_PER_S
 COUNTER_WRAP = 2**16
-_MAC = re.compile(r"([0-9A-Fa-f]{2}(?:[-:_]?[0-9A-Fa-f]{2}){5})")
+#: A Bluetooth address: six hex pairs, one separator throughout (or none), not part of a
+#: longer run of hex digits. Pairs with separators mixed or digits only matched the date
+#: of ``Thigh L_20230504_131211.csv`` ("20230504:1312", the serial of every device: a
+#: new-user trial); the Movella DOT's addresses (D4:22:CD:...) have letters.
+_MAC = re.compile(r"(?<![0-9A-Fa-f])([0-9A-Fa-f]{2}(?P<sep>[-:_]?)[0-9A-Fa-f]{2}"
+                  r"(?:(?P=sep)[0-9A-Fa-f]{2}){4})(?![0-9A-Fa-f])")
 _RATE = re.compile(r"([0-9.]+)\s*hz", re.IGNORECASE)
 
 
@@ -130,7 +135,8 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
         )
     values, notes = parse_table(lines[start + 1:], ",", start + 2, where, names,
                                  ended=ends_line(text))
-    mac = _MAC.search(file.stem)
+    mac = next((m for m in _MAC.finditer(file.stem) if re.search("[A-Fa-f]", m.group(1))),
+               None)
     # without the metadata lines, the file name <tag>_<address>_<date> still holds the tag
     tag = (meta.get("devicetag") or (mac and file.stem[:mac.start()].strip("_- "))
            or file.stem)
