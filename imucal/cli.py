@@ -154,7 +154,10 @@ GyrUnits = Annotated[str | None, typer.Option(
 AccUnits = Annotated[str | None, typer.Option(
     help="Accelerometer units, m/s^2 or g, of every sensor: for a CSV, and in place of what "
          "an HDF5 file or vendor export declares.", show_default=False)]
-Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress or summary on stderr.")]
+Quiet = Annotated[bool, typer.Option(
+    "--quiet", "-q", help="No progress, summary or estimate warnings on stderr (the JSON "
+    "carries those); warnings about reading the file, and angles' warnings (a table cannot "
+    "carry them), still print, as errors do.")]
 def _input_file(value: str | Path) -> Path:
     """An input file's name as typed: typer turns '' (an unset "$MAP") into '.', which
     was then called a folder."""
