@@ -115,8 +115,9 @@ def match_sensor(name: str, names: list[str], info: Mapping[str, Mapping] | None
             return hits[0]
         if len(hits) > 1:
             raise InputError(
-                f"{source}: sensor '{name}' is ambiguous: {', '.join(map(repr, hits))} are all "
-                f"a {segment}; name one of them (or give the side, e.g. left_{segment})"
+                f"{source}: sensor '{name}' is ambiguous: {', '.join(map(repr, hits[:-1]))} "
+                f"and {hits[-1]!r} each name a {segment}; name one of them (or give the "
+                f"side, e.g. left_{segment})"
             )
     keys = {normalised_name(n): n for n in names}
     keys.update({normalised_name(v["serial"]): n for n, v in info.items() if v.get("serial")})

@@ -295,6 +295,7 @@ def test_a_sided_name_finds_an_unsided_sensor_and_results_name_the_file_s_sensor
     # "left_thigh" finds a one-leg file's "thigh" (a calibration made with sided names
     # applies to such a file); the result names what was used, as the file does (it
     # named what was asked for, and found no units for it); one sensor twice is refused
+    from imucal.errors import InputError
     from imucal.sensor_names import match_sensor
 
     assert match_sensor("left_thigh", ["thigh", "shank", "foot"]) == "thigh"
@@ -306,6 +307,10 @@ def test_a_sided_name_finds_an_unsided_sensor_and_results_name_the_file_s_sensor
     run = cli("axis", SAMPLE / "circling.h5", *FAST, "--sensors", "thigh,left_thigh")
     assert run.returncode == 2
     assert "--sensors thigh,left_thigh both find sensor 'thigh'" in run.stderr
+    with pytest.raises(InputError) as err:  # (it read "... are all a thigh")
+        match_sensor("thigh", ["left_thigh", "right_thigh", "pelvis"])
+    assert ("sensor 'thigh' is ambiguous: 'left_thigh' and 'right_thigh' each name a thigh; "
+            "name one of them") in str(err.value)
 
 
 def test_simulate_mounting_seed(tmp_path):

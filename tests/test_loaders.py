@@ -1246,3 +1246,20 @@ def test_hdf5_with_a_damaged_object_header(tmp_path, offset):
     path = tmp_path / "damaged.h5"
     path.write_bytes(bytes(data))
     expect_error(path, "HDF5 file")
+
+
+@pytest.mark.parametrize("kind", ["zip", "gzip"])
+def test_an_archive_is_named_as_one(tmp_path, kind):
+    # "not a CSV file (it contains binary data)" left the user to guess (a new-user trial)
+    import gzip
+    import zipfile
+
+    text = (Path(__file__).parent.parent / "sample_data" / "circling_40hz.csv").read_bytes()
+    path = tmp_path / ("c.csv.gz" if kind == "gzip" else "c.zip")
+    if kind == "gzip":
+        path.write_bytes(gzip.compress(text))
+    else:
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("c.csv", text)
+    with pytest.raises(InputError, match=f"binary data: a {kind} archive, unpack it first"):
+        load_recording(path)

@@ -191,6 +191,11 @@ def detect(path: Path):
 # ------------------------------------------------------------------------- text helpers
 
 
+#: File signatures of archives a lab may hand over instead of the export inside them.
+_ARCHIVES = ((b"PK\x03\x04", "zip"), (b"\x1f\x8b", "gzip"), (b"7z\xbc\xaf", "7-Zip"),
+             (b"BZh", "bzip2"))
+
+
 def utf16_text(data: bytes) -> str | None:
     """A file's bytes as UTF-16 text, where they are that.
 
@@ -231,7 +236,9 @@ def decode_text(data: bytes, source: str, what: str, hint: str = "",
     if text is not None:
         return text
     if b"\x00" in (data if scan is None else data[:scan]):
-        raise InputError(f"{source}: not a {what} (it contains binary data{hint})")
+        archive = next((f": a {kind} archive, unpack it first" for magic, kind in _ARCHIVES
+                        if data.startswith(magic)), "")
+        raise InputError(f"{source}: not a {what} (it contains binary data{archive or hint})")
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
