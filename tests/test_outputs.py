@@ -334,3 +334,17 @@ def test_no_figure_is_left_by_a_run_whose_json_cannot_be_written(rec, tmp_path):
     assert list(tmp_path.iterdir()) == []  # neither the figure nor its temporary file
     ok = imucal("axis", rec, "--seed", 1, "--restarts", 5, "--plot", fig, "--quiet")
     assert ok.returncode == 0 and fig.read_bytes().startswith(MAGIC[".png"])
+
+
+def test_nested_fields_without_a_unit_in_their_name_have_one_in_units():
+    # sensitivity_per_ms (deg or mm per ms) and weak_direction had their units only in
+    # docs/json.md (a new-user trial)
+    sample = Path(__file__).parent.parent / "sample_data" / "circling.h5"
+    for command, unit in (("axis", "deg per ms of offset"), ("position", "mm per ms of offset")):
+        run = run_imucal(command, sample, "--restarts", "5", "--seed", "1", "-q", "--force",
+                         text=True)
+        doc = json.loads(run.stdout)
+        assert doc["units"]["time_offset.sensitivity_per_ms"] == unit
+        assert "sensitivity_per_ms" in doc["time_offset"]
+        if command == "position":
+            assert "mm" in doc["units"]["quality.weak_direction"]
