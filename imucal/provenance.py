@@ -133,9 +133,10 @@ def sensor_table(recording: Recording) -> list[str]:
              f"{'samples':>9}  {'units read':<16}{'dropped':>8}"]
     for name, i in info.items():
         units = f"{i['units_read']['gyr']}, {i['units_read']['acc']}"
+        start = round(i["start_s"], 3) + 0.0  # (+ 0.0: no "-0.000" for -0.0002 s)
         lines.append(
             f"{name:<{w}}{str(i.get('serial') or '-'):<20}{i['rate_hz']:>12.4f}"
-            f"{i['start_s']:>10.3f}{i['duration_s']:>10.2f}{i['samples']:>9}  {units:<16}"
+            f"{start:>10.3f}{i['duration_s']:>10.2f}{i['samples']:>9}  {units:<16}"
             f"{i['dropped']:>8}"
         )
     return lines
