@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 import subprocess
 import sys
 from dataclasses import replace
@@ -1263,3 +1264,16 @@ def test_an_archive_is_named_as_one(tmp_path, kind):
             z.writestr("c.csv", text)
     with pytest.raises(InputError, match=f"binary data: a {kind} archive, unpack it first"):
         load_recording(path)
+
+
+@pytest.mark.parametrize("name", ["time (s)", "timestamp", "Time_s"])
+def test_a_time_column_under_another_name_is_named_when_no_rate_is_given(tmp_path, name):
+    # "no sample rate and no time stamps" said nothing of the 'time (s)' column beside
+    # it (a new-user trial); with --rate the column is only a note
+    head = f"{name},s_gyr_x,s_gyr_y,s_gyr_z,s_acc_x,s_acc_y,s_acc_z\n"
+    path = tmp_path / "t.csv"
+    path.write_text(head + "".join(f"{k / 100},1,1,1,1,1,9\n" for k in range(50)))
+    with pytest.raises(InputError, match=rf"no sample rate and no time stamps: column "
+                                         rf"'{re.escape(name)}' is not read as time"):
+        load_recording(path)
+    assert load_recording(path, rate=100).n_samples == 50
