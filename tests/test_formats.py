@@ -1361,3 +1361,11 @@ def test_a_dot_file_name_without_an_address_gives_no_serial(tmp_path):
     f = next(folder.glob("Thigh_*.csv"))
     f.rename(f.with_name("Thigh_D422CD001203_20230504_131211.csv"))
     assert load_recording(folder).sensor_info["Thigh"]["serial"] == "D422CD001203"
+
+
+def test_a_shimmer_recordings_wall_clock_start_is_kept(tmp_path):
+    # the first Unix stamp was subtracted and recorded nowhere: a lab aligning force
+    # plates or video by wall-clock time lost it (a new-user trial); APDM keeps its epoch
+    loaded = load_recording(write("shimmer", short(), tmp_path))
+    assert "time 0 of the clock = 1709287200.000 s since 1970-01-01 UTC" in " ".join(
+        loaded.provenance["notes"])

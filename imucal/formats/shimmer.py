@@ -145,7 +145,11 @@ def read(path: Path, source: str | None = None) -> RawRecording:
     first = min(float(s.time[0]) for s in sensors)
     for s in sensors:
         s.time = s.time - first
-    return RawRecording(format=NAME, sensors=sensors, notes=notes)
+    # (kept, as APDM's epoch is: a lab aligning force plates or video by wall-clock time
+    # lost the recording's start, a new-user trial)
+    info = [f"time 0 of the clock = {first:.3f} s since 1970-01-01 UTC (the earliest Unix "
+            "time stamp)"]
+    return RawRecording(format=NAME, sensors=sensors, notes=notes, info=info)
 
 
 def _numeric(text: str) -> bool:
