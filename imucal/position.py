@@ -129,6 +129,9 @@ MIN_SINGULAR_RATIO = 0.04
 MAX_UNCERTAINTY_MM = 10.0
 #: A sensor strapped to a thigh, shank or foot is never this far from the joint, m.
 MAX_PLAUSIBLE_OFFSET_M = 1.0
+#: A joint position's 1-sigma from which the data do not locate the joint at all, mm:
+#: its 2-sigma spans ``MAX_PLAUSIBLE_OFFSET_M`` (:func:`_refuse_if_uninformative`).
+MAX_INFORMATIVE_SIGMA_MM = 500.0
 #: The rates' derivative (``Gamma``'s dw/dt, per second: the sample rate's) is tried
 #: scaled by these factors, the estimate refitted at each (:func:`_rate_doubt`).
 RATE_SCALES = (0.1, 0.25, 0.5, 2.0, 4.0, 10.0)
@@ -345,11 +348,28 @@ def estimate_position(
         raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, {a1.shape[0]})")
     rate = check_rate(rate)
     if s.time_offset == "auto":
-        return _with_auto_offset(g1, a1, g2, a2, rate, axis, s)
+        return _refuse_if_uninformative(_with_auto_offset(g1, a1, g2, a2, rate, axis, s))
     result = _estimate(g1, a1, g2, a2, rate, axis, replace(s, seed=resolve_seed(s.seed)))
     search = given_search(s.offset_search, s.time_offset, rate)
     check_given(result, offset_profile((g1, a1, g2, a2), rate, search), rate, search,
                 s.time_offset)
+    return _refuse_if_uninformative(result)
+
+
+def _refuse_if_uninformative(result: PositionResult) -> PositionResult:
+    """``result`` refused where its 1-sigma, with every part added after the diagnosis
+    (the clock offset's), reaches :data:`MAX_INFORMATIVE_SIGMA_MM`: its 2-sigma then spans
+    the whole metre a sensor can sit from a joint (:data:`MAX_PLAUSIBLE_OFFSET_M`), as
+    the axis is refused at a 1-sigma of 90 deg. An ankle whose foot's clock ran 0.25 s
+    late (beyond the search) was `use with care` 437 mm off at a 1-sigma of 545 mm (an
+    independent audit)."""
+    sigma = max(result.uncertainty_mm.values())
+    if not result.blocking and sigma >= MAX_INFORMATIVE_SIGMA_MM:
+        result.blocking.append(
+            f"the joint position's 1-sigma is {sigma:.0f} mm (at least "
+            f"{MAX_INFORMATIVE_SIGMA_MM:g}: its 2-sigma spans the whole "
+            f"{1000 * MAX_PLAUSIBLE_OFFSET_M:g} mm a sensor can sit from a joint): the data "
+            "do not locate the joint")
     return result
 
 
@@ -423,9 +443,10 @@ def adopt_offset(own: PositionResult | None, source: dict, found_by: str, gyr1, 
     g1, g2 = check_pair(gyr1, gyr2)
     a1, a2 = check_pair(acc1, acc2, "acc")
     search = float(source["search_s"])
-    return adopt(result, own, offset_profile((g1, a1, g2, a2), check_rate(rate), search),
-                 rate, source, found_by, _offset_moved, "mm", MAX_UNCERTAINTY_MM,
-                 versus=versus, warn=False)
+    return _refuse_if_uninformative(adopt(
+        result, own, offset_profile((g1, a1, g2, a2), check_rate(rate), search), rate,
+        source, found_by, _offset_moved, "mm", MAX_UNCERTAINTY_MM, versus=versus,
+        warn=False))
 
 
 def _with_auto_offset(g1, a1, g2, a2, rate, axis, s: PositionSettings) -> PositionResult:

@@ -178,3 +178,21 @@ def test_a_wrong_sample_rate_is_asked_about_not_a_confident_centre(factor):
     raw = estimate_position(shank.gyr, shank.acc, foot.gyr, foot.acc, seed=1, restarts=20,
                             rate=rec.rate * factor, cutoff=0)
     assert not any("is the sample rate" in w for w in raw.warnings)
+
+
+def test_a_centre_whose_sigma_spans_every_plausible_place_is_refused():
+    # a foot's clock 0.25 s late (beyond the 0.2 s search): the ankle was `use with care`
+    # 437 mm off at a 1-sigma of 545 mm (an independent audit); the axis is refused at
+    # 90 deg, a joint centre now where its 2-sigma spans the 1 m a sensor can sit from it
+    from imucal.position import MAX_INFORMATIVE_SIGMA_MM
+    from imucal.simulate import simulate
+
+    rec, _ = simulate(seed=1, motion="protocol", rate=100, duration=30, gyr_noise=0.01,
+                      acc_noise=0.05, clock_offset={"foot": 0.25})
+    sh, ft = rec.sensor("shank"), rec.sensor("foot")
+    r = estimate_position(sh.gyr, sh.acc, ft.gyr, ft.acc, rate=100, seed=1)
+    assert max(r.uncertainty_mm.values()) == pytest.approx(544.6, abs=1)
+    assert r.verdict == "not identifiable"
+    assert r.blocking == [f"the joint position's 1-sigma is 545 mm (at least "
+                          f"{MAX_INFORMATIVE_SIGMA_MM:g}: its 2-sigma spans the whole 1000 mm "
+                          "a sensor can sit from a joint): the data do not locate the joint"]
