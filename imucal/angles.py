@@ -1309,8 +1309,10 @@ def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
         out["message"] = (f"{jc.name}: the calibration does not fit this recording ("
                           + "; ".join(bad) + "): " + _pinned_sign_doubt(jc)
                           + "sensors re-strapped, swapped or another "
-                          "subject, or the two sensors' clocks offset otherwise than "
-                          f"{_offset_words(jc)} {signed_ms(out['clock_offset_s'], 0)} ms? "
+                          "subject, the two sensors' clocks offset otherwise than "
+                          f"{_offset_words(jc)} {signed_ms(out['clock_offset_s'], 0)} ms, "
+                          "or a motion far from the calibration trial's (a circling "
+                          "trial's small values leave a walk little room)? "
                           + ("give this recording's (--time-offset SECONDS) or calibrate "
                              if out["clock_offset_source"] == "calibration" else
                              "check the offset given (--time-offset), or calibrate ")
