@@ -109,6 +109,10 @@ def warning_names(warnings) -> list[str]:
             names.append("gravity mismatch")
         elif "fits poorly" in w:
             names.append("poor fit")
+        elif "more than a warmed-up gyroscope's" in w:
+            names.append("large bias asked")
+        elif w.startswith("the data barely decide whether"):
+            names.append("sign undecided")
         else:
             names.append(w[:30])
     return names

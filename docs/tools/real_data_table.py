@@ -67,6 +67,8 @@ SHORT = {
     "the hinge joint model fits poorly": "poor fit",
     "the spheroidal joint model fits poorly": "poor fit",
     "the data barely decide whether": "sign undecided",
+    "more than a warmed-up gyroscope's": "large bias asked",
+    "the joint position's 1-sigma is": "1-sigma beyond 500 mm",
     "the sign tests disagree": "sign tests disagree",
     "the pinned j2 sign contradicts": "pin contradicted",
     "motion stays": "line",
