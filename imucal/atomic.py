@@ -61,7 +61,7 @@ def check_writable(path: str | Path) -> Path:
     if not folder.is_dir():
         raise InputError(f"{path}: folder '{folder}' does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise InputError(f"{path}: folder '{folder}' is not writable")
+        raise InputError(f"{path}: folder '{folder}' is not writable ({_why_not(folder)})")
     # os.access trusts permission bits; root, read-only mounts, ACLs and network file
     # systems can disagree with them, so create (and remove) a real file to be sure.
     try:
@@ -73,6 +73,17 @@ def check_writable(path: str | Path) -> Path:
             f"{path}: folder '{folder}' is not writable ({err.strerror or err})"
         ) from None
     return path
+
+
+def _why_not(folder: Path) -> str:
+    """Why ``folder`` refuses writes, in the words errors.md gives: a read-only file
+    system or its permissions (the message gave no reason on a read-only mount)."""
+    try:
+        if os.statvfs(folder).f_flag & os.ST_RDONLY:
+            return "Read-only file system"
+    except (OSError, AttributeError):  # (no statvfs on Windows)
+        pass
+    return "Permission denied"
 
 
 def _target(path: Path) -> Path:

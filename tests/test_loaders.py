@@ -985,7 +985,13 @@ def test_check_writable_read_only_folder_by_permission_bits(tmp_path, monkeypatc
     from imucal import atomic
 
     monkeypatch.setattr(atomic.os, "access", lambda *args: False)
-    with pytest.raises(InputError, match=r"x.json: folder '.*' is not writable$"):
+    with pytest.raises(InputError, match=r"x.json: folder '.*' is not writable "
+                                         r"\(Permission denied\)$"):
+        atomic.check_writable(tmp_path / "x.json")
+    # a read-only mount says so (the message gave no reason: a new-user trial)
+    ro = type("StatVfs", (), {"f_flag": atomic.os.ST_RDONLY})()
+    monkeypatch.setattr(atomic.os, "statvfs", lambda folder: ro)
+    with pytest.raises(InputError, match=r"is not writable \(Read-only file system\)$"):
         atomic.check_writable(tmp_path / "x.json")
 
 
