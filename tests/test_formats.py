@@ -1369,3 +1369,51 @@ def test_a_shimmer_recordings_wall_clock_start_is_kept(tmp_path):
     loaded = load_recording(write("shimmer", short(), tmp_path))
     assert "time 0 of the clock = 1709287200.000 s since 1970-01-01 UTC" in " ".join(
         loaded.provenance["notes"])
+
+
+@pytest.mark.parametrize("fmt", ["xsens", "dot", "ximu3", "shimmer"])
+def test_a_header_ending_in_a_separator_names_no_column(fmt, tmp_path):
+    # every complete data row read as "damaged" once rows were checked against the header's
+    # width, which counted the empty name after the header's last separator; before, the
+    # last row was dropped as "cut off" (an independent review)
+    rec = short()
+    path = write(fmt, rec, tmp_path)
+    heads = {"xsens": "PacketCounter", "dot": "PacketCounter", "ximu3": "Timestamp",
+             "shimmer": "Shimmer_"}
+    for f in ([path] if path.is_file() else
+              [p for p in path.rglob("*") if p.suffix in (".txt", ".csv")
+               and "Battery" not in p.name]):
+        lines = f.read_bytes().decode().split("\n")
+        i = next(k for k, ln in enumerate(lines) if ln.startswith(heads[fmt]))
+        sep = "\t" if lines[i].count("\t") > lines[i].count(",") else ","
+        lines[i] = lines[i].rstrip("\r") + sep + ("\r" if lines[i].endswith("\r") else "")
+        f.write_bytes("\n".join(lines).encode())
+    loaded = load_recording(path)
+    assert loaded.n_samples == rec.n_samples and not loaded.warnings
+
+
+def test_shimmer_rows_without_a_late_devices_empty_cells_load(tmp_path):
+    # a row may leave off the cells of a device without a sample there (a tool trimming
+    # trailing empty fields): the device's own stamps pick its rows, the others are whole
+    rec = short()
+    path = vw.shimmer(rec, tmp_path / "late.csv", late={"foot": 100})
+    lines = path.read_text().split("\n")
+    path.write_text("\n".join(lines[:3] + [ln.rstrip("\t") for ln in lines[3:]]))
+    loaded = load_recording(path)
+    assert loaded.n_samples == rec.n_samples - 100
+
+
+def test_a_quoted_cell_holding_the_separator_is_one_field(tmp_path):
+    # a spreadsheet's quoted "0,5" in a comma file counted as two fields ("remove the extra
+    # fields") and missed the decimal-comma hint (an independent review)
+    path = write("dot", short(), tmp_path)
+    f = sorted(path.glob("*.csv"))[0]
+    lines = f.read_text().split("\n")
+    i = next(k for k, ln in enumerate(lines) if ln.startswith("PacketCounter"))
+    cells = lines[i + 5].split(",")
+    cells[-4] = '"0,5"'
+    lines[i + 5] = ",".join(cells)
+    f.write_text("\n".join(lines))
+    with pytest.raises(InputError, match=r"'0,5' is not a number; the file writes decimal "
+                                         r"commas"):
+        load_recording(path)

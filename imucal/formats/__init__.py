@@ -19,6 +19,7 @@ The layouts, with where each detail came from, are in ``docs/formats.md``.
 
 from __future__ import annotations
 
+import csv
 import io
 import re
 from dataclasses import dataclass, field
@@ -418,11 +419,16 @@ def cut_in_number(lines: list[str], sep: str) -> str | None:
 
 
 def parse_table(lines: list[str], sep: str, first_row: int, source: str,
-                names: list[str], ended: bool = True) -> tuple[np.ndarray, list[str]]:
+                names: list[str], ended: bool = True,
+                short_widths: frozenset = frozenset()) -> tuple[np.ndarray, list[str]]:
     """Numbers of the data ``lines`` as a float (rows, len(names)) array.
 
     ``first_row`` is the line number of ``lines[0]`` in the file (1-based), for messages;
-    ``ended`` says whether the file's text ends with a line break (:func:`ends_line`).
+    ``ended`` says whether the file's text ends with a line break (:func:`ends_line`);
+    a row with a number of fields in ``short_widths`` is read as ending in empty cells
+    (Shimmer: a device without a sample in that row may leave its block of cells off)
+    instead of being refused. Empty names at the header's end (a separator ending the header line)
+    are no columns.
     Empty cells and ``NaN`` read as NaN. A last row with fewer fields than the header
     (a truncated file) is dropped with a note, and so is an unended last row whose last
     number is shorter than the rows above write it (:func:`cut_in_number`); a cell
@@ -450,6 +456,8 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
     if not lines:
         raise InputError(f"{source}: has a header but no data rows")
     width = len(names)
+    while width > 1 and not names[width - 1].strip():  # (a separator ending the header)
+        width -= 1
     last = lines[-1].rstrip("\r\n").split(sep)
     if len(last) < width and len(lines) > 1:
         lines = lines[:-1]
@@ -459,7 +467,7 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
         lines = lines[:-1]
         notes.append(f"the last row (row {first_row + len(lines)}) {cut}: the file was cut "
                      "off; that row is dropped")
-    _check_row_widths(lines, sep, width, first_row, source)
+    _check_row_widths(lines, sep, width, first_row, source, short_widths)
     try:
         table = pd.read_csv(io.StringIO("\n".join(lines)), sep=sep, header=None, dtype=str,
                             keep_default_na=False, skip_blank_lines=False, engine="c",
@@ -502,16 +510,18 @@ def check_comma_separated(names: list[str], where: str, what: str) -> None:
 
 
 def _check_row_widths(lines: list[str], sep: str, width: int, first_row: int,
-                      source: str) -> None:
-    """Refuse a data row with fewer fields than the header, or with more than the header
-    and the first row hold: the parser filled a short row's missing fields as NaN, read
-    as a dropped sample and interpolated with a "NaN or Inf" warning naming no row, and
-    a long row stopped loading with the parser's line count, not the file's (a new-user
-    trial). imucal's own CSV refuses both the same way. Blank lines are left to the
-    cells' rules."""
-    fields = np.fromiter((ln.count(sep) for ln in lines), np.int64, len(lines)) + 1
+                      source: str, short_widths: frozenset = frozenset()) -> None:
+    """Refuse a data row with fewer fields than the header (unless ``short_widths`` holds
+    its count), or
+    with more than the header and the first row hold: the parser filled a short row's
+    missing fields as NaN, read as a dropped sample and interpolated with a "NaN or Inf"
+    warning naming no row, and a long row stopped loading with the parser's line count,
+    not the file's (a new-user trial). imucal's own CSV refuses both the same way. Blank
+    lines are left to the cells' rules; a line with quotes is split as the parser splits
+    it (a quoted "0,5" is one field)."""
+    fields = np.fromiter((_field_count(ln, sep) for ln in lines), np.int64, len(lines))
     blank = np.fromiter((not ln.strip() for ln in lines), bool, len(lines))
-    short = (fields < width) & ~blank
+    short = (fields < width) & ~blank & ~np.isin(fields, list(short_widths))
     first = fields[~blank][0] if (~blank).any() else width  # (a tab ending every row)
     long = fields > max(width, int(first))
     if short.any() or long.any():
@@ -520,6 +530,12 @@ def _check_row_widths(lines: list[str], sep: str, width: int, first_row: int,
                 if short[i] else
                 f"{fields[i]} fields, the header {width}; remove the extra fields")
         raise InputError(f"{source}: row {first_row + i} has {what}")
+
+
+def _field_count(line: str, sep: str) -> int:
+    if '"' not in line:
+        return line.count(sep) + 1
+    return len(next(csv.reader([line], delimiter=sep), [""]))
 
 
 UNIT_RE = re.compile(r"\(([^()]*)\)\s*$")

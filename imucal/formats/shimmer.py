@@ -97,8 +97,11 @@ def read(path: Path, source: str | None = None) -> RawRecording:
             # there starts with an empty cell)
             units_row = cells
             row += 1
+    # a row may leave off the cells of the devices at its end that have no sample in it
+    device = [n.split("_")[1] if n.startswith("Shimmer_") else n for n in names]
+    ends = frozenset(k for k in range(1, len(names)) if device[k] != device[k - 1])
     values, notes = parse_table(lines[row:], sep, row + 1, source, names,
-                                 ended=ends_line(text))
+                                 ended=ends_line(text), short_widths=ends)
     devices: dict[str, dict] = {}
     for i, c in enumerate(names):
         m = _COL.match(c)
