@@ -54,6 +54,7 @@ from .quality import (
     block_masks,
     cutoff_shifts,
     jackknife_sigma,
+    refresh_uncertainty,
     rms,
     robust_covariance,
     sensitivity_cutoffs,
@@ -403,9 +404,9 @@ def _with_implausible_bias_move(result: AxisResult, g1, g2, acc1, acc2, rate,
     other = _estimate(g1 - bias.b1, g2 - bias.b2, acc1, acc2, rate, s, bias_removed=True)
     move = {k: float(np.degrees(np.arccos(min(1.0, abs(float(a @ b))))))
             for k, a, b in (("j1", result.j1, other.j1), ("j2", result.j2, other.j2))}
-    c = result.uncertainty_components
-    c["gyr_bias"] = move
-    result.uncertainty_deg = uncertainty_totals(c)
+    result.uncertainty_components["gyr_bias"] = move
+    refresh_uncertainty(result, "deg", MAX_UNCERTAINTY_DEG)
+    _refuse_if_uninformative(result)
     result.warnings.append(
         f"the residual is {bias.cost_ratio:.2f} x lower with gyroscope biases of "
         f"{bias.size:.2f} rad/s, more than a warmed-up gyroscope's "

@@ -385,7 +385,8 @@ def uncertainty_warning(total: dict, components: dict, unit: str) -> str:
         "model": ("the residuals are systematic (soft tissue, a joint that is no hinge)"
                   if unit == "deg" else "a different weighting of the samples moves it "
                   "(soft tissue, a joint that is not the modelled one)"),
-        "gyr_bias": ("a gyroscope bias was estimated with it" if unit == "deg" else
+        "gyr_bias": ("it moves with the gyroscope biases the residual asks for (removed, "
+                     "or too large to be a gyroscope's)" if unit == "deg" else
                      "it moves when gyroscope biases are fitted with it (an uncalibrated "
                      "gyroscope)"),
         "acc_error": "the motion cannot tell it from an accelerometer offset or scale "
@@ -414,6 +415,24 @@ def cutoff_shifts(sensitivity: dict, names: tuple[str, str], unit: str) -> dict:
         "deg" or "mm").
     """
     return {k: max(sensitivity[f"{k}_shift_{unit}"]) for k in names}
+
+
+def refresh_uncertainty(result, unit: str, limit: float) -> None:
+    """``result``'s reported 1-sigma (``uncertainty_<unit>``) from its components after
+    a part was added, and its "uncertain" warning to match: the fit's own warning gave
+    the total without that part, and its numbers and main cause would contradict the
+    reported 1-sigma. A warning is added where the new total first exceeds ``limit``."""
+    components = result.uncertainty_components
+    total = uncertainty_totals(components)
+    setattr(result, f"uncertainty_{unit}", total)
+    if max(total.values()) <= limit:
+        return
+    fresh = uncertainty_warning(total, components, unit)
+    stale = [i for i, w in enumerate(result.warnings) if w.startswith(UNCERTAIN_PREFIX)]
+    if stale:
+        result.warnings[stale[0]] = fresh
+    else:
+        result.warnings.append(fresh)
 
 
 def uncertainty_totals(components: dict) -> dict:

@@ -30,13 +30,7 @@ import numpy as np
 from scipy.interpolate import make_interp_spline
 
 from .errors import InputError, signed_ms
-from .quality import (
-    UNCERTAIN_PREFIX,
-    block_masks,
-    jackknife_sigma,
-    uncertainty_totals,
-    uncertainty_warning,
-)
+from .quality import block_masks, jackknife_sigma, refresh_uncertainty
 from .settings import OFFSET_SEARCH_S
 
 #: The profile refits use about this many of the samples and this many plain
@@ -819,20 +813,8 @@ def check_search(search: float, rate: float) -> None:
 def _widen(result, part: dict, unit: str, limit: float) -> None:
     """Add ``part`` ({name: deg or mm}) to ``result``'s uncertainty as its "time_offset"
     component, with the "uncertain" warning when the new total exceeds ``limit``."""
-    components = result.uncertainty_components
-    components["time_offset"] = {k: float(v) for k, v in part.items()}
-    total = uncertainty_totals(components)
-    setattr(result, f"uncertainty_{unit}", total)
-    if max(total.values()) <= limit:
-        return
-    # the fit's own warning, if any, gave the total without this part: its numbers and
-    # its main cause would contradict the reported 1-sigma
-    fresh = uncertainty_warning(total, components, unit)
-    stale = [i for i, w in enumerate(result.warnings) if w.startswith(UNCERTAIN_PREFIX)]
-    if stale:
-        result.warnings[stale[0]] = fresh
-    else:
-        result.warnings.append(fresh)
+    result.uncertainty_components["time_offset"] = {k: float(v) for k, v in part.items()}
+    refresh_uncertainty(result, unit, limit)
 
 
 def given_search(search: float, given: float, rate: float) -> float:

@@ -78,6 +78,10 @@ def test_an_implausible_bias_the_residual_asks_for_widens_the_axis_sigma(seed, r
     assert (part["j1"], part["j2"]) == pytest.approx(move, abs=0.05)
     assert axis.uncertainty_deg["j1"] >= part["j1"]
     assert sum("more than a warmed-up gyroscope's" in w for w in axis.warnings) == 1
+    # the "uncertain" warning gives the total with that part (it gave the one before)
+    (uncertain,) = [w for w in axis.warnings if w.startswith("the estimate is uncertain")]
+    name = max(axis.uncertainty_deg, key=axis.uncertainty_deg.get)
+    assert f"1-sigma {axis.uncertainty_deg[name]:.1f} deg for {name}" in uncertain
     err = axis_error_deg(axis.j1, axis.j2, truth["j1"], truth["j2"])
     assert err[0] / axis.uncertainty_deg["j1"] < (0.3 if seed == 4 else 3.3)
 

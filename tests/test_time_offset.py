@@ -14,11 +14,11 @@ from conftest import axis_error_deg, simulated
 
 from imucal import estimate_axis, estimate_position
 from imucal.errors import InputError
+from imucal.quality import UNCERTAIN_PREFIX
 from imucal.settings import check_time_offset
 from imucal.simulate import simulate
 from imucal.time_offset import (
     OFFSET_MODEL_CAP,
-    UNCERTAIN_PREFIX,
     Offset,
     delayed,
     estimate_offset,
