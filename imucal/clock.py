@@ -620,10 +620,13 @@ def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
     # export its "good" (its converted .h5 kept it); past CUT_WARN_S, though, a sensor
     # that started late takes the others' data with it (15 of 20 s, silently: a review)
     if (cut0 + cut1) * clk.period > CUT_WARN_S:
+        # (a side cut by a few samples only is no cause: "'Foot' stopped first" beside
+        # "0.0 s after" read as a contradiction)
         why = " and ".join(
             f"'{name}' {what}" for name, what, cut in
             ((cutters[0], "started last", cut0), (cutters[1], "stopped first", cut1))
-            if cut and name != s.name) or "a sensor started late or stopped early"
+            if cut * clk.period >= 0.05 and name != s.name
+        ) or "a sensor started late or stopped early"
         notes.append(
             f"sensor '{s.name}': {cut0 * clk.period:.1f} s before and {cut1 * clk.period:.1f}"
             f" s after the span all sensors share are not used ({why}; load the others "

@@ -188,7 +188,7 @@ def _load(path, *, rate, gyr_units, acc_units) -> Recording:
             parsed = _guarded(_parse_csv, data, source, what="CSV")
 
     sensors, file_rate, time, units, notes = parsed
-    unread = [n for n in notes if n.startswith(_NOT_TIME)]
+    unread = [n for n in notes if isinstance(n, NotTime)]
     if time is None and rate is None and file_rate is None and unread:
         raise InputError(f"{source}: no sample rate and no time stamps: {unread[0]}; name it "
                          "'time' or give --rate")
@@ -615,16 +615,21 @@ def _parse_csv(data: bytes, source: str):
         notes.append(f"ignored columns: {_short_list(columns['ignored'])}")
     like = next((n for n in columns["ignored"] if _TIME_LIKE.match(n)), None)
     if time is None and like is not None:
-        notes.append(f"{_NOT_TIME}'{like}' is not read as time (only a column named 'time', "
-                     "in s, is)")
+        notes.append(NotTime(f"column '{like}' is not read as time (only a column named "
+                             "'time', in s, is)"))
     return sensors, None, time, units, notes
+
+
+class NotTime(str):
+    """The note on a column that looks like time stamps but is not the 'time' column: a
+    str (a note like the others) that :func:`_load` recognises by its type, not its
+    words."""
 
 
 #: A column a user meant as the time stamps ("time (s)", "timestamp", "Time_s") which is
 #: not the 'time' column: without a rate, loading stopped at "no sample rate and no time
 #: stamps" with no word of it (a new-user trial).
 _TIME_LIKE = re.compile(r"^\s*(time|timestamps?|t)\b|^\s*time[_ ]", re.IGNORECASE)
-_NOT_TIME = "column "
 
 
 #: pandas' message for a row longer than the rows before it.

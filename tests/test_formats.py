@@ -1417,3 +1417,21 @@ def test_a_quoted_cell_holding_the_separator_is_one_field(tmp_path):
     with pytest.raises(InputError, match=r"'0,5' is not a number; the file writes decimal "
                                          r"commas"):
         load_recording(path)
+
+
+def test_the_cut_warning_names_only_a_sensor_that_cut_a_real_span():
+    # 'A' started 4 ms after 'C' (a sample under the grid) and 'B' stopped 3 s early: the
+    # warning named "'A' started last and 'B' stopped first" beside "0.0 s before" (an
+    # independent review)
+    from imucal.clock import align
+    from imucal.formats import RawSensor
+
+    def device(name, start, seconds):
+        t = start + np.arange(int(seconds * 100)) / 100.0
+        sig = np.column_stack([np.sin(2 * np.pi * 0.5 * t)] * 3)
+        return RawSensor(name, sig, sig + 9.0, "rad/s", "m/s^2", time=t)
+
+    out = align([device("C", 0.0, 20), device("A", 0.004, 20), device("B", 0.0, 17)],
+                "<test>")
+    (note,) = [n for n in out.notes if n.startswith("sensor 'C'")]
+    assert "3.0 s after the span all sensors share are not used ('B' stopped first;" in note
