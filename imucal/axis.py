@@ -170,11 +170,11 @@ MIN_SINGULAR_RATIO = 0.04
 #: for a pinned sign against them to get a warning.
 MIN_SIGN_EVIDENCE = 1.5
 #: Below this combined evidence the relative sign gets a warning that the data barely
-#: decide it. Set on simulated knees (117 random gait, walking, protocol and circling
-#: recordings, soft tissue up to 3 deg / 5 mm, clocks up to 50 ms apart): the 5 wrong
+#: decide it. Set on simulated knees (300 random gait, walking, protocol and circling
+#: recordings, soft tissue up to 3 deg / 5 mm, clocks up to 50 ms apart): the 9 wrong
 #: relative signs had 1.04-2.12, and an independent audit's two more 1.57 and 2.03 (axes
-#: 164-166 deg off "use with care", no word of the sign, at 1.5); 25 of the 112 right ones
-#: lay below 2.5, all under soft tissue; rigid sensors give 24 and more.
+#: 164-166 deg off "use with care", no word of the sign, at 1.5); 58 of the 291 right ones
+#: lay below 2.5, all under soft tissue; rigid sensors gave 55 and more.
 SIGN_DECIDED_EVIDENCE = 2.5
 
 
@@ -919,7 +919,7 @@ def _sign_warnings(decision, applied: float, pinned: bool) -> list[str]:
     if evidence < SIGN_DECIDED_EVIDENCE:
         return [f"the data barely decide whether j1 and j2 point the same way (evidence "
                 f"ratio {evidence:.2f}, below {SIGN_DECIDED_EVIDENCE:g}: on simulated knees "
-                "with soft tissue such ratios were wrong about 1 time in 6, the axis then off "
+                "with soft tissue such ratios were wrong about 1 time in 7, the axis then off "
                 "by 160 deg or more); check the relative sign by another means, or pin it "
                 "with j2_sign (--j2-sign)"]
     if decision.contradicting:

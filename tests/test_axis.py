@@ -172,7 +172,7 @@ def test_rigid_knee_has_a_small_singular_ratio():
 def test_a_relative_sign_on_evidence_below_2_5_gets_a_warning(evidence, warned):
     # two weak tests (plane 1.06, acc 1.48) combined to 1.57 and read as decided: a gait
     # knee under soft tissue came out 164 deg off, "use with care", no word of its sign
-    # (an independent audit); of 117 simulated knees the wrong signs had 1.04-2.12
+    # (an independent audit); of 300 simulated knees the wrong signs had 1.04-2.12
     from imucal.axis import _sign_warnings
     from imucal.sign import SignDecision
 
