@@ -46,6 +46,7 @@ from .preprocess import (
     check_pair,
     default_cutoff,
     lowpass,
+    only_the_stillness,
     prepare,
     stillness_warning,
     unit_doubts,
@@ -359,11 +360,11 @@ def estimate_axis(
     rate = check_rate(rate)
     acc1, acc2 = _check_acc(g1, acc1, acc2)
     if s.time_offset == "auto":
-        return _with_auto_offset(g1, g2, acc1, acc2, rate, s)
+        return only_the_stillness(_with_auto_offset(g1, g2, acc1, acc2, rate, s))
     result = _estimate(g1, g2, acc1, acc2, rate, replace(s, seed=resolve_seed(s.seed)))
     search = given_search(s.offset_search, s.time_offset, rate)
     check_given(result, offset_profile(g1, g2, rate, search), rate, search, s.time_offset)
-    return result
+    return only_the_stillness(result)
 
 
 def _estimate(g1, g2, acc1, acc2, rate, s: AxisSettings, bias_removed: bool = False

@@ -47,6 +47,7 @@ from .preprocess import (
     default_joint_cutoff,
     derivative,
     lowpass,
+    only_the_stillness,
     prepare,
     rms_rate_deg_s,
     spectral_cutoff,
@@ -348,12 +349,13 @@ def estimate_position(
         raise InputError(f"gyr and acc have different lengths ({g1.shape[0]}, {a1.shape[0]})")
     rate = check_rate(rate)
     if s.time_offset == "auto":
-        return _refuse_if_uninformative(_with_auto_offset(g1, a1, g2, a2, rate, axis, s))
+        return only_the_stillness(_refuse_if_uninformative(
+            _with_auto_offset(g1, a1, g2, a2, rate, axis, s)))
     result = _estimate(g1, a1, g2, a2, rate, axis, replace(s, seed=resolve_seed(s.seed)))
     search = given_search(s.offset_search, s.time_offset, rate)
     check_given(result, offset_profile((g1, a1, g2, a2), rate, search), rate, search,
                 s.time_offset)
-    return _refuse_if_uninformative(result)
+    return only_the_stillness(_refuse_if_uninformative(result))
 
 
 def _refuse_if_uninformative(result: PositionResult) -> PositionResult:

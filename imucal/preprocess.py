@@ -70,6 +70,22 @@ def rms_rate_deg_s(gyr: np.ndarray) -> float:
     return float(np.degrees(np.sqrt(np.mean(np.sum(gyr * gyr, axis=1)))))
 
 
+#: How the refusal of a recording without motion begins (:func:`stillness_warning`).
+STILL_REASON = "the sensors barely rotate"
+
+
+def only_the_stillness(result):
+    """``result`` with no warnings beside its refusal when that is a recording without
+    motion (:data:`STILL_REASON`): a poor fit, an uncertain estimate, a clock offset or
+    an axis that is no line mean nothing without motion, and a reader met them before
+    the reason (a standing-still recording warned to check the synchronisation first: a
+    new-user trial). ``result.blocking`` keeps the reason; the JSON with ``--force``
+    carries it alone."""
+    if result.blocking and result.blocking[0].startswith(STILL_REASON):
+        result.warnings = []
+    return result
+
+
 def stillness_warning(gyr1: np.ndarray, gyr2: np.ndarray) -> list[str]:
     """A warning when either sensor barely rotates (nothing to estimate from), else [].
 
@@ -90,7 +106,7 @@ def stillness_warning(gyr1: np.ndarray, gyr2: np.ndarray) -> list[str]:
         which = (f"the {still} sensor: RMS rate {min(rates):.1f} deg/s, the {moving} "
                  f"{max(rates):.1f}")
     return [
-        f"the sensors barely rotate ({which}; below {STILL_RATE_DEG_S:g} deg/s): the "
+        f"{STILL_REASON} ({which}; below {STILL_RATE_DEG_S:g} deg/s): the "
         "recording holds no motion to estimate from"
     ]
 

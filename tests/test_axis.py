@@ -143,6 +143,9 @@ def test_static_recording_is_flagged():
     rec, _ = simulated(1, motion="static")
     r = estimate_axis(rec.sensor("thigh").gyr, rec.sensor("shank").gyr, rate=rec.rate, seed=1)
     assert any("barely rotate" in w for w in r.blocking)
+    # and nothing beside it: a poor fit, an uncertain estimate or a clock offset read
+    # first sent a user checking the synchronisation (a new-user trial)
+    assert r.warnings == []
     assert r.verdict == "not identifiable"
     assert np.isfinite(r.batch.x).all() and 1.0 <= r.sign_evidence < 1.5
 
