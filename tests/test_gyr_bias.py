@@ -183,3 +183,23 @@ def test_no_second_search_where_the_rates_ask_for_no_bias(monkeypatch):
     axis = estimate_axis(th.gyr, sh.gyr, rate=100, seed=1, restarts=20)
     assert axis.gyr_bias["cost_ratio"] < axis_module.BIAS_SEARCH_RATIO
     assert calls == [(False,)]
+
+
+def test_a_large_bias_that_fakes_a_clock_offset_keeps_its_move_in_sync():
+    # gait with 0.1 rad/s biases, clocks in sync: the search applied +15.7 ms, where the
+    # biases gain less and the axis moved 1.26 deg without them (8.55 deg off at a 1-sigma
+    # of 1.70, an independent review); the move with the clocks in sync now counts too
+    rec, truth = simulate(seed=2, rate=100, duration=30, motion="gait", gyr_noise=0.01,
+                          acc_noise=0.05, gyr_bias=0.1)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    kw = dict(rate=100, seed=1, restarts=10, acc1=th.acc, acc2=sh.acc)
+    auto = estimate_axis(th.gyr, sh.gyr, time_offset="auto", **kw)
+    sync = estimate_axis(th.gyr, sh.gyr, time_offset=0, **kw)
+    assert auto.time_offset["applied"]
+    assert auto.time_offset["time_offset_s"] == pytest.approx(0.0157, abs=5e-4)
+    for k in ("j1", "j2"):
+        assert auto.uncertainty_components["gyr_bias"][k] == pytest.approx(
+            sync.uncertainty_components["gyr_bias"][k], rel=1e-6)
+    assert auto.uncertainty_deg["j1"] == pytest.approx(2.45, abs=0.02)
+    (said,) = [w for w in auto.warnings if "more than a warmed-up gyroscope's" in w]
+    assert "the axis would move by 2.2 deg" in said
