@@ -384,8 +384,12 @@ along a line, the verdict is `use with care`, the error (4.8 mm worst) stays wit
 sigma, and the line is reported: `quality.weak_direction` gives its direction in both
 sensor frames and the 1-sigma along it and across it (`tests/test_weak_direction.py`).
 Soft tissue gives no internal error, and every error of the table is within 3 sigma (knee
-axis 1.2 and 2.4 sigma worst, ankle 0.8 and 1.2). Coverage over 40-200 Hz and seeds 1-8:
-all 480 estimates within 3 sigma or refused (knee axis 2.3 sigma worst; target 95 %).
+axis 1.1 and 1.5 sigma worst, ankle 0.8 and 1.2). Coverage over 40-200 Hz and seeds 1-8:
+all 480 estimates within 3 sigma or refused (knee axis 2.3 sigma worst, measured before
+the large-bias move below, which only widens; target 95 %). Under soft tissue the
+residual often asks for gyroscope biases larger than a warmed-up gyroscope's ("large
+bias asked"): not removed, the axis's move without them is in its 1-sigma (the 2 deg /
+3 mm knees' worst went from 2.3 to 1.6 sigma).
 This protocol motion is where the knee's model term is most generous: on gait with soft
 tissue a review found 4 of 40 knees (1 deg / 2 mm) beyond 3 sigma, one of them `good`
 (seed 21, 4.2 sigma), and ankle centres from circling with soft tissue 3-5 of 20 `good`
