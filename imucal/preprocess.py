@@ -80,7 +80,14 @@ def only_the_stillness(result):
     an axis that is no line mean nothing without motion, and a reader met them before
     the reason (a standing-still recording warned to check the synchronisation first: a
     new-user trial). ``result.blocking`` keeps the reason; the JSON with ``--force``
-    carries it alone."""
+    carries it alone.
+
+    Returns
+    -------
+    AxisResult or PositionResult
+        ``result`` itself, its ``warnings`` emptied where the first blocking reason is
+        :data:`STILL_REASON`'s.
+    """
     if result.blocking and result.blocking[0].startswith(STILL_REASON):
         result.warnings = []
     return result
