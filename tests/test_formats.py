@@ -1435,3 +1435,14 @@ def test_the_cut_warning_names_only_a_sensor_that_cut_a_real_span():
                 "<test>")
     (note,) = [n for n in out.notes if n.startswith("sensor 'C'")]
     assert "3.0 s after the span all sensors share are not used ('B' stopped first;" in note
+
+
+def test_a_quote_left_open_is_one_damaged_row_not_a_crash():
+    # the quoted rows are counted by one csv reader: a quote left open would join the rows
+    # after it, and the counts would no longer line up with the rows
+    from imucal.formats import _check_row_widths
+
+    good = '"1","2","3"'
+    with pytest.raises(InputError, match="row 3 has 2 of the header's 3 fields"):
+        _check_row_widths([good, '"1,"2","3"', good, good], ",", 3, 2, "x")
+    _check_row_widths([good] * 4, ",", 3, 2, "x")  # (whole rows pass)

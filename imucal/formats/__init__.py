@@ -519,7 +519,14 @@ def _check_row_widths(lines: list[str], sep: str, width: int, first_row: int,
     not the file's (a new-user trial). imucal's own CSV refuses both the same way. Blank
     lines are left to the cells' rules; a line with quotes is split as the parser splits
     it (a quoted "0,5" is one field)."""
-    fields = np.fromiter((_field_count(ln, sep) for ln in lines), np.int64, len(lines))
+    fields = np.fromiter((ln.count(sep) for ln in lines), np.int64, len(lines)) + 1
+    quoted = [i for i, ln in enumerate(lines) if '"' in ln]
+    if quoted:  # (one reader for them all: a Shimmer hour quotes every cell)
+        counts = [len(cells) for cells in
+                  csv.reader((lines[i] for i in quoted), delimiter=sep)]
+        if len(counts) != len(quoted):  # a quote left open joined lines: one by one
+            counts = [len(next(csv.reader([lines[i]], delimiter=sep), [])) for i in quoted]
+        fields[quoted] = counts
     blank = np.fromiter((not ln.strip() for ln in lines), bool, len(lines))
     short = (fields < width) & ~blank & ~np.isin(fields, list(short_widths))
     first = fields[~blank][0] if (~blank).any() else width  # (a tab ending every row)
@@ -530,12 +537,6 @@ def _check_row_widths(lines: list[str], sep: str, width: int, first_row: int,
                 if short[i] else
                 f"{fields[i]} fields, the header {width}; remove the extra fields")
         raise InputError(f"{source}: row {first_row + i} has {what}")
-
-
-def _field_count(line: str, sep: str) -> int:
-    if '"' not in line:
-        return line.count(sep) + 1
-    return len(next(csv.reader([line], delimiter=sep), [""]))
 
 
 UNIT_RE = re.compile(r"\(([^()]*)\)\s*$")
