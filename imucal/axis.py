@@ -415,15 +415,16 @@ def _with_implausible_bias_move(result: AxisResult, g1, g2, acc1, acc2, rate,
 _LARGE_BIAS = "more than a warmed-up gyroscope's"
 
 
-def _large_bias_warning(block: dict, move: float) -> str:
+def _large_bias_warning(block: dict, move: float, where: str = "") -> str:
     """The warning on biases the residual asks for but no gyroscope has (``block``: the
-    ``gyr_bias`` report; ``move``: deg, the largest move in the 1-sigma)."""
+    ``gyr_bias`` report; ``move``: deg, the largest move in the 1-sigma; ``where``: said
+    of the move when it is not the fit's own)."""
     size = max(np.linalg.norm(block["b1_rad_s"]), np.linalg.norm(block["b2_rad_s"]))
     return (f"the residual is {block['cost_ratio']:.2f} x lower with gyroscope biases of "
             f"{size:.2f} rad/s, {_LARGE_BIAS} ({MAX_PLAUSIBLE_BIAS_RAD_S:g}): a model error "
             f"(soft tissue) or gyroscopes far from calibrated; not removed, the axis would "
-            f"move by {move:.1f} deg (in the 1-sigma). A still period at the start lets the "
-            "biases be checked")
+            f"move by {move:.1f} deg{where} (in the 1-sigma). A still period at the start "
+            "lets the biases be checked")
 
 
 def _with_move_in_sync(result: AxisResult, again) -> AxisResult:
@@ -444,8 +445,9 @@ def _with_move_in_sync(result: AxisResult, again) -> AxisResult:
         return result
     result.uncertainty_components["gyr_bias"] = wider
     refresh_uncertainty(result, "deg", MAX_UNCERTAINTY_DEG)
-    result.warnings = [_large_bias_warning(result.gyr_bias, max(wider.values()))
-                       if _LARGE_BIAS in w else w for w in result.warnings]
+    said = _large_bias_warning(result.gyr_bias, max(wider.values()),
+                               " with the clocks in sync, where they gain more")
+    result.warnings = [said if _LARGE_BIAS in w else w for w in result.warnings]
     return _refuse_if_uninformative(result)
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import __version__
 from .errors import ImucalError, InputError
-from .quality import NOT_IDENTIFIABLE
+from .quality import NOT_IDENTIFIABLE, is_still
 from .recording import Recording, check_recording, estimator_window, input_info
 from .sensor_names import normalised_name, segment_of
 from .settings import ACC_ERROR_M_S2, MAX_TIME_OFFSET_S, OFFSET_SEARCH_S
@@ -683,7 +683,10 @@ def _angle_reference(jc: JointCalibration, used, around, smoothing_s) -> None:
         jc.warnings.append(f"angle: {jc.name}: no angle calibration: {err}")
         return
     a = jc.angle
-    if a["warnings"]:
+    # an axis refused for want of motion: the angle's checks of it say nothing more (a
+    # standing trial's gravity check came back under "angle:", a review)
+    still = is_still([w for w in jc.warnings if w.startswith("axis: ")][:1])
+    if a["warnings"] and not still:
         # the trial's gravity check is the axis' own: said once, by the axis
         jc.warnings += [f"angle: {w}" for w in a["warnings"]
                         if f"axis: {w.removeprefix(f'{jc.name}: ')}" not in jc.warnings]

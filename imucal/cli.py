@@ -1086,8 +1086,10 @@ def _offset_text(offset: dict | None) -> str:
     if sigma is None and found != 0 and not offset["applied"]:  # the search's end: a bound
         return f"at least {signed_ms(found, 1)} ms (the end of the search, {applied})"
     if sigma is None and not offset["applied"]:
-        # a window too short for the search: nothing was estimated (it printed "+0.0 ms
-        # (1-sigma - ms, not applied)", a new-user trial)
+        # a window too short for the search, or no motion: nothing was estimated (it
+        # printed "+0.0 ms (1-sigma - ms, not applied)", a new-user trial)
+        if offset.get("not_estimated") == "no motion":
+            return "not estimated (no motion)"
         return "not estimated (too few usable samples for the search)"  # (or none finite)
     return (f"{signed_ms(found, 1)} ms (1-sigma "
             f"{'-' if sigma is None else f'{1000 * sigma:.1f}'} ms, {applied})")

@@ -17,7 +17,7 @@ import numpy as np
 from scipy import signal
 
 from .errors import InputError
-from .quality import smooth_residual_rms
+from .quality import STILL_REASON, is_still, smooth_residual_rms
 from .recording import window_slice
 from .selection import Selection
 from .selection import select as select_samples
@@ -70,8 +70,10 @@ def rms_rate_deg_s(gyr: np.ndarray) -> float:
     return float(np.degrees(np.sqrt(np.mean(np.sum(gyr * gyr, axis=1)))))
 
 
-#: How the refusal of a recording without motion begins (:func:`stillness_warning`).
-STILL_REASON = "the sensors barely rotate"
+class UnitDoubt(str):
+    """A warning of :func:`unit_doubts` (a str like the others): kept where a recording
+    without motion drops the fit's other warnings (:func:`only_the_stillness`), since a
+    unit mistake can be why it looks still."""
 
 
 def only_the_stillness(result):
@@ -79,17 +81,17 @@ def only_the_stillness(result):
     motion (:data:`STILL_REASON`): a poor fit, an uncertain estimate, a clock offset or
     an axis that is no line mean nothing without motion, and a reader met them before
     the reason (a standing-still recording warned to check the synchronisation first: a
-    new-user trial). ``result.blocking`` keeps the reason; the JSON with ``--force``
-    carries it alone.
+    new-user trial). Doubts about the units (:class:`UnitDoubt`) stay: a mis-scaled
+    sensor can be why. ``result.blocking`` keeps the reason.
 
     Returns
     -------
     AxisResult or PositionResult
-        ``result`` itself, its ``warnings`` emptied where the first blocking reason is
-        :data:`STILL_REASON`'s.
+        ``result`` itself, its ``warnings`` reduced to its unit doubts where the first
+        blocking reason is :data:`imucal.quality.STILL_REASON`'s.
     """
-    if result.blocking and result.blocking[0].startswith(STILL_REASON):
-        result.warnings = []
+    if is_still(result.blocking):
+        result.warnings = [w for w in result.warnings if isinstance(w, UnitDoubt)]
     return result
 
 
@@ -407,17 +409,18 @@ def unit_doubts(gyr: tuple, acc: tuple = ()) -> list[str]:
     for k, g in zip(which, gyr, strict=False):
         fast = float(np.percentile(np.sqrt(np.sum(g * g, axis=1)), 99))
         if fast > MAX_LIMB_RATE:
-            doubts.append(f"{k}'s angular rate exceeds {fast:.0f} rad/s 1 % of the "
-                          f"time, faster than a limb turns (< {MAX_LIMB_RATE:g} rad/s): the "
-                          "gyroscope data look like deg/s read as rad/s")
+            doubts.append(UnitDoubt(
+                f"{k}'s angular rate exceeds {fast:.0f} rad/s 1 % of the time, faster than a "
+                f"limb turns (< {MAX_LIMB_RATE:g} rad/s): the gyroscope data look like deg/s "
+                "read as rad/s"))
     for k, a in zip(which, acc, strict=False):
         median = float(np.median(np.sqrt(np.sum(a * a, axis=1))))
         if ACC_LOOKS_LIKE_G[0] <= median <= ACC_LOOKS_LIKE_G[1]:
-            doubts.append(f"{k}'s specific force has a median norm of {median:.2f} "
-                          "m/s^2, about 1 g in g units: the accelerometer data look like g "
-                          "read as m/s^2")
+            doubts.append(UnitDoubt(
+                f"{k}'s specific force has a median norm of {median:.2f} m/s^2, about 1 g in "
+                "g units: the accelerometer data look like g read as m/s^2"))
         elif not ACC_PLAUSIBLE[0] <= median <= ACC_PLAUSIBLE[1]:
-            doubts.append(f"{k}'s specific force {acc_scale_doubt(median)}")
+            doubts.append(UnitDoubt(f"{k}'s specific force {acc_scale_doubt(median)}"))
     return doubts
 
 

@@ -358,6 +358,24 @@ def total_sigma(curvature: float, blocks: float, cutoff_shift: float,
 
 #: How :func:`uncertainty_warning`'s warning begins.
 UNCERTAIN_PREFIX = "the estimate is uncertain"
+#: How the refusal of a recording without motion begins
+#: (:func:`imucal.preprocess.stillness_warning`).
+STILL_REASON = "the sensors barely rotate"
+
+
+def is_still(blocking: list[str]) -> bool:
+    """Whether an estimate's first blocking reason is a recording without motion.
+
+    Returns
+    -------
+    bool
+        ``blocking[0]`` begins with :data:`STILL_REASON` (a prefix such as "axis: " of a
+        calibration's joint allowed).
+    """
+    if not blocking:
+        return False
+    first = blocking[0]
+    return first.startswith(STILL_REASON) or first.partition(": ")[2].startswith(STILL_REASON)
 
 
 def uncertainty_warning(total: dict, components: dict, unit: str) -> str:

@@ -30,7 +30,7 @@ import numpy as np
 from scipy.interpolate import make_interp_spline
 
 from .errors import InputError, signed_ms
-from .quality import block_masks, jackknife_sigma, refresh_uncertainty
+from .quality import block_masks, is_still, jackknife_sigma, refresh_uncertainty
 from .settings import OFFSET_SEARCH_S
 
 #: The profile refits use about this many of the samples and this many plain
@@ -537,7 +537,11 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     """
     check_search(search, rate)
     first = fit(0.0)
-    found = estimate_offset(profile(first), rate, search)
+    if is_still(first.blocking):  # no motion, no shift to compare: not searched (a
+        # standing trial's ankle "applied" +191.5 ms, an independent review)
+        found = Offset(0.0, float("inf"), False, search, 1.0)
+    else:
+        found = estimate_offset(profile(first), rate, search)
     applied = found.significant(rate)
     result, start, how = first, found, "profile"
     if applied:
@@ -550,6 +554,8 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     # model error moves it alike
     reported = replace(found, model_sigma_s=model_sigma(result, found))
     result.time_offset = {**offset_report(reported, rate), "found_by": how}
+    if is_still(first.blocking):
+        result.time_offset["not_estimated"] = "no motion"
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(reported, rate))
     if refused_at_edge(found):

@@ -185,3 +185,18 @@ def test_a_relative_sign_on_evidence_below_2_5_gets_a_warning(evidence, warned):
     if warned:
         assert said[0].startswith("the data barely decide whether j1 and j2 point the same "
                                   f"way (evidence ratio {evidence:.2f}, below 2.5")
+
+
+def test_a_still_sensor_keeps_the_doubt_about_the_others_units():
+    # a still thigh beside a shank whose deg/s were read as rad/s: the stillness reason
+    # stands alone, but the units doubt is a reason too and was dropped with the rest
+    rec, _ = simulated(4, motion="gait", duration=20.0)
+    sh = rec.sensor("shank")
+    rng = np.random.default_rng(0)
+    g1 = rng.normal(0, 0.002, sh.gyr.shape)
+    r = estimate_axis(g1, sh.gyr * 57.2958, rate=rec.rate, seed=1, restarts=10,
+                      time_offset=0)
+    assert r.blocking[0].startswith("the sensors barely rotate (the first sensor")
+    assert len(r.warnings) == 1
+    assert r.warnings[0].startswith("the second sensor's angular rate exceeds 370 rad/s")
+    assert r.warnings[0].endswith("the gyroscope data look like deg/s read as rad/s")

@@ -470,3 +470,18 @@ def test_the_reason_of_a_hand_edited_quality_block_is_text(warnings):
                                             "warnings": warnings}})
     # (5 crashed with exit 3 in `angles`, "text" was quoted by its first letter)
     assert jc.reason() == "axis: the reason"
+
+
+def test_a_standing_trial_says_only_that_nothing_moved():
+    # a simulated standing trial: its ankle "applied" a clock offset of +191.5 ms, the
+    # summary sent the user to the clocks, and the knee's gravity check came back under
+    # "angle:" once the axis said only that nothing moved (an independent review)
+    rec, _ = simulate(seed=3, motion="static", duration=20, rate=100)
+    cal = calibrate(rec, restarts=5, seed=1)
+    for jc in cal.joints.values():
+        assert jc.verdict == "not identifiable"
+        assert all("the sensors barely rotate" in w for w in jc.warnings), jc.warnings
+        estimates = [e for e in (jc.axis, jc.position) if e]
+        assert len(estimates) == (2 if jc.kind == "hinge" else 1)
+        for block in (e["time_offset"] for e in estimates):
+            assert block["not_estimated"] == "no motion" and not block["applied"]

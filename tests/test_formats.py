@@ -1446,3 +1446,24 @@ def test_a_quote_left_open_is_one_damaged_row_not_a_crash():
     with pytest.raises(InputError, match="row 3 has 2 of the header's 3 fields"):
         _check_row_widths([good, '"1,"2","3"', good, good], ",", 3, 2, "x")
     _check_row_widths([good] * 4, ",", 3, 2, "x")  # (whole rows pass)
+
+
+@pytest.mark.parametrize("trimmed", [True, False])
+def test_a_shimmer_device_stopping_early_keeps_the_others_last_row(tmp_path, trimmed):
+    # with the rows trimmed of the stopped device's empty cells, the complete last row
+    # read as "the file was cut off" and was dropped (an independent review); a row ending
+    # inside a device's block is still refused
+    rec = short()
+    path = vw.shimmer(rec, tmp_path / "s.csv", drops={"foot": list(range(400, 500))})
+    lines = path.read_text().split("\n")
+    if trimmed:
+        lines = lines[:3] + [ln.rstrip("\t") for ln in lines[3:]]
+    path.write_text("\n".join(lines))
+    loaded = load_recording(path)
+    assert not any("cut off" in w for w in loaded.warnings)
+    assert loaded.n_samples == 400
+    assert any("'Shimmer_D0A9' stopped first" in w for w in loaded.warnings)
+    lines[50] = "\t".join(lines[50].split("\t")[:17])  # inside the foot's block
+    path.write_text("\n".join(lines))
+    with pytest.raises(InputError, match="row 51 has 17 of the header's 21 fields"):
+        load_recording(path)

@@ -459,7 +459,7 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
     while width > 1 and not names[width - 1].strip():  # (a separator ending the header)
         width -= 1
     last = lines[-1].rstrip("\r\n").split(sep)
-    if len(last) < width and len(lines) > 1:
+    if len(last) < width and len(last) not in short_widths and len(lines) > 1:
         lines = lines[:-1]
         notes.append(f"the last row (row {first_row + len(lines)}) has {len(last)} of {width} "
                      "fields: the file was cut off; that row is dropped")
