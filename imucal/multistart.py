@@ -22,6 +22,7 @@ how a local step moves a state, and how far two states are apart.
 from __future__ import annotations
 
 import functools
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -74,12 +75,41 @@ def one_blas_thread(estimator: Callable) -> Callable:
     """
     @functools.wraps(estimator)
     def limited(*args, **kwargs):
-        global _BLAS
+        _enter_one_thread()
+        try:
+            with np.errstate(all="ignore"):
+                return estimator(*args, **kwargs)
+        finally:
+            _leave_one_thread()
+    return limited
+
+
+# BLAS's thread count is the process's: calls from several threads (a ThreadPoolExecutor
+# in a notebook) or nested ones share one limit, set by the first to enter and restored by
+# the last to leave. Each call restoring its own left BLAS at 1 thread for the rest of the
+# session after a threaded run (its save and restore crossed; a new-user trial).
+_LIMIT_LOCK = threading.Lock()
+_LIMIT_USERS = 0
+_LIMITER = None
+
+
+def _enter_one_thread() -> None:
+    global _BLAS, _LIMIT_USERS, _LIMITER
+    with _LIMIT_LOCK:
         if _BLAS is None:
             _BLAS = ThreadpoolController()
-        with _BLAS.limit(limits=1, user_api="blas"), np.errstate(all="ignore"):
-            return estimator(*args, **kwargs)
-    return limited
+        if _LIMIT_USERS == 0:
+            _LIMITER = _BLAS.limit(limits=1, user_api="blas")
+        _LIMIT_USERS += 1
+
+
+def _leave_one_thread() -> None:
+    global _LIMIT_USERS, _LIMITER
+    with _LIMIT_LOCK:
+        _LIMIT_USERS -= 1
+        if _LIMIT_USERS == 0 and _LIMITER is not None:
+            _LIMITER.restore_original_limits()
+            _LIMITER = None
 
 
 def safe_newton(jtj: np.ndarray, hess: np.ndarray) -> np.ndarray:

@@ -32,3 +32,26 @@ def test_estimators_run_blas_on_one_thread_and_restore_it(monkeypatch):
         after = _blas_threads()
     assert len(seen) >= 8 and set(seen) == {1}
     assert after == 2  # the caller's setting is back
+
+
+def test_estimators_in_threads_restore_the_callers_blas_threads():
+    # each call saved and restored the process-wide limit on its own: calls overlapping in
+    # a ThreadPoolExecutor restored each other's 1, and BLAS stayed at 1 thread for the
+    # rest of the session (a new-user trial, 3 of 3 runs; this test's overlaps caught the
+    # old code in about 1 run of 3: a race, so it can only fail, never pass, by chance)
+    from concurrent.futures import ThreadPoolExecutor
+
+    rec, _ = simulated(2)
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+
+    def one(seed):
+        return estimate_axis(th.gyr, sh.gyr, rate=rec.rate, restarts=20, seed=seed)
+
+    original = threadpool_limits(2, user_api="blas")  # as a session sets it, for good
+    try:
+        one(1)
+        with ThreadPoolExecutor(4) as pool:
+            list(pool.map(one, range(12)))
+        assert _blas_threads() == 2  # the caller's setting is back
+    finally:
+        original.restore_original_limits()
