@@ -240,8 +240,12 @@ class Recording:
         context
             Also keep the samples around the window as far as the named sensors are
             finite there: an estimator that low-passes before cutting out its window
-            (its ``start``/``end``) then has no filter transients at the window's edges.
-            ``window`` of the result says which samples form the window.
+            (its ``start``/``end``) then has no filter transients at the window's edges,
+            and an axis can be checked against the rests around a window that has none
+            of its own (as the command line checks it: a window cut out alone, the left
+            knee of the shared recording at 60-75 s, was `use with care` where the
+            command line refused it). ``window`` of the result says which samples form
+            the window.
 
         Returns
         -------
@@ -408,6 +412,9 @@ class Recording:
         >>> rec.resolve("thigh"), rec.resolve("SHANK"), rec.resolve("tibia")
         ('thigh', 'shank', 'shank')
         """
+        if not isinstance(name, str):  # (a list made `in` raise TypeError: a new-user trial)
+            raise InputError(f"{self.source}: a sensor name is text, got "
+                             f"{type(name).__name__} {str(name)[:40]}")
         if name in self.sensors:
             return name
         try:

@@ -190,7 +190,7 @@ def check_table(table: Path, recordings, calibration: str, option: str = "--tabl
     >>> try:
     ...     check_table(Path("walk.csv"), ["walk.csv"], "cal.json")
     ... except Exception as err:
-    ...     print(str(err)[:48])
+    ...     print(str(err)[:47])
     walk.csv: --tables names an input recording and
     """
     from .atomic import check_not_inputs

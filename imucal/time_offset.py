@@ -286,6 +286,8 @@ def estimate_offset(refit: Callable[..., tuple[np.ndarray, np.ndarray]],
     # look at a periodic circling's profile picked the wrong one of two close dips)
     thin = COARSE_THIN if step > 1 else 1
     rough = np.square(refit(coarse / rate, every=thin)[0])
+    if rough.shape[-1] == 0:  # no sample away from the ends (numpy warned of empty means)
+        return Offset(0.0, float("inf"), False, float(search), 1.0)
     costs = dict(zip(coarse.tolist(), rough, strict=True)) if thin == 1 else {}
     grids = [np.arange(max(-steps, low - step), min(steps, low + step) + 1)
              for low in _coarse_basins(rough.mean(axis=1), coarse, thin)]

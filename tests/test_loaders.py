@@ -1283,3 +1283,10 @@ def test_a_time_column_under_another_name_is_named_when_no_rate_is_given(tmp_pat
                                          rf"'{re.escape(name)}' is not read as time"):
         load_recording(path)
     assert load_recording(path, rate=100).n_samples == 50
+
+
+def test_resolve_refuses_a_name_that_is_not_text():
+    # rec.resolve(["thigh"]) raised TypeError from a dict lookup (a new-user trial)
+    rec = load_recording(Path(__file__).parent.parent / "sample_data" / "walking.h5")
+    with pytest.raises(InputError, match="a sensor name is text, got list"):
+        rec.resolve(["thigh"])

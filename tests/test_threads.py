@@ -37,8 +37,8 @@ def test_estimators_run_blas_on_one_thread_and_restore_it(monkeypatch):
 def test_estimators_in_threads_restore_the_callers_blas_threads():
     # each call saved and restored the process-wide limit on its own: calls overlapping in
     # a ThreadPoolExecutor restored each other's 1, and BLAS stayed at 1 thread for the
-    # rest of the session (a new-user trial, 3 of 3 runs; this test's overlaps caught the
-    # old code in about 1 run of 3: a race, so it can only fail, never pass, by chance)
+    # rest of the session (a new-user trial, 3 of 3 runs; a race: this test caught the old
+    # code in about 1 run of 3, and cannot fail on a shared limit)
     from concurrent.futures import ThreadPoolExecutor
 
     rec, _ = simulated(2)
