@@ -403,8 +403,8 @@ def _with_implausible_bias_move(result: AxisResult, g1, g2, acc1, acc2, rate,
     1-sigma spans both. Left out, a gait knee with 0.1 rad/s biases (cost ratio 1.86,
     fitted 0.07 rad/s) read 8.5 deg off at a 1-sigma of 1.15 deg (an independent audit)."""
     other = _estimate(g1 - bias.b1, g2 - bias.b2, acc1, acc2, rate, s, bias_removed=True)
-    move = {k: float(np.degrees(np.arccos(min(1.0, abs(float(a @ b))))))
-            for k, a, b in (("j1", result.j1, other.j1), ("j2", result.j2, other.j2))}
+    move = {"j1": float(_angle_deg(result.j1, other.j1)),
+            "j2": float(_angle_deg(result.j2, other.j2))}
     result.uncertainty_components["gyr_bias"] = move
     refresh_uncertainty(result, "deg", MAX_UNCERTAINTY_DEG)
     _refuse_if_uninformative(result)

@@ -539,8 +539,9 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     """
     check_search(search, rate)
     first = fit(0.0)
-    if is_still(first.blocking):  # no motion, no shift to compare: not searched (a
-        # standing trial's ankle "applied" +191.5 ms, an independent review)
+    still = is_still(first.blocking)
+    if still:  # no motion, no shift to compare: not searched (a standing trial's ankle
+        # "applied" +191.5 ms, an independent review)
         found = Offset(0.0, float("inf"), False, search, 1.0)
     else:
         found = estimate_offset(profile(first), rate, search)
@@ -556,7 +557,7 @@ def fit_with_offset(fit, profile, rate: float, search: float, moved, unit: str,
     # model error moves it alike
     reported = replace(found, model_sigma_s=model_sigma(result, found))
     result.time_offset = {**offset_report(reported, rate), "found_by": how}
-    if is_still(first.blocking):
+    if still:
         result.time_offset["not_estimated"] = "no motion"
     result.settings["time_offset"] = "auto"
     result.warnings.extend(offset_warnings(reported, rate))

@@ -427,8 +427,8 @@ def parse_table(lines: list[str], sep: str, first_row: int, source: str,
     ``ended`` says whether the file's text ends with a line break (:func:`ends_line`);
     a row with a number of fields in ``short_widths`` is read as ending in empty cells
     (Shimmer: a device without a sample in that row may leave its block of cells off)
-    instead of being refused. Empty names at the header's end (a separator ending the header line)
-    are no columns.
+    instead of being refused. Empty names at the header's end (a separator ending the
+    header line) are no columns.
     Empty cells and ``NaN`` read as NaN. A last row with fewer fields than the header
     (a truncated file) is dropped with a note, and so is an unended last row whose last
     number is shorter than the rows above write it (:func:`cut_in_number`); a cell
@@ -512,13 +512,12 @@ def check_comma_separated(names: list[str], where: str, what: str) -> None:
 def _check_row_widths(lines: list[str], sep: str, width: int, first_row: int,
                       source: str, short_widths: frozenset = frozenset()) -> None:
     """Refuse a data row with fewer fields than the header (unless ``short_widths`` holds
-    its count), or
-    with more than the header and the first row hold: the parser filled a short row's
-    missing fields as NaN, read as a dropped sample and interpolated with a "NaN or Inf"
-    warning naming no row, and a long row stopped loading with the parser's line count,
-    not the file's (a new-user trial). imucal's own CSV refuses both the same way. Blank
-    lines are left to the cells' rules; a line with quotes is split as the parser splits
-    it (a quoted "0,5" is one field)."""
+    its count), or with more than the header and the first row hold: the parser filled a
+    short row's missing fields as NaN, read as a dropped sample and interpolated with a
+    "NaN or Inf" warning naming no row, and a long row stopped loading with the parser's
+    line count, not the file's (a new-user trial). imucal's own CSV refuses both the same
+    way. Blank lines are left to the cells' rules; a line with quotes is split as the
+    parser splits it (a quoted "0,5" is one field)."""
     fields = np.fromiter((ln.count(sep) for ln in lines), np.int64, len(lines)) + 1
     quoted = [i for i, ln in enumerate(lines) if '"' in ln]
     if quoted:  # (one reader for them all: a Shimmer hour quotes every cell)
