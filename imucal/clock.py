@@ -454,8 +454,7 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
     ref_name = next(s.name for s in sensors
                     if clocks[s.name].period <= fastest * (1 + RATE_TIE))
     ref = clocks[ref_name]
-    grid, firsts = _shared_grid(clocks, ref, source)
-    lasts = {n: c.a + c.period * c.k[-1] for n, c in clocks.items()}
+    grid, firsts, lasts = _shared_grid(clocks, ref, source)
     # who cut the span: named in the warning of each sensor that lost data to it
     cutters = (max(firsts, key=firsts.get), min(lasts, key=lasts.get))
     data, info = {}, {}
@@ -534,9 +533,9 @@ def _device_clocks(sensors: list[RawSensor], source: str,
     return clocks, notes
 
 
-def _shared_grid(clocks: dict, ref, source: str) -> tuple[np.ndarray, dict]:
+def _shared_grid(clocks: dict, ref, source: str) -> tuple[np.ndarray, dict, dict]:
     """The reference device's sample times (``ref``) over the span every device recorded, s on
-    the devices' shared clock, and each device's first sample time."""
+    the devices' shared clock, and each device's first and last sample times."""
     firsts = {n: c.a for n, c in clocks.items()}
     lasts = {n: c.a + c.period * c.k[-1] for n, c in clocks.items()}
     start, end = max(firsts.values()), min(lasts.values())
@@ -555,7 +554,7 @@ def _shared_grid(clocks: dict, ref, source: str) -> tuple[np.ndarray, dict]:
         )
     j0 = int(np.ceil((start - ref.a) / ref.period - SNAP))
     j1 = int(np.floor((end - ref.a) / ref.period + SNAP))
-    return ref.a + ref.period * np.arange(j0, j1 + 1), firsts
+    return ref.a + ref.period * np.arange(j0, j1 + 1), firsts, lasts
 
 
 def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
