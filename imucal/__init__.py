@@ -60,7 +60,14 @@ if TYPE_CHECKING:  # static analysers and IDEs see ordinary imports
     from .writers import save_recording
 
 
+#: Modules of the public API reachable as attributes after ``import imucal`` (the settings
+#: objects were not until some estimator had been used: a new-user trial).
+_SUBMODULES = ("settings", "simulate")
+
+
 def __getattr__(name: str):
+    if name in _SUBMODULES:
+        return importlib.import_module(f".{name}", __name__)
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'imucal' has no attribute {name!r}")
@@ -70,7 +77,7 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_LAZY) | set(_SUBMODULES))
 
 __all__ = [
     "AxisResult",

@@ -61,3 +61,16 @@ def test_settings_and_differing_keywords_together_are_refused():
 def test_position_joint_is_checked():
     with pytest.raises(InputError, match="joint must be one of spheroidal, hinge"):
         PositionSettings(joint="ball")
+
+
+def test_the_settings_module_is_reachable_after_a_plain_import():
+    # `import imucal; imucal.settings.AxisSettings(...)` raised AttributeError until some
+    # estimator had been used (a new-user trial); a fresh interpreter shows it
+    import subprocess
+    import sys
+
+    code = ("import imucal; print(imucal.settings.AxisSettings(restarts=3).restarts, "
+            "imucal.simulate.simulate.__name__)")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["3", "simulate"]
