@@ -537,6 +537,8 @@ def make_recording(
     if not sensors:
         raise InputError(f"{source}: no sensors found")
     names = _names_once([_sensor_name(k) for k in sensors], "sensor '{}' is", source)
+    if any(not n.strip() for n in names):  # (no file could name it, nor store it)
+        raise InputError(f"{source}: a sensor's name is empty; name every sensor")
     units = _check_units_map(units, names, source)
 
     raw: dict[str, dict[str, np.ndarray]] = {}

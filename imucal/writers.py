@@ -66,8 +66,13 @@ def save_recording(
     if suffix in HDF5_SUFFIXES:
         write = _write_hdf5
         for name in recording.sensors:
-            if "/" in name or name in {".", "time"}:
+            if "/" in name or name in {"", ".", "time"}:
                 raise InputError(f"{path}: sensor name '{name}' cannot be stored in HDF5")
+        for key, value in (extra_attrs or {}).items():
+            # (h5py raised from inside on a dict or an empty name: a new-user trial)
+            if not (isinstance(key, str) and key) or not _storable(value):
+                raise InputError(f"{path}: attribute {key!r} ({type(value).__name__}) cannot "
+                                 "be stored in HDF5; give numbers, text or arrays of them")
     elif suffix in _CSV_SUFFIXES:
         write = _write_csv
     else:
@@ -83,6 +88,16 @@ def save_recording(
         write_hdf5_atomic(path, lambda h5: _write_hdf5(recording, h5, extra))
     else:
         write_atomic(path, lambda tmp: write(recording, tmp, extra))
+
+
+def _storable(value) -> bool:
+    """Whether an HDF5 attribute can hold ``value``: a number, text, or an array of them."""
+    if isinstance(value, (str, bytes)):
+        return True
+    try:
+        return np.asarray(value).dtype.kind in "biufcSU"
+    except (TypeError, ValueError):
+        return False
 
 
 def _write_hdf5(recording: Recording, h5, extra_attrs: dict) -> None:

@@ -329,3 +329,18 @@ def test_names_axes_and_maps_in_other_forms(pair, rec, tmp_path):
     names.write_text('{"thigh": "left_thigh"}')
     mapped = imucal.load_recording(SAMPLE, names=bytes(names))
     assert "left_thigh" in mapped.sensors
+
+
+def test_what_no_recording_file_can_store_is_refused_up_front(tmp_path):
+    # an empty sensor name was accepted, then h5py raised from inside; a dict in
+    # extra_attrs raised h5py's "no native HDF5 equivalent" (a new-user trial)
+    import imucal
+
+    g = np.zeros((50, 3))
+    with pytest.raises(InputError, match="a sensor's name is empty"):
+        imucal.make_recording({"": {"gyr": g, "acc": g + 9.81}}, rate=100)
+    rec = imucal.make_recording({"thigh": {"gyr": g, "acc": g + 9.81}}, rate=100)
+    with pytest.raises(InputError, match=r"attribute 'd' \(dict\) cannot be stored in HDF5"):
+        imucal.save_recording(rec, tmp_path / "x.h5", extra_attrs={"d": {"a": 1}})
+    assert not (tmp_path / "x.h5").exists()
+    imucal.save_recording(rec, tmp_path / "x.h5", extra_attrs={"subject": "p1", "n": [1, 2]})
