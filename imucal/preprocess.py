@@ -236,6 +236,13 @@ def resolve_subsample(rate: float, cutoff: float | None, subsample: int | None) 
     return step
 
 
+def _pandas_missing(arr: np.ndarray) -> np.ndarray:
+    """Where an object array holds pandas' missing value (``pd.NA``, of type ``NAType``),
+    without importing pandas for it."""
+    return np.vectorize(lambda v: type(v).__name__ == "NAType", otypes=[bool])(arr) \
+        if arr.size else np.zeros(arr.shape, bool)
+
+
 def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
     """Two sensors' (N, 3) arrays of ``kind`` ("gyr", rad/s, or "acc", m/s^2) as finite
     float64 of equal length, else InputError.
@@ -266,8 +273,8 @@ def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
         except (ValueError, TypeError):  # ragged lists
             raise InputError(f"{name} sensor's data is not an (N, 3) array of numbers") from None
         if arr.dtype.kind == "O":  # numbers as objects (pandas' nullable Float64)
-            try:
-                arr = arr.astype(np.float64)
+            try:  # (its missing value, pd.NA, is NaN here: "not numbers" misnamed it)
+                arr = np.where(_pandas_missing(arr), np.nan, arr).astype(np.float64)
             except (ValueError, TypeError):
                 pass
         if arr.dtype.kind not in "iuf":

@@ -344,3 +344,17 @@ def test_what_no_recording_file_can_store_is_refused_up_front(tmp_path):
         imucal.save_recording(rec, tmp_path / "x.h5", extra_attrs={"d": {"a": 1}})
     assert not (tmp_path / "x.h5").exists()
     imucal.save_recording(rec, tmp_path / "x.h5", extra_attrs={"subject": "p1", "n": [1, 2]})
+
+
+def test_a_missing_value_in_a_pandas_float64_column_reads_as_missing():
+    # pandas' nullable Float64 columns are accepted, but one pd.NA was "values that are
+    # not numbers" (a new-user trial): it is a missing value, NaN
+    import pandas as pd
+
+    from imucal import estimate_axis
+
+    rng = np.random.default_rng(0)
+    frame = pd.DataFrame(rng.normal(size=(200, 3))).astype("Float64")
+    frame.iloc[3, 1] = pd.NA
+    with pytest.raises(InputError, match="first sensor's data contains NaN or Inf"):
+        estimate_axis(frame, frame, rate=100)
