@@ -239,8 +239,7 @@ def resolve_subsample(rate: float, cutoff: float | None, subsample: int | None) 
 def _pandas_missing(arr: np.ndarray) -> np.ndarray:
     """Where an object array holds pandas' missing value (``pd.NA``, of type ``NAType``),
     without importing pandas for it."""
-    return np.vectorize(lambda v: type(v).__name__ == "NAType", otypes=[bool])(arr) \
-        if arr.size else np.zeros(arr.shape, bool)
+    return np.vectorize(lambda v: type(v).__name__ == "NAType", otypes=[bool])(arr)
 
 
 def check_pair(a, b, kind: str = "gyr") -> tuple[np.ndarray, np.ndarray]:
