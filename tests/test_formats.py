@@ -1467,3 +1467,26 @@ def test_a_shimmer_device_stopping_early_keeps_the_others_last_row(tmp_path, tri
     path.write_text("\n".join(lines))
     with pytest.raises(InputError, match="row 51 has 17 of the header's 21 fields"):
         load_recording(path)
+
+
+@pytest.mark.parametrize("fmt", ["xsens", "dot", "ximu3", "shimmer"])
+def test_quoted_header_names_read_as_the_names(fmt, tmp_path):
+    # a script or spreadsheet that re-saves an export may quote every header cell
+    # ("PacketCounter","SampleTimeFine",...): Xsens, DOT and x-IMU3 files were then "a
+    # folder, and not an export imucal reads" (an independent review)
+    rec = short()
+    path = write(fmt, rec, tmp_path)
+    heads = {"xsens": "PacketCounter", "dot": "PacketCounter", "ximu3": "Timestamp",
+             "shimmer": "Shimmer_"}
+    files = ([path] if path.is_file() else
+             [p for p in path.rglob("*") if p.suffix in (".txt", ".csv")
+              and "Battery" not in p.name])
+    for f in files:
+        lines = f.read_text().split("\n")
+        i = next(k for k, ln in enumerate(lines) if ln.startswith(heads[fmt]))
+        sep = "\t" if lines[i].count("\t") > lines[i].count(",") else ","
+        lines[i] = sep.join(f'"{c.strip()}"' for c in lines[i].split(sep))
+        f.write_text("\n".join(lines))
+    loaded = load_recording(path)
+    assert loaded.n_samples == rec.n_samples and not loaded.warnings
+    same(loaded, rec, NAMES[fmt])

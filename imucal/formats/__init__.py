@@ -329,6 +329,45 @@ def sep_line(line: str) -> str | None:
     return None
 
 
+def header_names(line: str, sep: str) -> list[str]:
+    """The column names of a header ``line`` split at ``sep``, each without surrounding
+    whitespace and quotes.
+
+    A spreadsheet or script that re-saves an export may quote every header cell
+    (``"PacketCounter","SampleTimeFine",...``): read unquoted, the file was not recognised.
+
+    Returns
+    -------
+    list[str]
+        One name per field, in column order.
+
+    Examples
+    --------
+    >>> from imucal.formats import header_names
+    >>> header_names('"PacketCounter", "Acc_X" ', ",")
+    ['PacketCounter', 'Acc_X']
+    """
+    return [_unquoted(c) for c in line.split(sep)]
+
+
+def _unquoted(cell: str) -> str:
+    cell = cell.strip()
+    if len(cell) >= 2 and cell[0] == cell[-1] == '"':
+        cell = cell[1:-1].replace('""', '"').strip()
+    return cell
+
+
+def header_starts(line: str, name: str) -> bool:
+    """Whether the header ``line``'s first cell starts with ``name``.
+
+    Returns
+    -------
+    bool
+        True also when the cell is quoted or indented.
+    """
+    return line.lstrip().lstrip('"').startswith(name)
+
+
 def twice(source: str, name: str, first: int, second: int) -> InputError:
     """The error for a column the reader uses that the header names twice (0-based
     ``first``, ``second``): which of the two holds the data is not known, and taking

@@ -25,7 +25,9 @@ from . import (
     ends_line,
     export_files,
     head_text,
+    header_names,
     header_rate,
+    header_starts,
     parse_table,
     read_export,
     read_text,
@@ -52,7 +54,8 @@ def _is_file(path: Path) -> bool:
     if not lines:
         return False
     meta = any(ln.lower().startswith("devicetag") for ln in lines[:15])
-    header = any(ln.startswith("PacketCounter") and "SampleTimeFine" in ln for ln in lines[:20])
+    header = any(header_starts(ln, "PacketCounter") and "SampleTimeFine" in ln
+                 for ln in lines[:20])
     return header and (meta or sep_line(lines[0]) == "," or _bare_dot(lines))
 
 
@@ -61,7 +64,7 @@ def _bare_dot(lines: list[str]) -> bool:
     only the unit of ``SampleTimeFine`` tells them apart: DOT microseconds step at least
     5000 per sample (DOTs record at up to 120 Hz), Xsens 10 kHz ticks would then mean a
     sample rate below 2 Hz, too slow for any motion imucal estimates."""
-    names = [c.strip() for c in lines[0].split(",")]
+    names = header_names(lines[0], ",")
     if names[:2] != ["PacketCounter", "SampleTimeFine"]:
         return False
     try:
@@ -114,7 +117,8 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
     where = f"{source}/{file.name}" if many else source
     text = read_text(file, where)
     lines = text.splitlines()
-    start = next((i for i, ln in enumerate(lines) if ln.startswith("PacketCounter")), None)
+    start = next((i for i, ln in enumerate(lines) if header_starts(ln, "PacketCounter")),
+                 None)
     if start is None:
         raise InputError(f"{where}: no 'PacketCounter,SampleTimeFine,...' header row")
     meta = {}
@@ -122,7 +126,7 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
         fields = ln.split(",")
         if len(fields) >= 2 and fields[0].strip().endswith(":"):
             meta[fields[0].strip().rstrip(":").lower()] = fields[1].strip()
-    names = [c.strip() for c in lines[start].split(",")]
+    names = header_names(lines[start], ",")
     check_comma_separated(names, where, "a DOT export")
     need = ("SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z")
     col = column_index(names, where, (*need, "PacketCounter"))

@@ -22,6 +22,8 @@ from . import (
     check_comma_separated,
     ends_line,
     head_text,
+    header_names,
+    header_starts,
     is_empty,
     normalise_units,
     parse_table,
@@ -34,7 +36,7 @@ _FOLDER = re.compile(r"^(?P<name>.+?) (?P<serial>[0-9A-Fa-f]{8}) \((?P<iface>[^)
 
 
 def _is_inertial(path: Path) -> bool:
-    return path.name == "Inertial.csv" and head_text(path, 200).startswith("Timestamp (us)")
+    return path.name == "Inertial.csv" and header_starts(head_text(path, 200), "Timestamp (us)")
 
 
 def _devices(path: Path) -> list[Path]:
@@ -117,7 +119,7 @@ def _read(file: Path, source: str) -> RawSensor:
     name, serial = (m["name"], m["serial"].upper()) if m else (folder, None)
     text = read_text(file, where)
     lines = text.splitlines()
-    cols = [c.strip() for c in lines[0].split(",")]
+    cols = header_names(lines[0], ",")
     check_comma_separated(cols, where, "an x-IMU3 export")
     index, units = {}, {}
     for i, c in enumerate(cols):

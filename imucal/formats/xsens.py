@@ -25,6 +25,7 @@ from . import (
     ends_line,
     export_files,
     head_text,
+    header_names,
     header_rate,
     parse_table,
     read_export,
@@ -52,7 +53,7 @@ def _is_file(path: Path) -> bool:
     if any("devicetag" in ln.lower() for ln in lines[:12]):
         return False
     header = next((ln for ln in lines if not ln.startswith("//")), "")
-    cols = {c.strip() for c in re.split(r"[\t,;]", header)}
+    cols = set(header_names(header, max(("\t", ",", ";"), key=header.count)))
     return "PacketCounter" in cols and ("Acc_X" in cols or "Gyr_X" in cols)
 
 
@@ -105,7 +106,7 @@ def _read_file(file: Path, source: str, many: bool) -> RawSensor:
         raise InputError(f"{where}: has only '//' header lines and no data")
     header_line = lines[start]
     sep = max(("\t", ",", ";"), key=header_line.count)
-    names = [c.strip() for c in header_line.split(sep)]
+    names = header_names(header_line, sep)
     need = ("Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z")
     col = column_index(names, where, (*need, "PacketCounter", "SampleTimeFine"))
     missing = [c for c in need if c not in col]
