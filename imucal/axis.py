@@ -427,10 +427,11 @@ def _large_bias_warning(block: dict, move: float, where: str = "") -> str:
             "lets the biases be checked")
 
 
-def _with_move_in_sync(result: AxisResult, again) -> AxisResult:
+def _with_move_in_sync(result: AxisResult, in_sync) -> AxisResult:
     """``result`` (auto offset) whose 1-sigma holds a large bias's move
     (:func:`_with_implausible_bias_move`) and whose clock offset was applied, with the
-    larger of that move and the one with the clocks in sync (``again(0.0)``): such
+    larger of that move and the one with the clocks in sync (``in_sync()``, the
+    search's fit at 0): such
     biases fake an offset, at which they gain less and the axis moves less without them
     (gait, 0.1 rad/s per gyroscope, truly in sync: +15.7 ms applied, a move of 1.26 deg
     against 8.2 in sync; the axis 8.55 deg off at a 1-sigma of 1.70, an independent
@@ -439,7 +440,7 @@ def _with_move_in_sync(result: AxisResult, again) -> AxisResult:
     if (not result.time_offset.get("applied") or result.gyr_bias.get("applied")
             or not any(part.values())):
         return result
-    zero = again(0.0).uncertainty_components.get("gyr_bias") or {}
+    zero = in_sync().uncertainty_components.get("gyr_bias") or {}
     wider = {k: max(v, float(zero.get(k, 0.0))) for k, v in part.items()}
     if wider == part:
         return result
@@ -516,15 +517,25 @@ def _with_auto_offset(g1, g2, acc1, acc2, rate, s: AxisSettings) -> AxisResult:
     0.09 deg)."""
     s = replace(s, seed=resolve_seed(s.seed))  # both fits must see the same restarts
 
+    first: list[AxisResult] = []  # the first search's first fit: at 0
+
     def again(seconds):  # (the search's own fits: no check of their offset)
-        return _estimate(g1, g2, acc1, acc2, rate, s.at_offset(seconds))
+        fit = _estimate(g1, g2, acc1, acc2, rate, s.at_offset(seconds))
+        if not first:
+            first.append(fit)
+        return fit
+
+    def in_sync():
+        # where an offset was applied, the search reported into another result than its
+        # fit at 0: that fit is the clocks-in-sync one, unchanged (fitted once, not twice)
+        return first[0]
 
     def search(biases: bool) -> AxisResult:
         return _refuse_if_uninformative(fit_with_offset(
             again, offset_profile(g1, g2, rate, s.offset_search, biases), rate,
             s.offset_search, _offset_moved, "deg", MAX_UNCERTAINTY_DEG,
             lambda r: np.concatenate([r.j1, r.j2]), unapplied=True))
-    plain = _with_move_in_sync(search(False), again)
+    plain = _with_move_in_sync(search(False), in_sync)
     if not _biases_in_play(plain.gyr_bias):
         return plain
     joint = search(True)
