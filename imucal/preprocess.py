@@ -88,10 +88,15 @@ def only_the_stillness(result):
     -------
     AxisResult or PositionResult
         ``result`` itself, its ``warnings`` reduced to its unit doubts where the first
-        blocking reason is :data:`imucal.quality.STILL_REASON`'s.
+        blocking reason is :data:`imucal.quality.STILL_REASON`'s, and a second copy of
+        that reason (a knee centre's axis's) dropped from ``blocking``.
     """
     if is_still(result.blocking):
         result.warnings = [w for w in result.warnings if isinstance(w, UnitDoubt)]
+        # a knee centre carries its axis's reasons ("axis: ..."): the same one, judged on
+        # the axis's samples, came second with other rates (an independent review)
+        result.blocking = result.blocking[:1] + [b for b in result.blocking[1:]
+                                                 if not is_still([b])]
     return result
 
 

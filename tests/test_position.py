@@ -80,6 +80,18 @@ def test_static_recording_gives_warnings_not_a_confident_position():
     assert np.isfinite(r.batch.x).all()
 
 
+def test_a_still_knee_centre_gives_its_reason_once():
+    # the centre about its axis carried the axis's copy ("axis: the sensors barely
+    # rotate (... 0.2 and 0.2 ...)") beside its own (0.1 and 0.1): one reason, said twice
+    # with other numbers (an independent review)
+    rec, _ = simulated(1, motion="static")
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    r = estimate_position(th.gyr, th.acc, sh.gyr, sh.acc, rate=rec.rate, seed=1,
+                          joint="hinge")
+    assert len(r.blocking) == 1 and r.blocking[0].startswith("the sensors barely rotate")
+    assert r.warnings == []
+
+
 def test_offset_profile_refits_all_candidates_as_lstsq_one_at_a_time():
     # the batched refits of the position's clock-offset profile against the plain loop
     # they replaced (five lstsq Gauss-Newton steps per candidate), on a hinge, where
