@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .equality import ByValue
 from .errors import InputError, NotIdentifiableError, number_text, signed_ms
 from .formats import HDF5_SUFFIXES
 from .fusion import SMOOTHING_S, check_smoothing, fuse, hinge_signals, plane_basis
@@ -574,8 +575,8 @@ def implausible_range(name: str, flexion_range) -> str | None:
 # ----------------------------------------------------------------------------- apply
 
 
-@dataclass
-class JointAngle:
+@dataclass(eq=False)
+class JointAngle(ByValue):
     """Flexion of one hinge over the recording.
 
     Attributes
@@ -617,8 +618,8 @@ class JointAngle:
         return bool(self.check["fits"])
 
 
-@dataclass
-class JointAngles:
+@dataclass(eq=False)
+class JointAngles(ByValue):
     """Result of :func:`joint_angles`; ``fits`` is False when any joint's check failed (the
     command line exits 1 then).
 

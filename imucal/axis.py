@@ -179,7 +179,7 @@ MIN_SIGN_EVIDENCE = 1.5
 SIGN_DECIDED_EVIDENCE = 2.5
 
 
-@dataclass(kw_only=True)
+@dataclass(kw_only=True, eq=False)
 class AxisResult(EstimateResult):
     """Result of :func:`estimate_axis`: the fields of
     :class:`imucal.result.EstimateResult` and the axis' own.

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .equality import ByValue
 from .errors import ImucalError, InputError
 from .quality import NOT_IDENTIFIABLE, is_still
 from .recording import Recording, check_recording, estimator_window, input_info
@@ -54,8 +55,8 @@ class JointSpec:
     second: str
 
 
-@dataclass
-class JointCalibration:
+@dataclass(eq=False)
+class JointCalibration(ByValue):
     """The calibration of one joint.
 
     Attributes
@@ -120,8 +121,8 @@ class JointCalibration:
                 and (self.kind != "hinge" or self.j1 is not None))
 
 
-@dataclass
-class Calibration:
+@dataclass(eq=False)
+class Calibration(ByValue):
     """Result of :func:`calibrate` (or :func:`load_calibration`).
 
     Attributes
@@ -135,7 +136,8 @@ class Calibration:
     version : imucal's version that made it.
     sensors : per sensor used, what the file said about it (serial, label, ...) and its
         units in the file.
-    file : the calibration file it was read from (:func:`load_calibration`), else None.
+    file : the calibration file it was read from (:func:`load_calibration`), else None;
+        not compared by ``==`` (a calibration equals the one written and read back).
     """
 
     joints: dict[str, JointCalibration]
@@ -145,7 +147,7 @@ class Calibration:
     settings: dict
     version: str = __version__
     sensors: dict = field(default_factory=dict)
-    file: str | None = None  #: the file it was read from (load_calibration), else None
+    file: str | None = field(default=None, compare=False)
 
     @property
     def hinges(self) -> list[JointCalibration]:

@@ -159,7 +159,7 @@ MODEL_MOVE_FACTOR = 3.0
 ACC_REST_SIGMAS = 3.0
 
 
-@dataclass(kw_only=True)
+@dataclass(kw_only=True, eq=False)
 class PositionResult(EstimateResult):
     """Result of :func:`estimate_position`: the fields of
     :class:`imucal.result.EstimateResult` and the position's own.

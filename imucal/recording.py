@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .equality import ByValue
 from .errors import InputError
 from .sensor_checks import (
     ACC_UNITS,
@@ -42,8 +43,8 @@ from .settings import as_real
 from .timing import check_timing
 
 
-@dataclass(frozen=True)
-class SensorData:
+@dataclass(frozen=True, eq=False)
+class SensorData(ByValue):
     """One inertial sensor: ``gyr`` in rad/s and ``acc`` in m/s^2, each (N, 3), own frame."""
 
     gyr: np.ndarray
@@ -57,9 +58,14 @@ class SensorData:
                 object.__setattr__(self, name, np.asarray(value, dtype=np.float64))
 
 
-@dataclass(frozen=True)
-class Recording:
+@dataclass(frozen=True, eq=False)
+class Recording(ByValue):
     """A checked multi-sensor recording.
+
+    Build one with :func:`make_recording` (from arrays, in any declared units) or a
+    loader; one built directly is checked for what every recording holds (a rate,
+    (N, 3) arrays of one length, no non-finite sample outside ``gaps``), with the SI
+    units its arrays are in wherever ``units`` names none.
 
     Attributes
     ----------
@@ -110,6 +116,12 @@ class Recording:
     sensor_info: Mapping[str, Mapping] = field(default_factory=dict)
     provenance: Mapping[str, object] = field(default_factory=dict)
     rate_from: str = ""
+
+    def __post_init__(self) -> None:
+        # a Recording built by hand (the fields are public) met no loader's checks: a NaN,
+        # a missing unit, sensors of other lengths ended in KeyError, TypeError or a
+        # motion blamed for a NaN deep inside (a new-user trial of the Python API)
+        _check_fields(self)
 
     @property
     def n_samples(self) -> int:
@@ -467,7 +479,7 @@ class Recording:
 
 
 def make_recording(
-    sensors: Mapping[str, Mapping[str, np.ndarray]],
+    sensors: Mapping[str, Mapping[str, np.ndarray] | SensorData],
     *,
     rate: float | None = None,
     time: np.ndarray | None = None,
@@ -481,7 +493,8 @@ def make_recording(
     Parameters
     ----------
     sensors
-        ``{name: {"gyr": (N, 3) array, "acc": (N, 3) array}}`` in the declared units.
+        ``{name: {"gyr": (N, 3) array, "acc": (N, 3) array}}`` in the declared units (or
+        ``{name: SensorData}``, e.g. a recording's ``sensors`` after filtering).
     rate
         Sample rate in Hz. Optional when ``time`` is given; when both are given they must
         agree within :data:`TIME_JITTER_TOLERANCE`.
@@ -546,6 +559,11 @@ def make_recording(
     corrupt: list[tuple] = []  # (sensor, kind, count, first index, value): see nonphysical
     for name, data in sensors.items():
         name = _sensor_name(name)
+        if isinstance(data, SensorData):  # a recording's own sensors, e.g. filtered
+            data = {"gyr": data.gyr, "acc": data.acc}
+        if not isinstance(data, Mapping):
+            raise InputError(f"{source}: sensor '{name}' must be a mapping {{'gyr': array, "
+                             f"'acc': array}} or a SensorData, got {type(data).__name__}")
         arrays = {}
         for kind, table in (("gyr", GYR_UNITS), ("acc", ACC_UNITS)):
             if kind not in data or data[kind] is None:
@@ -599,6 +617,56 @@ def make_recording(
                   + unit_warnings(finite, units) + stuck_warnings(finite)),
         gaps=gaps, notes=tuple(notes), rate_from=rate_from,
     )
+
+
+def _check_fields(rec: Recording) -> None:
+    """What every :class:`Recording` holds, however built: a rate in Hz, (N,) times,
+    sensors of (N, 3) real arrays, and no non-finite sample that ``gaps`` does not list
+    (those :meth:`Recording.sensor` would pass on). Lists become arrays, and a sensor's
+    missing units the SI ones its arrays are in."""
+    source = rec.source
+    rate = as_real(rec.rate)
+    if rate is None or rate <= 0:
+        raise InputError(f"{source}: the recording's rate must be a positive number of Hz, "
+                         f"got {rec.rate!r:.40}")
+    object.__setattr__(rec, "rate", rate)
+    time = np.asarray(rec.time, dtype=np.float64) if rec.time is not None else None
+    if time is None or time.ndim != 1 or time.size < 2 or not np.isfinite(time).all():
+        raise InputError(f"{source}: the recording's time must be (N,) finite seconds with "
+                         "N >= 2 (build it with imucal.make_recording, which makes it from "
+                         "the rate)")
+    object.__setattr__(rec, "time", time)
+    if not isinstance(rec.sensors, Mapping) or not rec.sensors:
+        raise InputError(f"{source}: the recording's sensors must be a non-empty mapping "
+                         "{name: SensorData}")
+    for name, data in rec.sensors.items():
+        _check_sensor(name, data, time.size, rec.gaps, source)
+    units = {n: dict(rec.units.get(n, {})) if isinstance(rec.units, Mapping) else {}
+             for n in rec.sensors}
+    for kinds in units.values():
+        kinds.setdefault("gyr", next(iter(GYR_UNITS)))
+        kinds.setdefault("acc", next(iter(ACC_UNITS)))
+    object.__setattr__(rec, "units", {**rec.units, **units}
+                       if isinstance(rec.units, Mapping) else units)
+
+
+def _check_sensor(name, data, n: int, gaps, source) -> None:
+    if not isinstance(name, str) or not isinstance(data, SensorData):
+        raise InputError(f"{source}: sensor {name!r:.40}: a recording's sensors map names "
+                         f"(str) to SensorData, got {type(data).__name__}; "
+                         "imucal.make_recording builds one from arrays")
+    listed = {g.kind for g in gaps if g.sensor == name}
+    for kind in ("gyr", "acc"):
+        arr = getattr(data, kind)
+        if arr.shape != (n, 3) or arr.dtype.kind not in "iuf":
+            raise InputError(f"{source}: sensor '{name}' {kind} is {arr.shape} "
+                             f"{arr.dtype}; a recording of {n} samples needs ({n}, 3) numbers")
+        if kind not in listed and not np.isfinite(arr).all():
+            first = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
+            raise InputError(
+                f"{source}: sensor '{name}' {kind} is NaN or Inf at sample {first} "
+                "and the recording lists no gaps; build it with imucal.make_recording, "
+                "which finds them (interpolating short ones, refusing long ones)")
 
 
 def _names_once(names: list[str], what: str, source) -> list[str]:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .equality import ByValue
 from .gauss_newton import BatchResult
 from .quality import Verdict
 
@@ -20,8 +21,8 @@ if TYPE_CHECKING:
     from .preprocess import Prepared
 
 
-@dataclass(kw_only=True)
-class EstimateResult(Verdict):
+@dataclass(kw_only=True, eq=False)
+class EstimateResult(ByValue, Verdict):
     """Fields every estimator's result has.
 
     Attributes
