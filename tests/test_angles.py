@@ -930,3 +930,68 @@ def test_the_soft_tissue_part_leaves_rigid_bands_as_they_were():
     err -= np.median(err)
     assert np.median(knee.sigma_deg) < 0.12
     assert np.mean(np.abs(err) < 3 * knee.sigma_deg) > 0.99
+
+
+def _circling_with_a_flexed_rest(seed, mounting, seconds, rest_s, rate):
+    """Circling with the pose frozen for ``rest_s`` at the most flexed sample of its
+    middle third (rates: noise only; specific force: gravity in the frozen pose)."""
+    from imucal.recording import make_recording
+    from imucal.simulate import GRAVITY, _simulate_with_internals
+
+    rec, truth, internals = _simulate_with_internals(
+        seed=seed, rate=rate, duration=seconds, mounting_seed=mounting, motion="circling",
+        **NOISE)
+    n, rest = rec.n_samples, int(rest_s * rate)
+    flex = np.asarray(truth["knee_flexion_deg"])
+    k = n // 3 + int(np.argmax(flex[n // 3:2 * n // 3]))
+    idx = np.r_[np.arange(k), np.full(rest, k), np.arange(k, n)]
+    still = idx.size * [False]
+    still[k:k + rest] = rest * [True]
+    rng = np.random.default_rng(seed)
+    data = {}
+    for name in rec.sensors:
+        gyr, acc = rec.sensor(name).gyr[idx], rec.sensor(name).acc[idx]
+        gyr[still] = NOISE["gyr_noise"] * rng.standard_normal((rest, 3))
+        acc[still] = (internals["rot"][name][k].T @ -GRAVITY
+                      + NOISE["acc_noise"] * rng.standard_normal((rest, 3)))
+        data[name] = {"gyr": gyr, "acc": acc}
+    return make_recording(data, rate=rate), flex[k]
+
+
+def test_a_rest_in_the_calibration_trial_does_not_decide_the_flexion_direction():
+    # a 4 s rest at the flexed end of a circling trial (evidence about 0 without it) made
+    # the trial's evidence +0.30, the wrong way: a walk of the same mounting then read as
+    # the knee's mirror image (correlation -1.000, 39 deg RMS), "fits", with no warning
+    # (an independent audit: 9 of 17 such trials)
+    from imucal.angles import SIGN_EVIDENCE_MIN, joint_angles
+    from imucal.calibration import calibrate
+
+    trial, bent = _circling_with_a_flexed_rest(56, 1028, 20.0, 4.0, 60.0)
+    assert bent > 50.0
+    cal = calibrate(trial, seed=1, restarts=30, joints=["knee=hinge:thigh,shank"])
+    assert abs(cal.joints["knee"].angle["sign_evidence"]) < SIGN_EVIDENCE_MIN
+    walk, truth = simulate(seed=57, mounting_seed=1028, motion="gait", duration=30.0,
+                           rate=60.0, **NOISE)
+    knee = joint_angles(walk, cal).joints["knee"]
+    # (its zero is the trial's one rest, flexed: the range check refuses these angles)
+    assert knee.sign_source == "recording"
+    assert np.corrcoef(knee.flexion_deg, truth["knee_flexion_deg"])[0, 1] > 0.999
+
+
+def test_a_recording_that_contradicts_the_trials_flexion_direction_is_warned():
+    # the trial's clear direction is kept (sitting skews the other way as rightly), but a
+    # recording whose own evidence is as clear and opposite says so
+    from imucal.angles import _choose_sign, sign_evidence
+
+    class Joint:
+        name = "knee"
+        angle = {"sign_evidence": 0.3, "flexion_sign": 1}
+
+    knee = np.r_[np.zeros(300), np.linspace(0.0, 60.0, 100)]  # deg, 4 s at 100 Hz
+    for raw, said in ((knee, False), (-knee, True)):
+        evidence = sign_evidence(raw)
+        sign, source, warnings = _choose_sign(Joint, raw, evidence, None, 100.0)
+        assert (sign, source) == (1, "calibration")
+        assert bool(warnings) is said
+    assert ("knee: the calibration trial's flexion direction (evidence +0.30) is the "
+            "opposite of this recording's (evidence -1.00); the trial's is kept") in warnings[0]
