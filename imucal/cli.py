@@ -979,7 +979,11 @@ class _errors:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
             raise typer.Exit(141)
         if self.debug:
-            return False
+            # the traceback, then the same line and status as without --debug: Python's
+            # own exit status 1 read as "not identifiable" for any error (a new-user trial)
+            import traceback
+
+            traceback.print_exception(kind, err, tb)
         if isinstance(err, KeyboardInterrupt):  # Ctrl-C, SIGTERM, SIGHUP: imucal.signals
             raise typer.Exit(report_interruption(err))
         interruption = unreported_interruption()
