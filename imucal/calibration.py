@@ -435,7 +435,7 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     (['ankle', 'knee'], 'good')
     """
     from .fusion import SMOOTHING_S, check_smoothing
-    from .settings import AxisSettings, CalibrateSettings
+    from .settings import CalibrateSettings, as_real
 
     check_recording(recording)
     # usage errors before any joint runs (each joint's estimate would stop on them, and
@@ -443,14 +443,16 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     checked = CalibrateSettings(restarts=restarts, seed=seed, time_offset=time_offset,
                                 offset_search=offset_search, acc_error=acc_error, sign=sign,
                                 j2_sign=j2_sign)
-    window = AxisSettings(start=start, end=end)
+    # the window is on the recording's clock, which may start below 0 (AxisSettings'
+    # start/end count from the first sample: -5 to 5 s of a clock starting at -10 s was
+    # refused as "start must be in [0, inf)", an independent review)
+    asked = recording.window_slice(start, end)
     # the checked values from here on: a 0-d array (a number to the checks) stopped the
     # calibration file's JSON at the end
     restarts, seed, time_offset = checked.restarts, checked.seed, checked.time_offset
     offset_search, acc_error = checked.offset_search, checked.acc_error
     signs = {"sign": checked.sign, "j2_sign": checked.j2_sign}
-    start, end = window.start, window.end
-    asked = recording.window_slice(start, end)
+    start, end = (None if v is None else as_real(v) for v in (start, end))
     smoothing_s = check_smoothing(SMOOTHING_S if smoothing_s is None else smoothing_s)
     specs, notes = _joint_specs(recording, joints)
     out: dict[str, JointCalibration] = {}

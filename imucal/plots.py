@@ -220,7 +220,7 @@ def _title(what: str, sensors: str, document: dict | None, result) -> str:
     info = (document or {}).get("input", {})
     start, end = info.get("window_s") or result.window
     samples = info.get("samples_used", result.samples_used)
-    where = [f"window {start:g}-{end:g} s", f"{samples} samples used"]
+    where = [f"window {start:g} to {end:g} s", f"{samples} samples used"]
     if info.get("path"):
         where.insert(0, Path(str(info["path"])).name)
     seed = result.settings.get("seed")

@@ -222,11 +222,11 @@ def table_name(file: str) -> str:
 
 
 def _window_text(job: Job, window) -> str:
-    """", window A-B s" for a headline when a window was asked for: the header describes
+    """", window A to B s" for a headline when a window was asked for: the header describes
     the file as a whole, and then the part fitted."""
     if job.start is None and job.end is None:
         return ""
-    return f", window {window[0]:g}-{window[1]:g} s"
+    return f", window {window[0]:g} to {window[1]:g} s"
 
 
 #: The estimating commands by name. A new one is one entry here (plus its option parsing

@@ -485,3 +485,20 @@ def test_a_standing_trial_says_only_that_nothing_moved():
         assert len(estimates) == (2 if jc.kind == "hinge" else 1)
         for block in (e["time_offset"] for e in estimates):
             assert block["not_estimated"] == "no motion" and not block["applied"]
+
+
+def test_a_window_on_a_clock_that_starts_below_zero(tmp_path):
+    # calibrate's start/end are on the recording's clock, as axis' are: -5 to 5 s of a clock
+    # starting at -10 s was refused as "start must be in [0, inf)" (an independent review)
+    from pathlib import Path
+
+    from imucal import calibrate, load_recording
+
+    rec = load_recording(Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5")
+    neg = make_recording({n: {"gyr": s.gyr, "acc": s.acc} for n, s in rec.sensors.items()},
+                         time=rec.time - 10.0)
+    cal = calibrate(neg, start=-5, end=np.float64(5), restarts=5, seed=1,
+                    joints=["knee=hinge:thigh,shank"])
+    assert cal.window_s == (-5.0, 5.0) and type(cal.window_s[1]) is float
+    with pytest.raises(InputError, match="window end 3 s must be after its start 5 s"):
+        calibrate(neg, start=5, end=3, restarts=5, seed=1)

@@ -265,12 +265,12 @@ def test_the_summary_names_the_window_fitted():
     run = run_imucal("axis", sample, "--restarts", "5", "--seed", "1", "--end", "10",
                      text=True)
     assert run.returncode == 0
-    assert run.stderr.splitlines()[0].endswith("2000 samples at 100 Hz (20.0 s), window 0-10 s")
+    assert run.stderr.splitlines()[0].endswith("2000 samples at 100 Hz (20.0 s), window 0 to 10 s")
     whole = run_imucal("axis", sample, "--restarts", "5", "--seed", "1", text=True)
     assert whole.stderr.splitlines()[0].endswith("(20.0 s)")
     cal = run_imucal("calibrate", sample, "--restarts", "5", "--seed", "1", "--start", "2",
                      text=True)
-    assert cal.stderr.splitlines()[0].endswith("(20.0 s), window 2-20 s")
+    assert cal.stderr.splitlines()[0].endswith("(20.0 s), window 2 to 20 s")
 
 
 def test_info_says_where_the_rate_came_from_and_the_columns_units(tmp_path):

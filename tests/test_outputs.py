@@ -230,7 +230,7 @@ def test_axis_header_states_verdict_sigma_and_warnings(short_walk):
         assert w[:60] in joined.replace("\n", " ")
     title = fig.get_suptitle()
     start, end = result.window
-    assert f"window {start:g}-{end:g} s" in title
+    assert f"window {start:g} to {end:g} s" in title
     assert f"{result.samples_used} samples used" in title and "seed 3" in title
 
 
@@ -256,7 +256,7 @@ def test_figure_states_what_the_json_says(short_walk):
     assert "warning: input: sensor 'thigh' gyr" in joined
     title = fig.get_suptitle()
     start, end = doc["input"]["window_s"]
-    assert start >= 1000 and "cost_$5_to_$10.h5" in title and f"window {start:g}-{end:g} s" \
+    assert start >= 1000 and "cost_$5_to_$10.h5" in title and f"window {start:g} to {end:g} s" \
         in title
 
 
