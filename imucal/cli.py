@@ -526,8 +526,10 @@ def angles(
                                      ctx=ctx, param_hint="'--out'")
         _check_outputs(out, plot, rec[0], sensor_map)
         check_not_inputs([("--out", out), ("--plot", plot)], [calibration])
+        from .calibration import load_calibration
         from .runner import run
 
+        load_calibration(calibration)  # missing or broken: said before the recording loads
         outcome = run(job, rec[0])
         for w in outcome.warnings:  # (in a loop over trials, they say which trial)
             say(f"imucal: warning: {w}")
@@ -893,7 +895,11 @@ def _usage_error(ctx: typer.Context, text: str) -> typer.BadParameter:
     for name, option in _OPTIONS.items():
         if text.startswith(name + " "):
             return typer.BadParameter(text, ctx=ctx, param_hint=f"'{option}'")
-    for option in ("--sensors", "--end"):
+    for option in ("--gyr-units", "--acc-units"):
+        if text.startswith(option + ": "):
+            return typer.BadParameter(text[len(option) + 2:], ctx=ctx,
+                                      param_hint=f"'{option}'")
+    for option in ("--sensors", "--start", "--end", "--rate"):
         if text.startswith(option + " "):
             return typer.BadParameter(text[len(option) + 1:], ctx=ctx,
                                       param_hint=f"'{option}'")

@@ -282,6 +282,7 @@ class Job:
         if self.command not in COMMANDS:
             raise InputError(f"unknown command '{self.command}'; known: "
                              f"{', '.join(COMMANDS)}")
+        self._check_loading()
         if self.start is not None and self.end is not None and self.end <= self.start:
             raise InputError(f"--end must be after --start ({self.start:g} s), got "
                              f"{self.end:g} s")
@@ -301,6 +302,29 @@ class Job:
                                 + ("settings)" if self.command == "calibrate"
                                    else "calibration)") if whole else "two sensors")
                              + f", got {tuple(self.sensors)!r}")
+
+
+    def _check_loading(self) -> None:
+        """The window and the loading options, before any file is read: each recording
+        of a study refused them alike, one error line each, naming the file (an
+        independent review)."""
+        from .sensor_checks import check_units
+        from .settings import as_real
+        from .timing import check_rate
+
+        for option, value in (("--start", self.start), ("--end", self.end)):
+            if value is not None and as_real(value) is None:
+                raise InputError(f"{option} must be a finite number of seconds on the "
+                                 f"recording's clock, got {value!r:.40}")
+        if self.rate is not None:
+            try:
+                check_rate(self.rate)
+            except InputError as err:
+                raise InputError(f"--rate {err}") from None
+        for option, kind, unit in (("--gyr-units", "gyr", self.gyr_units),
+                                   ("--acc-units", "acc", self.acc_units)):
+            if unit is not None:
+                check_units(kind, unit, option)
 
 
 @dataclass

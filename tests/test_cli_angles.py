@@ -574,3 +574,17 @@ def test_a_calibration_file_that_cannot_be_read_is_named(monkeypatch, tmp_path):
     with pytest.raises(InputError, match=r"cal.json: not a calibration file \(not readable "
                                          r"as JSON: \[Errno 5\] Input/output error\)$"):
         calibration_module.load_calibration(path)
+
+
+def test_a_missing_calibration_is_said_before_the_recording_is_read(tmp_path, monkeypatch):
+    # the whole recording (an hour, say) was read before "calibration file not found";
+    # a study checked it once up front (an independent review)
+    import imucal.loaders
+
+    def no_loading(*args, **kwargs):
+        raise AssertionError("the recording was read")
+
+    monkeypatch.setattr(imucal.loaders, "load_recording", no_loading)
+    run = run_imucal("angles", "walk.h5", "-c", "missing.json", cwd=tmp_path, text=True)
+    assert run.returncode == 2
+    assert run.stderr == "imucal: error: missing.json: calibration file not found\n"

@@ -149,6 +149,22 @@ def test_no_module_imports_the_command_line():
          "Invalid value for '--cutoff': cutoff must be a finite number, got nan"),
         (["position", "--cutoff", "-1"],
          "Invalid value for '--cutoff': cutoff must be in [0, inf), got -1"),
+        # the loading options and the window's numbers were checked as each file loaded,
+        # blamed on the file, once per recording of a study (an independent review)
+        (["axis", "--rate", "0"],
+         "Invalid value for '--rate': sample rate must be a positive number of Hz, got 0"),
+        (["calibrate", "--rate", "nan"],
+         "Invalid value for '--rate': sample rate must be a positive number of Hz, got nan"),
+        (["axis", "--gyr-units", "dps"],
+         "Invalid value for '--gyr-units': unknown units 'dps' (did you mean 'deg/s'?)"),
+        (["position", "--gyr-units", "furlong"],
+         "Invalid value for '--gyr-units': unknown units 'furlong'"),
+        (["angles", "-c", "cal.json", "--acc-units", "g2"],
+         "Invalid value for '--acc-units': unknown units 'g2' (did you mean 'g'?)"),
+        (["axis", "--start", "nan"],
+         "Invalid value for '--start': must be a finite number of seconds"),
+        (["calibrate", "--end", "inf"],
+         "Invalid value for '--end': must be a finite number of seconds"),
     ],
 )
 def test_usage_errors_before_any_file_is_read(tmp_path, args, message):
