@@ -4,6 +4,8 @@ tolerance, no resampling, drift against a given rate)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .errors import InputError
@@ -47,6 +49,27 @@ def check_plausible_rate(rate: float, source: str = "", origin: str = "",
         f"{prefix}sample rate {rate:.6g} Hz{origin} is {side} Hz, outside the "
         f"{MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz of body-worn IMUs; {fix}"
     )
+
+
+def rate_of(period: float) -> float:
+    """The sample rate of a ``period`` measured from time stamps, Hz, to 8 significant
+    digits (0.01 ppm at 100 Hz; a device's crystal is off by 10-50 ppm): the stamps'
+    float steps and a fit to jittered stamps gave rates such as 100.00000000000213 and
+    99.99999991 Hz in every JSON document (a new-user trial), a precision no clock has.
+
+    Returns
+    -------
+    float
+        ``1 / period`` rounded to 8 significant digits (inf or NaN as they come).
+
+    Examples
+    --------
+    >>> from imucal.timing import rate_of
+    >>> rate_of(0.009999999999999787), rate_of(1 / 59.9998)
+    (100.0, 59.9998)
+    """
+    rate = 1.0 / period
+    return float(f"{rate:.8g}") if math.isfinite(rate) else rate
 
 
 def check_rate(rate) -> float:
@@ -156,7 +179,7 @@ def check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, li
     step = float(np.median(dt))
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         jitter = np.abs(dt - step) / step
-        time_rate = 1.0 / step
+        time_rate = rate_of(step)
     if not (jitter <= TIME_JITTER_TOLERANCE).all():
         i = int(np.argmax(np.where(np.isnan(jitter), np.inf, jitter)))
         raise InputError(

@@ -1490,3 +1490,12 @@ def test_quoted_header_names_read_as_the_names(fmt, tmp_path):
     loaded = load_recording(path)
     assert loaded.n_samples == rec.n_samples and not loaded.warnings
     same(loaded, rec, NAMES[fmt])
+
+
+@pytest.mark.parametrize("fmt", ["xsens", "dot", "apdm", "ximu3", "shimmer"])
+def test_a_rate_from_time_stamps_carries_no_float_noise(fmt, tmp_path):
+    # 100.00000000000213 Hz and 60.00000000148063 Hz in every JSON document of a vendor
+    # export (a new-user trial): a precision no clock has
+    loaded = load_recording(write(fmt, short(), tmp_path))
+    assert loaded.rate == 100.0
+    assert all(info["rate_hz"] == 100.0 for info in loaded.sensor_info.values())
