@@ -333,12 +333,17 @@ AXIS_EST_HEAD = [
 AXIS_QUAL_TEXT = """
 ## Hinge axis: uncertainty and verdict
 
-The 1-sigma (deg) is sqrt(max(curvature, time blocks)^2 + cut-off shift^2 + model^2)
-(docs/quality.md); its components follow, then the spread over restarts on random half
-subsets (not part of the sigma). Cut-off shift: the largest move when the fit is repeated
-with a 10 or 20 Hz low-pass. Model: half the turn of the axes that the residual below
-8 Hz (beyond the white noise's share) could explain in the motion's weakest direction, a
-bound for model errors every time block shares.
+The 1-sigma (deg) is sqrt(max(curvature, time blocks)^2 + cut-off shift^2 + model^2 +
+gyro bias^2 + clock offset^2) (docs/quality.md); its first four components follow, then
+the spread over restarts on random half subsets (not part of the sigma). The gyro-bias
+part is 0 on every row (no bias removed); the clock-offset part (the axes' move per ms of
+offset times the offset's 1-sigma) is what the listed components leave of the sigma: most
+of the right ankle's 165.1 / 89.5 deg in 55-100 s is that part, 160.0 / 77.7 deg (`imucal
+axis walk_and_leg_motions_100hz.h5 --sensors right_shank,right_foot --start 55 --end 100
+--seed 1 --force`, `quality.uncertainty_components.time_offset`). Cut-off shift: the
+largest move when the fit is repeated with a 10 or 20 Hz low-pass. Model: half the turn
+of the axes that the residual below 8 Hz (beyond the white noise's share) could explain
+in the motion's weakest direction, a bound for model errors every time block shares.
 
 """
 AXIS_QUAL_HEAD = [
