@@ -8,7 +8,7 @@ writes them. Workers read the recordings by the paths given, so every worker mus
 the files under the same paths (a shared file system), and the workers and the scheduler
 need imucal installed (Dask unpickles the tasks on the scheduler too).
 
-Dask is optional (``pip install 'imucal-joints[dask]'``); this module imports it only
+Dask is optional (``pip install -e '.[dask]'`` from the checkout); this module imports it only
 when a study asks for a cluster.
 """
 
@@ -29,7 +29,8 @@ from .runner import Job
 __all__ = ["Cluster", "connect", "INSTALL_HINT"]
 
 #: How to install what ``--scheduler`` needs.
-INSTALL_HINT = "pip install 'imucal-joints[dask]'"
+#: imucal-joints is not on PyPI: the extra installs from the checkout
+INSTALL_HINT = "pip install -e '.[dask]' in imucal's checkout"
 #: Seconds to wait for the scheduler to answer and for its first worker.
 CONNECT_TIMEOUT_S = 10.0
 #: Extra time for the handshake after Dask's own connect timeout, s.

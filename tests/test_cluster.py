@@ -67,7 +67,7 @@ def test_scheduler_without_dask_names_the_extra(files):
                           "tcp://127.0.0.1:8786"], capture_output=True, timeout=60, cwd=folder)
     assert run.returncode == 2 and run.stdout == b""
     assert run.stderr.decode() == ("imucal: error: --scheduler needs Dask, which is not "
-                                   "installed: pip install 'imucal-joints[dask]'\n")
+                                   "installed: pip install -e '.[dask]' in imucal's checkout\n")
 
 
 @pytest.mark.parametrize("command", ["axis", "position", "calibrate"])
