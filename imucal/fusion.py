@@ -348,7 +348,7 @@ def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fu
     use = np.flatnonzero(w > 0)
     coarse = np.interp(np.arange(n), use, np.unwrap(np.angle(zc[use])))
     d = coarse + np.angle(np.exp(1j * (raw - coarse)))
-    offset, var_unit = _local_linear(d, w, s)
+    offset, var_unit, ridge_bias = _local_linear(d, w, s)
     residual = np.where(w > 0, d - offset, np.nan)
     r0 = np.nan_to_num(residual)
     # The local mean square, shrunk towards the recording's where the kernel holds few
@@ -365,7 +365,7 @@ def fuse(sig: HingeSignals, rate: float, smoothing_s: float = SMOOTHING_S) -> Fu
     # the fusion would absorb), local RMS per component; as much is assumed about the axis.
     theta = sig.theta_gyro + offset
     sigma_shape = across_axis_wobble(sig.across1, sig.across2, theta, rate, s)
-    sigma = np.hypot(sigma_offset, sigma_shape)
+    sigma = np.sqrt(sigma_offset**2 + sigma_shape**2 + ridge_bias**2)
     disagreement = math.sqrt(float(np.sum(w * r0**2) / np.sum(w)))
     return Fusion(theta, offset, residual, sigma, disagreement, tau)
 
@@ -414,13 +414,18 @@ def across_axis_wobble(across1: np.ndarray, across2: np.ndarray, theta: np.ndarr
     return np.sqrt(0.5 * _smooth(ms, s) / _smooth(ones, s))
 
 
-def _local_linear(d: np.ndarray, w: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray]:
+def _local_linear(d: np.ndarray, w: np.ndarray,
+                  s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Local-linear regression of ``d`` with weights ``w * K`` (Gaussian K, sigma ``s``
-    samples) at every sample, and the sum of squared equivalent weights (the variance of
-    the estimate per unit variance of independent samples). The slope carries a ridge
-    (:data:`RIDGE`); where the kernel holds less than :data:`MIN_KERNEL_SHARE` of its
-    typical usable weight, the estimate is interpolated between the neighbouring fits
-    and its variance grows with the squared distance to them, in kernel sigmas."""
+    samples) at every sample, the sum of squared equivalent weights (the variance of
+    the estimate per unit variance of independent samples) and the size of the bias the
+    slope's ridge (:data:`RIDGE`) leaves where the kernel is one-sided (the recording's
+    ends, a stretch without usable samples): a linear drift of slope b moves the
+    estimate by b * ridge * S0 * S1 / det, where S0, S1 are the kernel's weight and its
+    first moment about the sample (0 mid-recording). Where the kernel holds less than
+    :data:`MIN_KERNEL_SHARE` of its typical usable weight, the estimate is interpolated
+    between the neighbouring fits and its variance grows with the squared distance to
+    them, in kernel sigmas."""
     n = d.shape[0]
     t = np.arange(n, dtype=float) - n / 2
     k2 = s / math.sqrt(2.0)
@@ -449,6 +454,12 @@ def _local_linear(d: np.ndarray, w: np.ndarray, s: float) -> tuple[np.ndarray, n
         ok = s0 >= s0.max()
     est = np.full(n, np.nan)
     est[ok] = (s2[ok] * b0[ok] - s1[ok] * b1[ok]) / det[ok]
+    # the fitted (ridged) slope stands for the drift's: a gyroscope bias of 1.5 deg/s
+    # across the axis left the angle 0.5 deg off at the ends of short walks, at a 1-sigma
+    # of 0.1 deg (an independent audit)
+    bias = np.full(n, np.nan)
+    slope = (s0[ok] * b1[ok] - s1[ok] * b0[ok]) / det[ok]
+    bias[ok] = np.abs(slope * (RIDGE * s) ** 2 * s0[ok] * s1[ok] / det[ok])
     w2 = w**2
     q = [mom(w2 * t**p, sq=True) for p in range(3)]
     q0 = q[0]
@@ -463,10 +474,11 @@ def _local_linear(d: np.ndarray, w: np.ndarray, s: float) -> tuple[np.ndarray, n
         idx = np.arange(n)
         good = np.flatnonzero(ok)
         est[~ok] = np.interp(idx[~ok], good, est[ok])
+        bias[~ok] = np.interp(idx[~ok], good, bias[ok])
         pos = np.clip(np.searchsorted(good, idx[~ok]), 1, good.size - 1)
         gap = np.minimum(np.abs(idx[~ok] - good[pos - 1]), np.abs(good[pos] - idx[~ok]))
         var[~ok] = np.interp(idx[~ok], good, var[ok]) * (1.0 + (gap / s) ** 2)
-    return est, var
+    return est, var, bias
 
 
 def _correlation_samples(r: np.ndarray, w: np.ndarray) -> float:
