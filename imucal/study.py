@@ -142,7 +142,8 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
     Raises
     ------
     InputError
-        Before anything runs: ``plot`` given, ``-`` among the files, a broken sensor map,
+        Before anything runs: ``plot`` given, ``-`` among several files or with
+        ``scheduler``, a broken sensor map,
         an ``out`` that cannot be written, a cluster that cannot be reached.
 
     Examples
@@ -208,7 +209,7 @@ def _checked_study(job: Job, files: list[str], out: Path | None, plot: Path | No
         raise InputError("--plot draws one recording; with several RECs leave it out and run "
                          f"'imucal {job.command} REC --plot FILE.png' for the recordings to "
                          "draw")
-    if "-" in files:
+    if "-" in files and len(files) > 1:  # (alone it is read here: one file, one process)
         raise InputError("- (standard input) can only be read as the only REC, not in a list "
                          "of recordings")
     sensor_map = job.sensor_map
@@ -276,6 +277,11 @@ def _workers(job: Job, files: list[str], scheduler: str | None, jobs: int, quiet
     """(Dask client or None, local processes, "on/with ..." for the summary)."""
     piped = _descriptor_paths(files)
     if scheduler is not None:
+        if "-" in files:
+            # (a study of one is still a study: "- ... not in a list of recordings" was
+            # said of a lone -; a new-user trial)
+            raise InputError("- (standard input) cannot be read on a cluster; save the "
+                             "recording to a file the workers see")
         if piped:
             raise InputError(f"{piped[0]}: a pipe of this command "
                              "(<(...), /dev/fd/N) cannot be read on a cluster; save the "

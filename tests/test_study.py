@@ -169,6 +169,25 @@ def test_study_refuses_plot_and_stdin(study, tmp_path, args, phrase):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_lone_stdin_is_a_study_of_one_and_no_cluster_reads_it(study, tmp_path):
+    # "- (standard input) can only be read as the only REC, not in a list of recordings"
+    # was said of a lone - with --jobs: a pipeline adding --jobs 1 for JSON Lines broke
+    # once its input was piped (a new-user trial)
+    csv = subprocess.run([sys.executable, "-m", "imucal", "convert", study["a"], "-"],
+                         capture_output=True, timeout=120).stdout
+    run = imucal("axis", "-", *FAST, "--jobs", 2, "-q", input=csv, cwd=tmp_path)
+    assert run.returncode == 0 and run.stderr == b"", run.stderr
+    (line,) = lines(run.stdout)
+    assert line["file"] == "-" and line["exit_code"] == 0
+    assert line["result"]["input"]["path"] == "<stdin>"
+    # a cluster's workers do not see this command's standard input: refused, truly
+    run = imucal("axis", "-", *FAST, "--scheduler", "tcp://127.0.0.1:1", input=csv,
+                 cwd=tmp_path)
+    assert run.returncode == 2 and run.stdout == b""
+    assert run.stderr == (b"imucal: error: - (standard input) cannot be read on a cluster; "
+                          b"save the recording to a file the workers see\n")
+
+
 def test_a_folder_named_imucal_where_the_study_runs_changes_nothing(study, tmp_path):
     # the workers' fresh interpreters put the current folder first on sys.path, so an
     # "imucal" folder there (standing in the parent of a checkout) shadowed the package
