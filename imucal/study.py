@@ -206,6 +206,9 @@ def _checked_study(job: Job, files: list[str], out: Path | None, plot: Path | No
     ``--map <(...)``, was empty for all but the first reader, and a cluster's workers
     need not see the file), and a broken map is one error, not one per recording."""
     if plot is not None:
+        if len(files) == 1:  # (it said "with several RECs" of one; a new-user trial)
+            raise InputError("--plot draws one recording outside a study: leave out --jobs "
+                             "and --scheduler to draw it")
         raise InputError("--plot draws one recording; with several RECs leave it out and run "
                          f"'imucal {job.command} REC --plot FILE.png' for the recordings to "
                          "draw")

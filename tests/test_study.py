@@ -169,6 +169,14 @@ def test_study_refuses_plot_and_stdin(study, tmp_path, args, phrase):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_plot_with_one_rec_and_jobs_names_jobs_not_several_recs(study, tmp_path):
+    run = imucal("axis", study["a"], "--jobs", 1, "--plot", "k.png", cwd=tmp_path)
+    assert run.returncode == 2 and run.stdout == b""
+    assert run.stderr == (b"imucal: error: --plot draws one recording outside a study: leave "
+                          b"out --jobs and --scheduler to draw it\n")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_lone_stdin_is_a_study_of_one_and_no_cluster_reads_it(study, tmp_path):
     # "- (standard input) can only be read as the only REC, not in a list of recordings"
     # was said of a lone - with --jobs: a pipeline adding --jobs 1 for JSON Lines broke
