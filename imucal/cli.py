@@ -501,7 +501,8 @@ def angles(
         "--jobs", "-j", min=0, help="With --tables: recordings processed at once, in "
         "separate processes (0: one per CPU core); the lines stay in input order, a failed "
         "recording gets an error line and the others go on; exit status: the highest of "
-        "the recordings' codes.")] = 1,
+        "the recordings' codes. Without --tables: a warning, and the recording runs "
+        "here.")] = 1,
     scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
@@ -518,6 +519,9 @@ def angles(
             raise typer.Exit(_angles_study(ctx, job, rec, out=out, plot=plot, jobs=jobs,
                                            scheduler=scheduler, quiet=quiet))
         _check_scheduler(scheduler, quiet, runs_here=True)
+        if _given(ctx, "jobs"):  # (ignored without a word; a new-user trial)
+            say(f"imucal: warning: --jobs {jobs} is for studies (--tables); this recording "
+                "runs here")
         from .formats import HDF5_SUFFIXES
 
         if out is not None and out.suffix.lower() not in {".csv", *HDF5_SUFFIXES}:
@@ -915,9 +919,16 @@ def _check_scheduler(scheduler, quiet, runs_here: bool = False) -> None:
     from .cluster import check_address
 
     check_address(scheduler)
-    if runs_here and not quiet:
+    if runs_here:  # angles' warnings print with -q too (a table cannot carry them)
         say(f"imucal: warning: --scheduler {scheduler} is for studies (--tables); this "
             "recording runs here")
+
+
+def _given(ctx: typer.Context, name: str) -> bool:
+    """Whether option ``name`` was given, not left at its default (by the source's
+    name: typer's own copy of click has its own ParameterSource)."""
+    source = ctx.get_parameter_source(name)
+    return source is not None and source.name not in ("DEFAULT", "DEFAULT_MAP")
 
 
 def _is_study(recs, jobs, scheduler) -> bool:

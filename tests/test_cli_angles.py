@@ -95,6 +95,21 @@ def test_angles_of_the_sample_walk_as_csv_on_stdout(cal_file):
     assert "regular flexion cycles of 1." in run.stderr and "fit check: fits" in run.stderr
 
 
+def test_options_of_studies_without_tables_say_the_recording_runs_here(cal_file, tmp_path):
+    # -q hid the --scheduler warning, and --jobs was ignored without a word: a batch user
+    # had no sign that neither the cluster nor the processes were used (a new-user trial)
+    path, _ = cal_file
+    for option, value in (("--scheduler", "tcp://127.0.0.1:1"), ("--jobs", "2")):
+        out = tmp_path / f"{option[2:]}.csv"
+        run = cli("angles", SAMPLE / "walking.h5", "-c", path, option, value, "-q", "--out",
+                  out)
+        assert run.returncode == 0 and out.exists()
+        assert run.stderr == (f"imucal: warning: {option} {value} is for studies "
+                              "(--tables); this recording runs here\n")
+    run = cli("angles", SAMPLE / "walking.h5", "-c", path, "-q", "--out", out)
+    assert run.returncode == 0 and run.stderr == ""  # --jobs left at its default: nothing
+
+
 def test_a_recordings_own_clock_offset_on_the_command_line(cal_file):
     path, _ = cal_file
     # the sample walk's clocks are in sync: given as such it reads as before, and says so
