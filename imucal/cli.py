@@ -74,16 +74,18 @@ Recs = Annotated[list[str], typer.Argument(
     help="Recording(s): files or folders, imucal's HDF5/CSV or vendor exports "
     "(docs/formats.md); - reads CSV from stdin. Several RECs: one JSON "
     "line per recording, in order (see --jobs).")]
-Jobs = Annotated[int | None, typer.Option(
-    "--jobs", "-j", min=0, show_default="1", help="A study (several RECs, or one with "
+# (a default of None shown as "1" printed "[default: (1)]"; whether --jobs was given is
+# asked of click instead: _given)
+Jobs = Annotated[int, typer.Option(
+    "--jobs", "-j", min=0, help="A study (several RECs, or one with "
     "--jobs or --scheduler given): recordings processed at once, in separate "
     "processes (0: one per CPU core). Output is JSON Lines in input order, one object "
     "{file, exit_code, error, warnings, result} per recording; a failed recording gets an "
     "error line and the others go on; exit status: the highest of the recordings' codes "
     "(0 ok, 1 not identifiable, 2 bad input, 3 internal error). --out writes the lines "
     "to a file (complete or not at all); --plot needs a single REC without --jobs.")]
-CalibrateJobs = Annotated[int | None, typer.Option(
-    "--jobs", "-j", min=0, show_default="1", help="A study (several RECs, or one with "
+CalibrateJobs = Annotated[int, typer.Option(
+    "--jobs", "-j", min=0, help="A study (several RECs, or one with "
     "--jobs or --scheduler given): recordings processed at once, in separate "
     "processes (0: one per CPU core). Output is JSON Lines in input order, one object "
     "{file, exit_code, error, warnings, result} per recording, result the calibration "
@@ -158,6 +160,12 @@ Quiet = Annotated[bool, typer.Option(
     "--quiet", "-q", help="No progress, summary or estimate warnings on stderr (the JSON "
     "carries those); warnings about reading the file, and angles' warnings (a table cannot "
     "carry them), still print, as errors do.")]
+# (simulate and convert estimate nothing and write no JSON: Quiet's text was not theirs)
+SimulateQuiet = Annotated[bool, typer.Option(
+    "--quiet", "-q", help="No summary line on stderr; errors still print.")]
+ConvertQuiet = Annotated[bool, typer.Option(
+    "--quiet", "-q", help="No summary line and no warnings about reading the recording on "
+    "stderr; errors still print.")]
 def _input_file(value: str | Path) -> Path:
     """An input file's name as typed: typer turns '' (an unset "$MAP") into '.', which
     was then called a folder."""
@@ -201,8 +209,7 @@ Scheduler = Annotated[str | None, typer.Option(
     "--scheduler", metavar="ADDRESS", show_default=False,
     help="Run the study (several RECs, or one) on the Dask cluster whose scheduler "
     "listens at ADDRESS (e.g. tcp://host:8786) instead of local processes; same output and "
-    "exit status as --jobs. Needs the dask extra (docs/performance.md). angles without "
-    "--tables runs here.")]
+    "exit status as --jobs. Needs the dask extra (docs/performance.md).")]
 Force = Annotated[bool, typer.Option(
     "--force", help="Write the result even when the data cannot identify it (exit 0; the "
     "JSON carries the warnings). Without it such a run writes nothing and exits 1.")]
@@ -250,7 +257,7 @@ def axis(
     offset_search: OffsetSearch = 0.2,  # imucal.settings.OFFSET_SEARCH_S
     force: Force = False,
     trace: Trace = False,
-    jobs: Jobs = None,
+    jobs: Jobs = 1,
     scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
@@ -267,7 +274,8 @@ def axis(
         job = _job(ctx, "axis", sensors, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force, trace=trace)
-        raise typer.Exit(_estimate(job, rec, out=out, plot=plot, jobs=jobs,
+        raise typer.Exit(_estimate(job, rec, out=out, plot=plot,
+                                   jobs=jobs if _given(ctx, "jobs") else None,
                                    scheduler=scheduler, quiet=quiet))
 
 
@@ -314,7 +322,7 @@ def position(
     acc_error: AccError = 0.05,  # imucal.settings.ACC_ERROR_M_S2 (kept out of start-up)
     force: Force = False,
     trace: Trace = False,
-    jobs: Jobs = None,
+    jobs: Jobs = 1,
     scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
@@ -331,7 +339,8 @@ def position(
         job = _job(ctx, "position", sensors, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force, trace=trace)
-        raise typer.Exit(_estimate(job, rec, out=out, plot=plot, jobs=jobs,
+        raise typer.Exit(_estimate(job, rec, out=out, plot=plot,
+                                   jobs=jobs if _given(ctx, "jobs") else None,
                                    scheduler=scheduler, quiet=quiet))
 
 
@@ -384,7 +393,7 @@ def calibrate(
         "failed. The calibration is written either way, such joints marked by their "
         "verdict (a failed one without vectors); without --force the exit status is 1.")]
     = False,
-    jobs: CalibrateJobs = None,
+    jobs: CalibrateJobs = 1,
     scheduler: Scheduler = None,
     quiet: Quiet = False,
     debug: Debug = False,
@@ -403,7 +412,7 @@ def calibrate(
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)
         _check_scheduler(scheduler, quiet)
-        if _is_study(rec, jobs, scheduler):
+        if _is_study(rec, jobs if _given(ctx, "jobs") else None, scheduler):
             from .study import run_study
 
             raise typer.Exit(run_study(job, rec, out=out, jobs=jobs or 1, scheduler=scheduler,
@@ -503,7 +512,13 @@ def angles(
         "recording gets an error line and the others go on; exit status: the highest of "
         "the recordings' codes. Without --tables: a warning, and the recording runs "
         "here.")] = 1,
-    scheduler: Scheduler = None,
+    scheduler: Annotated[str | None, typer.Option(
+        "--scheduler", metavar="ADDRESS", show_default=False,
+        help="With --tables and several RECs: run the study on the Dask cluster whose "
+        "scheduler listens at ADDRESS (e.g. tcp://host:8786) instead of local processes; "
+        "same output and exit status as --jobs. Needs the dask extra "
+        "(docs/performance.md). One REC runs here (without --tables, with a warning).")]
+    = None,
     quiet: Quiet = False,
     debug: Debug = False,
 ) -> None:
@@ -714,7 +729,7 @@ def simulate(
         metavar="M/S^2|SENSOR=M/S^2|SENSOR=X,Y,Z", show_default=False,
         help="Constant accelerometer bias (offset), m/s^2, sensor frame, given like "
         "--gyr-bias (typical after factory calibration: 0.02-0.1).")] = None,
-    quiet: Quiet = False,
+    quiet: SimulateQuiet = False,
     debug: Debug = False,
 ) -> None:
     """Simulate thigh-knee-shank-ankle-foot with sensors at random poses (paper Sec. III-A)."""
@@ -833,10 +848,10 @@ def convert(
     gyr_units: GyrUnits = None,
     acc_units: AccUnits = None,
     sensor_map: SensorMap = None,
-    quiet: Quiet = False,
+    quiet: ConvertQuiet = False,
     debug: Debug = False,
 ) -> None:
-    """Write a recording (any format imucal reads, e.g. a vendor export) in imucal's own
+    """Write a recording (any format imucal reads, such as a vendor export) in imucal's own
     HDF5 or CSV layout: the devices on one time grid, SI units, dropped samples as NaN;
     HDF5 also keeps the provenance (source format, files, serials, original rates) as
     root attributes (docs/formats.md)."""

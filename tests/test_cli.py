@@ -167,6 +167,30 @@ def test_help_shows_examples():
     assert b"Examples" in run.stdout and b"--restarts" in run.stdout
 
 
+def test_help_texts_say_what_each_command_does():
+    # a new-user trial: axis/position/calibrate's --scheduler ended "angles without
+    # --tables runs here.", --jobs showed "[default: (1); x>=0]", simulate's and convert's
+    # -q spoke of estimate warnings and JSON, and the command list cut convert's summary
+    # at "e.g."
+    def help_of(*command):
+        run = imucal(*command, "--help")
+        assert run.returncode == 0
+        return " ".join(run.stdout.decode().split())
+
+    for command in ("axis", "position", "calibrate"):
+        text = help_of(command)
+        assert "runs here" not in text and "(1)" not in text
+        assert "[default: 1; x>=0]" in text
+    assert "[default: 1; x>=0]" in help_of("angles")
+    for command in ("simulate", "convert"):
+        text = help_of(command)
+        quiet = text[text.index("-q, --quiet"):text.index("--debug")]
+        assert "JSON" not in quiet and "estimate" not in quiet and "angles" not in quiet
+    commands = help_of()
+    convert = commands[commands.index("convert Write"):]
+    assert not convert.rstrip().endswith("e.g.")
+
+
 def test_csv_at_40_hz_meets_paper_targets(recordings):
     _, csv = recordings
     truth = json.loads(csv.with_name("sim40.truth.json").read_text())
