@@ -777,7 +777,11 @@ def _numeric_column(table: pd.DataFrame, index: int, name: str, source: str) -> 
         if text.iloc[i] == "":
             if (table.iloc[i].astype(str).str.strip() == "").all():
                 raise InputError(f"{source}: row {row} is blank")
-            raise InputError(f"{source}: row {row}, column '{name}' is empty")
+            # pandas' to_csv writes NaN as an empty cell: refused with no word of how to
+            # write a dropped sample (a new-user trial)
+            hint = ("" if name.lower() == "time" else "; a missing sample is written nan "
+                    "(pandas: to_csv(na_rep='nan'))")
+            raise InputError(f"{source}: row {row}, column '{name}' is empty{hint}")
         cell = text.iloc[i]
         cell = cell if len(cell) <= 30 else cell[:27] + "..."
         raise InputError(f"{source}: row {row}, column '{name}': {cell!r} is not a number")

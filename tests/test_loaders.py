@@ -503,6 +503,27 @@ def test_csv_empty_cell(tmp_path):
     expect_error(path, "row 2, column 't_gyr_x' is empty")
 
 
+def test_csv_from_pandas_with_nan_as_empty_cells_says_how_to_write_them(tmp_path):
+    # DataFrame.to_csv writes NaN as an empty cell by default: refused with no word of
+    # na_rep (a new-user trial); written as its hint says, the gap loads
+    import pandas as pd
+
+    table = pd.read_csv(Path(__file__).parent.parent / "sample_data" / "circling_40hz.csv")
+    table.loc[100:101, "shank_gyr_x"] = float("nan")
+    path = tmp_path / "gap.csv"
+    table.to_csv(path, index=False)
+    message = expect_error(path, "row 102, column 'shank_gyr_x' is empty; a missing "
+                           "sample is written nan (pandas: to_csv(na_rep='nan'))")
+    assert message.startswith(f"{path}: ")
+    table.to_csv(path, index=False, na_rep="nan")
+    assert load_recording(path).n_samples == len(table)
+    rows = good_rows()
+    rows[0][0] = ""  # no sample to miss in the time column: no hint there
+    path.write_text(csv_text(rows))
+    message = expect_error(path, "row 2, column 'time' is empty")
+    assert message.endswith("is empty")
+
+
 def test_csv_blank_line_inside_data(tmp_path):
     path = tmp_path / "gap.csv"
     lines = csv_text(good_rows()).splitlines(keepends=True)
