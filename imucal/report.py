@@ -155,6 +155,14 @@ UNCERTAINTY_METHOD = (
     "an applied offset, also its move from offset 0, capped at 3 x model; see "
     "uncertainty_components and docs/quality.md)"
 )
+#: The axis's: it has no accelerometer part (its text named acc_error^2, which no axis
+#: has, an independent check's point from a new-user trial).
+AXIS_UNCERTAINTY_METHOD = (UNCERTAINTY_METHOD
+                           .replace("gyr_bias^2 + acc_error^2 + ", "gyr_bias^2 + ")
+                           .replace(", for a joint centre an accelerometer part (its response "
+                                    "to an offset and a scale error of each accelerometer, "
+                                    "settings.acc_error_m_s2 at 1 g, that the motion cannot "
+                                    "tell from a move of the centre)", ""))
 SPREAD_METHOD = (
     "RMS distance between the estimate and the results of the restarts that reached it, "
     "each fitted on a random half of the samples (leaving out subset fits stuck in a local "
@@ -182,7 +190,7 @@ def _quality_block(result, info: dict, unit: str, uncertainty: dict, spread: dic
         "smooth_residual": result.smooth_residual,
         f"{first}_uncertainty_{unit}": uncertainty[first],
         f"{second}_uncertainty_{unit}": uncertainty[second],
-        "uncertainty_method": UNCERTAINTY_METHOD,
+        "uncertainty_method": AXIS_UNCERTAINTY_METHOD if first == "j1" else UNCERTAINTY_METHOD,
         "uncertainty_components": result.uncertainty_components,
         f"{first}_spread_{unit}": spread[first],
         f"{second}_spread_{unit}": spread[second],

@@ -348,3 +348,16 @@ def test_nested_fields_without_a_unit_in_their_name_have_one_in_units():
         assert "sensitivity_per_ms" in doc["time_offset"]
         if command == "position":
             assert "mm" in doc["units"]["quality.weak_direction"]
+
+
+def test_the_uncertainty_method_names_only_the_parts_its_result_has(rec):
+    # the axis's text gave its formula with acc_error^2, a part no axis has (a new-user
+    # trial); a joint centre's has it
+    for command in ("axis", "position"):
+        run = imucal(command, rec, "--seed", 1, "--restarts", 5, "--quiet", "--force")
+        assert run.returncode == 0, run.stderr
+        q = json.loads(run.stdout)["quality"]
+        named = "acc_error" in q["uncertainty_method"]
+        assert named == ("acc_error" in q["uncertainty_components"]) == (command == "position")
+        assert "time_offset^2" in q["uncertainty_method"] and "gyr_bias^2" in \
+            q["uncertainty_method"]
