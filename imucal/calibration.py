@@ -108,9 +108,9 @@ class JointCalibration(ByValue):
             if (isinstance(quality, dict) and quality.get("verdict") == NOT_IDENTIFIABLE
                     and isinstance(quality.get("warnings"), list) and quality["warnings"]):
                 first, *others = quality["warnings"]
-                from .time_offset import given_offset_doubt
+                from .time_offset import refusal_reason
 
-                return f"{what}: {first}{given_offset_doubt(others)}"
+                return f"{what}: {refusal_reason(first, others)}"
         return self.warnings[-1] if self.warnings else "no reason recorded"
 
     @property

@@ -508,14 +508,14 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
     if doc["quality"]["verdict"] == "not identifiable" and not job.force:
         # The first warning is the reason (blocking reasons come first); the others only
         # help a human reading along ("input: " ones were warnings at load already).
-        from .time_offset import given_offset_doubt
+        from .time_offset import refusal_reason
 
         reason, *others = doc["quality"]["warnings"]
         outcome.notes.extend(f"{recording.source}: {w}" for w in others
                              if not w.startswith("input: "))
         raise NotIdentifiableError(
-            f"{recording.source}: the data cannot identify the {what}: {reason}"
-            f"{given_offset_doubt(others)}; nothing written (--force writes the result "
+            f"{recording.source}: the data cannot identify the {what}: "
+            f"{refusal_reason(reason, others)}; nothing written (--force writes the result "
             "with its warnings)")
     outcome.document, outcome.result = doc, result
 

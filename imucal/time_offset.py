@@ -108,21 +108,24 @@ FOLLOW_STEP_S = 0.002
 GIVEN_WARNING = "the clock offset given"
 
 
-def given_offset_doubt(warnings) -> str:
-    """The contradicted given clock offset among an estimate's other ``warnings``, as a
-    clause for the refusal's one line: a wrong ``--time-offset`` spoils the fit, and the
-    reason first named (restarts disagree, a poor hinge fit: "a spheroidal joint such as
-    the ankle?") blamed the joint, while the cause stood in a warning that ``-q`` hides.
+def refusal_reason(reason: str, warnings) -> str:
+    """A refusal's ``reason`` for its one line, led by a contradicted given clock offset
+    among the estimate's other ``warnings``: a wrong ``--time-offset`` spoils the fit, and
+    the reason it causes (restarts disagree, a poor hinge fit: "a spheroidal joint such
+    as the ankle?") blamed the joint, while the cause stood in a warning that ``-q``
+    hides, then in a parenthesis at the line's end (5 s given where 5 ms were meant: a
+    new-user trial).
 
     Returns
     -------
     str
-        ``" (and <that warning>)"``, or "" when no warning is about a given offset.
+        ``"<that warning>; with it, <reason>"``, or ``reason`` when no warning is about a
+        given offset.
     """
     # (a hand-edited calibration file may hold anything there)
     given = next((w for w in warnings if isinstance(w, str) and w.startswith(GIVEN_WARNING)),
                  None)
-    return f" (and {given})" if given else ""
+    return f"{given}; with it, {reason}" if given else reason
 
 
 #: An offset the axis's search (rates only) applied is doubted, with a warning that begins

@@ -77,8 +77,10 @@ def test_a_refusal_names_a_contradicted_given_clock_offset():
     job = Job("axis", ("thigh", "shank"), AxisSettings(seed=1, time_offset=-0.5))
     outcome = run(job, str(Path(__file__).parents[1] / "sample_data" / "circling.h5"))
     assert outcome.exit_code == 1
-    assert "the data cannot identify the axis" in outcome.error
-    assert "(and the clock offset given (-500.0 ms) is not the data's" in outcome.error
+    # ... and then came second, in a parenthesis at the line's end (a new-user trial)
+    assert ("the data cannot identify the axis: the clock offset given (-500.0 ms) is not "
+            "the data's") in outcome.error
+    assert "; with it, restarts disagree" in outcome.error
 
 
 def test_job_and_sensor_checks():
