@@ -30,6 +30,13 @@ ACC_LOOKS_LIKE_G = (0.5, 2.0)
 #: conversion) is far from the 1 g that gait and rest give: a unit 1000 or ~100 times off
 #: (m/s^2 or g declared as mg; m/s^2 or mg declared as g), or gravity removed.
 ACC_PLAUSIBLE = (0.5, 50.0)
+#: A gyroscope declared in deg/s that never turns faster than this (rad/s; 5.7 deg/s)
+#: beside an accelerometer whose specific force spans at least ``ACC_MOVING_SPAN``
+#: (m/s^2, 1st to 99th percentile of its norm) looks like rad/s read as deg/s: circling
+#: read so was "the sensors barely rotate (1.6 and 2.2 deg/s)", with no word of units (a
+#: new-user trial).
+SLOW_DEG_S_PEAK = 0.1
+ACC_MOVING_SPAN = 2.0
 
 #: Longest run of non-finite samples (NaN or Inf: a dropped packet) inside a recording that
 #: is filled by linear interpolation, s. Human limb motion has almost no energy above
@@ -299,7 +306,9 @@ def unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
     Returns
     -------
     list[str]
-        Per sensor: a gyroscope peak norm above :data:`MAX_LIMB_RATE` (35 rad/s: deg/s?),
+        Per sensor: a gyroscope peak norm above :data:`MAX_LIMB_RATE` (35 rad/s: deg/s?)
+        or, declared deg/s, below :data:`SLOW_DEG_S_PEAK` while the accelerometer moves
+        (rad/s?),
         a median accelerometer norm within :data:`ACC_LOOKS_LIKE_G` (about 1 in m/s^2:
         g?) or outside :data:`ACC_PLAUSIBLE` (:func:`acc_scale_doubt`). Empty sensors are
         skipped.
@@ -325,6 +334,13 @@ def unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
         elif not ACC_PLAUSIBLE[0] <= median <= ACC_PLAUSIBLE[1]:
             notes.append(f"sensor '{name}' acc "
                          f"{acc_scale_doubt(median)} (--acc-units or a 'units' attribute)")
+        if units.get(name, {}).get("gyr") == "deg/s" and peak < SLOW_DEG_S_PEAK:
+            p1, p99 = np.percentile(np.linalg.norm(sd.acc, axis=1), [1, 99])
+            if p99 - p1 >= ACC_MOVING_SPAN:
+                notes.append(
+                    f"sensor '{name}' gyr peaks at {np.degrees(peak):.1f} deg/s (declared "
+                    f"deg/s) while its acc spans {p99 - p1:.1f} m/s^2: the sensor moved; is "
+                    "the gyroscope in rad/s? (--gyr-units rad/s or a 'units' attribute)")
     return notes
 
 

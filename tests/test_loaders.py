@@ -1313,3 +1313,19 @@ def test_resolve_refuses_a_name_that_is_not_text():
     rec = load_recording(Path(__file__).parent.parent / "sample_data" / "walking.h5")
     with pytest.raises(InputError, match="a sensor name is text, got list"):
         rec.resolve(["thigh"])
+
+
+def test_rad_per_s_declared_deg_per_s_is_doubted():
+    # circling read so was refused as "the sensors barely rotate (1.6 and 2.2 deg/s)" with
+    # no word of units, while the opposite mistake is named (a new-user trial)
+    from imucal import load_recording, make_recording
+
+    rec = load_recording(Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5")
+    data = {n: {"gyr": s.gyr, "acc": s.acc} for n, s in rec.sensors.items()}
+    wrong = make_recording(data, rate=rec.rate, units={n: {"gyr": "deg/s"} for n in data})
+    said = [w for w in wrong.warnings if "is the gyroscope in rad/s?" in w]
+    assert any(w.startswith("sensor 'shank' gyr peaks at 3.6 deg/s (declared deg/s) while "
+                            "its acc spans 6.6 m/s^2") for w in said)
+    right = {n: {"gyr": np.degrees(s.gyr), "acc": s.acc} for n, s in rec.sensors.items()}
+    fine = make_recording(right, rate=rec.rate, units={n: {"gyr": "deg/s"} for n in data})
+    assert not [w for w in fine.warnings if "rad/s?" in w]
