@@ -34,6 +34,7 @@ from .rest import (
 )
 from .settings import check_time_offset, is_bool
 from .time_offset import sampling_sigma, shifted
+from .vectors import joint_plane_rate
 
 if TYPE_CHECKING:
     from .calibration import Calibration
@@ -178,8 +179,7 @@ def hinge_residual(g1, g2, j1, j2) -> float:
     """
     g1, g2 = np.asarray(g1, float), np.asarray(g2, float)
     j1, j2 = (np.asarray(j, float) / np.linalg.norm(j) for j in (j1, j2))
-    p1 = np.linalg.norm(np.cross(g1, j1), axis=1)
-    p2 = np.linalg.norm(np.cross(g2, j2), axis=1)
+    p1, p2 = joint_plane_rate(g1, j1), joint_plane_rate(g2, j2)
     speed2 = 0.5 * (np.sum(g1 * g1, axis=1) + np.sum(g2 * g2, axis=1))
     use = speed2 > MOVING_RATE**2
     if not use.any():

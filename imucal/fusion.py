@@ -31,6 +31,7 @@ from scipy.ndimage import gaussian_filter1d
 from .errors import InputError, NotIdentifiableError
 from .preprocess import derivative, lowpass
 from .settings import as_real
+from .vectors import gamma_rows
 
 #: Half-width (1-sigma of the Gaussian kernel) of the fusion, s. The kernel removes the
 #: acc angle's noise and its stride-locked errors (soft tissue, an imperfect o: a stride
@@ -145,8 +146,7 @@ def joint_centre_acc(g: np.ndarray, a: np.ndarray, o: np.ndarray, rate: float) -
     measurement data by exploiting kinematic constraints", IEEE CCA, Sec. II-B (eq. 3,
     the definition of Gamma_g).
     """
-    gdot = derivative(g, rate)
-    return a - (np.cross(g, np.cross(g, o)) + np.cross(gdot, o))
+    return a - gamma_rows(g, derivative(g, rate)) @ np.asarray(o, dtype=float)
 
 
 def integrate(x: np.ndarray, rate: float) -> np.ndarray:

@@ -40,6 +40,7 @@ from matplotlib.patches import Patch
 from .axis import AxisResult, joint_plane_projection
 from .position import PositionResult, closest_point_on_axis
 from .restarts import settled
+from .vectors import joint_plane_rate
 
 #: File name extensions --plot accepts, and matplotlib's name of each format.
 FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
@@ -629,8 +630,8 @@ def _strip(ax, names, values, result, ylabel, unit, *, signed, rms, rms_groups) 
 
 def _fit_panel(ax, result: AxisResult) -> None:
     """Eq. (1): the projections' lengths should agree sample by sample."""
-    n1 = np.linalg.norm(np.cross(result.gyr1, result.j1), axis=1)
-    n2 = np.linalg.norm(np.cross(result.gyr2, result.j2), axis=1)
+    n1 = joint_plane_rate(result.gyr1, result.j1)
+    n2 = joint_plane_rate(result.gyr2, result.j2)
     step = max(1, -(-n1.size // _MAX_POINTS))
     ax.scatter(n1[::step], n2[::step], s=_marker_size(n1[::step].size), alpha=0.4, lw=0,
                rasterized=True, label="samples used")

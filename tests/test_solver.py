@@ -321,3 +321,28 @@ def test_subsets_drawn_in_blocks_are_one_draw(monkeypatch):
     assert blocks.dtype == np.float32
     np.testing.assert_array_equal(blocks, whole)
     np.testing.assert_array_equal(blocks, once)
+
+
+def test_the_batched_problems_cost_is_the_constraints_own_residual():
+    # the solvers' batched residuals (fast tables, single-precision blocks) are written
+    # apart from eq. (1) and eq. (3) as the rest of imucal computes them
+    # (vectors.joint_plane_rate, vectors.gamma_rows): tied here at random states
+    from imucal.axis import _HingeProblem
+    from imucal.position import _SpheroidalProblem
+    from imucal.vectors import gamma_rows, joint_plane_rate
+
+    rng = np.random.default_rng(7)
+    g1, g2, gd1, gd2, a1, a2 = (rng.standard_normal((400, 3)) for _ in range(6))
+    j = rng.standard_normal((5, 2, 3))
+    j /= np.linalg.norm(j, axis=2, keepdims=True)
+    x = j.reshape(5, 6)
+    want = [np.mean((joint_plane_rate(g1, s[0]) - joint_plane_rate(g2, s[1])) ** 2)
+            for s in j]
+    got = _HingeProblem(g1, g2, None).cost(x, np.arange(5))
+    np.testing.assert_allclose(got, want, rtol=1e-10)
+    o = 0.2 * rng.standard_normal((5, 6))
+    want = [np.mean((np.linalg.norm(a1 - gamma_rows(g1, gd1) @ s[:3], axis=1)
+                     - np.linalg.norm(a2 - gamma_rows(g2, gd2) @ s[3:], axis=1)) ** 2)
+            for s in o]
+    got = _SpheroidalProblem(g1, gd1, a1, g2, gd2, a2, None).cost(o, np.arange(5))
+    np.testing.assert_allclose(got, want, rtol=1e-10)
