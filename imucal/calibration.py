@@ -356,8 +356,6 @@ def _joint_specs(recording: Recording, joints) -> tuple[list[JointSpec], list[st
                 f"({', '.join(recording.sensors)}); name sensors thigh/shank/foot/pelvis "
                 "(with left_/right_) or give the joints, e.g. knee=hinge:A,B")
         return specs, notes
-    if isinstance(joints, str | JointSpec):  # one joint (a str was read letter by letter)
-        joints = [joints]
     specs = [j if isinstance(j, JointSpec) else parse_joint_spec(j) for j in joints]
     if not specs:
         raise InputError("no joints given")
@@ -375,7 +373,7 @@ def _joint_specs(recording: Recording, joints) -> tuple[list[JointSpec], list[st
 # ----------------------------------------------------------------------------- calibrate
 
 
-def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
+def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int = 100,
               seed: int | None = None, start: float | None = None, end: float | None = None,
               time_offset: float | str = "auto", offset_search: float = OFFSET_SEARCH_S,
               smoothing_s: float | None = None, sign: str = "auto", j2_sign: str = "auto",
@@ -387,6 +385,9 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     recording
         The calibration trial (ideally the paper's protocol: leg and foot circling, a few
         flexions, some walking, and a still standing moment for the angle's zero).
+    settings
+        A :class:`imucal.settings.CalibrateSettings` holding every setting below but the
+        window (``start``, ``end``), instead of them (not both).
     joints
         None: found from the sensor names (:func:`discover_joints`); or a list of specs
         (``"left_knee=hinge:left_thigh,left_shank"`` or :class:`JointSpec`).
@@ -434,15 +435,20 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     >>> sorted(cal.joints), cal.joints["knee"].verdict
     (['ankle', 'knee'], 'good')
     """
-    from .fusion import SMOOTHING_S, check_smoothing
-    from .settings import CalibrateSettings, as_real
+    from .fusion import SMOOTHING_S
+    from .settings import CalibrateSettings, as_real, resolve
 
     check_recording(recording)
+    if isinstance(joints, str | JointSpec):  # one joint (a str was read letter by letter)
+        joints = [joints]
+    if joints is not None and len(joints) == 0:
+        raise InputError("no joints given")
     # usage errors before any joint runs (each joint's estimate would stop on them, and
     # they came back as joints marked `failed`); the window against the recording too
-    checked = CalibrateSettings(restarts=restarts, seed=seed, time_offset=time_offset,
-                                offset_search=offset_search, acc_error=acc_error, sign=sign,
-                                j2_sign=j2_sign)
+    checked = resolve(CalibrateSettings, settings, joints=tuple(joints or ()),
+                      restarts=restarts, seed=seed, time_offset=time_offset,
+                      offset_search=offset_search, acc_error=acc_error, sign=sign,
+                      j2_sign=j2_sign, smoothing_s=smoothing_s)
     # the window is on the recording's clock, which may start below 0 (AxisSettings'
     # start/end count from the first sample: -5 to 5 s of a clock starting at -10 s was
     # refused as "start must be in [0, inf)", an independent review)
@@ -453,8 +459,8 @@ def calibrate(recording: Recording, *, joints=None, restarts: int = 100,
     offset_search, acc_error = checked.offset_search, checked.acc_error
     signs = {"sign": checked.sign, "j2_sign": checked.j2_sign}
     start, end = (None if v is None else as_real(v) for v in (start, end))
-    smoothing_s = check_smoothing(SMOOTHING_S if smoothing_s is None else smoothing_s)
-    specs, notes = _joint_specs(recording, joints)
+    smoothing_s = SMOOTHING_S if checked.smoothing_s is None else checked.smoothing_s
+    specs, notes = _joint_specs(recording, list(checked.joints) or None)
     out: dict[str, JointCalibration] = {}
     windows, stopped = [], []
     for spec in specs:

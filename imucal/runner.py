@@ -23,7 +23,7 @@ Example::
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -112,10 +112,7 @@ def _process_calibrate(job, recording, outcome) -> None:
     s = job.settings
     # one seed for every joint, drawn here when none is given, so the file can say it
     seed = resolve_seed(s.seed)
-    cal = calibrate(recording, joints=list(s.joints) or None, restarts=s.restarts,
-                    seed=seed, start=job.start, end=job.end, time_offset=s.time_offset,
-                    offset_search=s.offset_search, acc_error=s.acc_error, sign=s.sign,
-                    j2_sign=s.j2_sign)
+    cal = calibrate(recording, settings=replace(s, seed=seed), start=job.start, end=job.end)
     if job.sensor_map is not None:
         cal.settings["sensor_map"] = str(job.sensor_map)
     names = ", ".join(f"{j.name} ({j.sensors[0]} -> {j.sensors[1]})"

@@ -225,12 +225,16 @@ class CalibrateSettings:
     sign, j2_sign : str
         As in :class:`AxisSettings`, for every hinge's axis: pinning the relative sign
         where the mounting is known reaches the angles through the calibration.
+    smoothing_s : float or None
+        The angle fusion's kernel, s (:data:`imucal.fusion.SMOOTHING_S` when None),
+        stored in the calibration for :func:`imucal.joint_angles`.
 
     Raises
     ------
     InputError
         A joint spec that does not parse, a joint given twice, or a setting of the wrong
-        type or out of its range (as in :class:`AxisSettings`).
+        type or out of its range (as in :class:`AxisSettings`; ``smoothing_s``:
+        :func:`imucal.fusion.check_smoothing`).
     """
 
     joints: tuple = ()
@@ -241,9 +245,11 @@ class CalibrateSettings:
     acc_error: float = ACC_ERROR_M_S2
     sign: str = "auto"
     j2_sign: str = "auto"
+    smoothing_s: float | None = None
 
     def __post_init__(self) -> None:
         from .calibration import JointSpec, parse_joint_spec
+        from .fusion import check_smoothing
 
         specs = tuple(j if isinstance(j, JointSpec) else parse_joint_spec(j)
                       for j in self.joints)
@@ -259,6 +265,8 @@ class CalibrateSettings:
         _check_number(self, "offset_search", low=0.0, open_low=True, high=MAX_TIME_OFFSET_S)
         _check_number(self, "acc_error", low=0.0, high=MAX_ACC_ERROR_M_S2)
         _check_signs(self)
+        if self.smoothing_s is not None:
+            object.__setattr__(self, "smoothing_s", check_smoothing(self.smoothing_s))
 
 
 @dataclass(frozen=True)

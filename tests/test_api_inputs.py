@@ -423,3 +423,22 @@ def test_results_recordings_and_calibrations_compare_by_value(rec, cal, tmp_path
     assert imucal.joint_angles(rec, cal) == imucal.joint_angles(rec, cal)
     with pytest.raises(TypeError, match="unhashable"):
         hash(rec)
+
+
+def test_calibrate_takes_a_settings_object_as_the_estimators_do(rec):
+    # calibrate() took keywords only, and checked its smoothing apart from its settings
+    # (an independent review of the estimator skeleton)
+    from imucal.settings import CalibrateSettings
+
+    knee = "knee=hinge:thigh,shank"
+    settings = CalibrateSettings(joints=(knee,), restarts=5, seed=1, smoothing_s=2.0)
+    a = imucal.calibrate(rec, settings=settings)
+    b = imucal.calibrate(rec, joints=knee, restarts=5, seed=1, smoothing_s=2.0)
+    assert a == b and a.joints["knee"].angle["smoothing_s"] == 2.0
+    with pytest.raises(InputError, match=r"give settings or keyword arguments, not both "
+                                         r"\(restarts\)"):
+        imucal.calibrate(rec, settings=settings, restarts=7)
+    with pytest.raises(InputError, match="smoothing_s must be from 0.01 to 600 s"):
+        CalibrateSettings(smoothing_s=0.0)
+    with pytest.raises(InputError, match="no joints given"):
+        imucal.calibrate(rec, joints=[])
