@@ -1023,3 +1023,27 @@ def test_the_drift_fits_ridge_bias_is_in_the_band_at_the_ends():
     error = knee.flexion_deg - truth["knee_flexion_deg"]
     error -= np.median(error)
     assert np.mean(np.abs(error) <= 3 * knee.sigma_deg) > 0.995
+
+
+def test_angles_far_beyond_a_straight_zero_are_warned(session):
+    # a sensor turned about the knee axis since the calibration shifts every angle by the
+    # turn, which the fit check cannot see: a shank turned 20 deg "fit" in 95 % of
+    # simulated walks, 20 deg off at a 1-sigma of 0.1-0.4 deg (an independent audit).
+    # Here the calibration's zero, a straight stand, moved by 20 deg and by 5 deg.
+    from dataclasses import replace
+
+    from imucal.angles import joint_angles
+
+    calibration, walk, _ = session
+    knee = calibration.joints["knee"]
+    said = {}
+    for turn in (0.0, 5.0, 20.0):
+        angle = dict(knee.angle, zero_time_s=1.0,
+                     zero_deg=knee.angle["zero_deg"] + turn * knee.angle["flexion_sign"])
+        moved = replace(calibration, joints={"knee": replace(knee, angle=angle)})
+        result = joint_angles(walk, moved, end=30.0)
+        assert result.fits
+        said[turn] = [w for w in result.joints["knee"].warnings
+                      if "beyond the calibration's straight knee" in w]
+    assert not said[0.0] and not said[5.0]
+    assert said[20.0][0].startswith("knee: the knee reads down to -19 deg (1st percentile)")
