@@ -38,8 +38,9 @@ import numpy as np
 
 from .errors import InputError
 from .recording import Recording, make_recording
+from .restarts import resolve_seed
 from .sensor_checks import SENSOR_RANGE
-from .timing import check_plausible_rate
+from .timing import check_rate
 
 MOTIONS = ("circling", "walking", "rigid-knee", "static", "gait", "protocol")
 SENSORS = ("thigh", "shank", "foot")
@@ -529,20 +530,20 @@ def _number(label: str, value) -> float:
 def _check_args(seed, rate, duration, snr, motion, gyr_noise=None, acc_noise=None):
     if motion not in MOTIONS:
         raise InputError(f"simulate: unknown motion '{motion}'; use one of {', '.join(MOTIONS)}")
-    if seed is None:
-        seed = int(np.random.SeedSequence().entropy % (2**32))
-    seed = _check_seed(seed, "seed")
-    for label, value in (("rate", rate), ("duration", duration)):
-        try:
-            value = float(value)
-        except (TypeError, ValueError):
-            raise InputError(f"simulate: {label} '{value}' is not a number") from None
-        if not math.isfinite(value) or value <= 0:
-            raise InputError(f"simulate: {label} must be a positive number, got {value}")
-    rate, duration = float(rate), float(duration)
-    # the recording's own check, before anything is simulated: 1e9 Hz would fill the
-    # memory first
-    check_plausible_rate(rate, "simulate")
+    # a fresh seed drawn as the estimators draw theirs (one rule for both)
+    seed = _check_seed(resolve_seed(None) if seed is None else seed, "seed")
+    try:
+        # the recordings' own check, before anything is simulated: 1e9 Hz would fill the
+        # memory first
+        rate = check_rate(rate)
+    except InputError as err:
+        raise InputError(f"simulate: {err}") from None
+    try:
+        duration = float(duration)
+    except (TypeError, ValueError):
+        raise InputError(f"simulate: duration '{duration}' is not a number") from None
+    if not math.isfinite(duration) or duration <= 0:
+        raise InputError(f"simulate: duration must be a positive number, got {duration}")
     physical = gyr_noise is not None or acc_noise is not None
     if isinstance(snr, str):
         if snr != "auto":

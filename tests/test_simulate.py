@@ -560,7 +560,7 @@ def test_a_rate_outside_the_imus_range_is_refused_before_simulating():
     # 1e9 Hz for 0.1 s used to simulate 1e8 samples (minutes, then a memory error) before
     # the recording's own check ("<simulated>: sample rate ...") refused the rate
     with pytest.raises(InputError, match="^simulate: sample rate 1e\\+09 Hz is above 10000 "
-                       "Hz, outside the 1 to 10000 Hz of body-worn IMUs; check the rate's "
+                       "Hz, outside the 1 to 10000 Hz of body-worn IMUs; check its "
                        "units$"):
         simulate(rate=1e9, duration=0.1)
     assert simulate(seed=1, rate=10_000.0, duration=0.01)[0].rate == 10_000.0
