@@ -51,6 +51,75 @@ def test_every_public_function_that_returns_says_what_in_a_section():
     assert not missing, "no Returns/Yields section:\n" + "\n".join(missing)
 
 
+def _exception_factories() -> dict[str, str]:
+    """Functions of the package annotated to return an exception class (``twice(...) ->
+    InputError``): function name -> that class's name, where the name is unambiguous."""
+    found: dict[str, set[str]] = {}
+    for path in sorted(Path(imucal.__file__).parent.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and node.returns is not None:
+                found.setdefault(node.name, set()).add(
+                    ast.unparse(node.returns).split(".")[-1])
+    return {name: cls.pop() for name, cls in found.items()
+            if len(cls) == 1 and re.fullmatch(r"[A-Z]\w*(Error|Exception|Exit)", next(iter(cls)))}
+
+
+def _raised_in_own_body(func, factories: dict[str, str]) -> set[str]:
+    """Exception classes ``func``'s own body (not a nested function or class) raises by
+    name: ``raise Name(...)``, ``raise Name``, ``raise module.Name(...)``, and
+    ``raise factory(...)`` of a function annotated to return one. Left out: a bare
+    ``raise`` and ``raise err`` of an exception held in a variable (a re-raise of what
+    something else raised), and ``typer.*`` (``Exit``, ``BadParameter``): the command
+    line's way to exit, which typer handles and no caller ever catches."""
+    names = set()
+    todo = list(func.body)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda,
+                             ast.ClassDef)):
+            continue
+        if isinstance(node, ast.Raise) and node.exc is not None:
+            exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
+            text = ast.unparse(exc)
+            name = text.split(".")[-1]
+            if text.startswith("typer."):
+                pass
+            elif name[:1].isupper():
+                names.add(name)
+            elif isinstance(node.exc, ast.Call) and name in factories:
+                names.add(factories[name])
+        todo.extend(ast.iter_child_nodes(node))
+    return names
+
+
+def _raises_entries(doc: str) -> set[str]:
+    """The exception names a numpydoc ``Raises`` section lists (its unindented lines,
+    e.g. ``InputError`` or ``InputError, ValueError``); empty without the section."""
+    m = re.search(r"^Raises\n-+\n(.*?)(?=^\S[^\n]*\n-+\n|\Z)", doc, re.M | re.S)
+    if m is None:
+        return set()
+    return {word for line in m.group(1).splitlines() if line[:1].strip()
+            for word in re.findall(r"\w+", line)}
+
+
+def test_every_public_function_that_raises_says_what_in_a_section():
+    """Every public function and public method (not a property; typer commands are left
+    out by ``_public_functions``, their docstring is the --help text) whose own body raises
+    an exception class by name has a ``Raises`` section listing that class (see
+    ``_raised_in_own_body`` for what counts). What a function raises through the helpers
+    it calls is not checked here."""
+    factories = _exception_factories()
+    missing = []
+    for where, func in _public_functions():
+        if _is_property(func):
+            continue
+        unlisted = _raised_in_own_body(func, factories) - _raises_entries(
+            ast.get_docstring(func) or "")
+        if unlisted:
+            missing.append(f"{where}: raises {sorted(unlisted)}, not in a Raises section")
+    assert not missing, "\n".join(missing)
+
+
 def _api():
     """The library's public API: the names ``imucal`` exports and the public methods of
     its classes, and the headless runner's and study's front doors."""
