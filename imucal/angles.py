@@ -943,10 +943,14 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
     Raises
     ------
     InputError
-        The calibration has no usable hinge, a sensor it needs is missing, the window
-        holds fewer than ``MIN_SAMPLES`` samples, or ``reference`` / ``flexion_sign`` /
-        ``time_offset`` are invalid. A calibration that does not fit gives
-        ``fits=False`` and a warning with the evidence, never silently wrong angles.
+        ``recording`` or ``calibration`` is not a Recording / Calibration, the
+        calibration has no usable hinge, a sensor it needs is missing or two of its
+        sensors find one sensor of the recording, the window holds fewer than
+        ``MIN_SAMPLES`` samples, ``reference`` lies outside the window, ``time_offset``
+        puts the second sensors' reads wholly outside the recording, or ``reference`` /
+        ``flexion_sign`` / ``time_offset`` / ``smoothing_s`` are invalid. A calibration
+        that does not fit gives ``fits=False`` and a warning with the evidence, never
+        silently wrong angles.
     NotIdentifiableError
         A joint centre's acceleration that never lies in the joint plane: no
         accelerometer angle corrects the gyroscopes' drift (docs/errors.md, exit 1).

@@ -416,8 +416,9 @@ def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int
     Raises
     ------
     InputError
-        A joint spec that cannot be parsed or names a missing sensor, no joint the
-        sensors allow, invalid settings, or bad input that stops every joint's estimate
+        ``recording`` is not a Recording, ``joints`` is an empty list, a joint spec that
+        cannot be parsed or names a missing sensor, no joint the sensors allow, invalid
+        settings, a window outside the recording, or bad input that stops every joint's estimate
         (a window too short for any: the first joint's error). A joint whose estimate
         stops (not identifiable, a sensor gap in the window) is kept with verdict
         ``failed`` and the reason in its warnings; the others are unaffected.

@@ -414,8 +414,8 @@ class Recording(ByValue):
         Raises
         ------
         InputError
-            no sensor or several match ``name`` (:func:`match_sensor`); sensors whose files
-            were empty are named.
+            ``name`` is not text, or no sensor or several match it (:func:`match_sensor`);
+            sensors whose files were empty are named.
 
         Examples
         --------
@@ -527,7 +527,11 @@ def make_recording(
     Raises
     ------
     InputError
-        With one line naming ``source`` and the problem.
+        With one line naming ``source`` and the problem: ``sensors`` is not a mapping or
+        is empty, a name is empty or given twice, a sensor has no ``gyr`` or no ``acc``,
+        an array is not (N, 3) real numbers, ``units`` names an unknown sensor, kind or
+        unit, a sensor's ``gyr`` and ``acc`` or two sensors differ in length, fewer than
+        2 samples, or a rate or time axis :func:`imucal.timing.check_timing` refuses.
 
     Examples
     --------

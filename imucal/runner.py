@@ -177,7 +177,8 @@ def check_table(table: Path, recordings, calibration: str, option: str = "--tabl
     Raises
     ------
     InputError
-        Naming the table and what it would overwrite.
+        ``table`` is one of the ``recordings`` or the ``calibration`` file; the message
+        names the table and which of the two it would overwrite.
 
     Examples
     --------

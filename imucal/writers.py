@@ -45,8 +45,11 @@ def save_recording(
     Raises
     ------
     InputError
-        For an unknown suffix, a sensor name HDF5 cannot hold, or a folder that cannot be
-        written to.
+        Naming ``path``: a suffix other than ``.h5``, ``.hdf5`` or ``.csv``; for HDF5 a
+        sensor name HDF5 cannot hold (empty, ``.``, ``time`` or with a ``/``) or an
+        ``extra_attrs`` item that is not a non-empty text key with numbers, text or
+        arrays of them; a ``path`` that is a folder; or a file that cannot be written
+        (:func:`imucal.atomic.write_atomic`).
 
     Examples
     --------
