@@ -233,7 +233,8 @@ def resolve_subsample(rate: float, cutoff: float | None, subsample: int | None) 
     Raises
     ------
     InputError
-        ``subsample`` is not a positive integer.
+        ``subsample`` is below 1 once made an int (``int()`` drops a fraction: 0.5 is
+        refused, 2.5 taken as 2).
     """
     step = default_subsample(rate, cutoff) if subsample is None else int(subsample)
     if step < 1:

@@ -100,9 +100,12 @@ def check_timing(rate, time, n: int, source: str) -> tuple[float, np.ndarray, li
     Raises
     ------
     InputError
-        a rate that is no plausible number of Hz, a time column that is not numeric,
-        finite, as long as the data and regular within :data:`TIME_JITTER_TOLERANCE`, or
-        neither given; the message names ``source``.
+        a rate that is no plausible number of Hz (:func:`check_plausible_rate`); a time
+        column that is not real numbers, not ``n`` long, not finite, not strictly
+        increasing, not regular within :data:`TIME_JITTER_TOLERANCE` of its median step,
+        or whose steps give no plausible rate; a rate and a time column that disagree by
+        more than :data:`TIME_JITTER_TOLERANCE`; or neither given. The message names
+        ``source``.
 
     Returns
     -------
