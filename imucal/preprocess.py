@@ -29,6 +29,7 @@ from .sensor_checks import (
     acc_scale_doubt,
     corrupt_readings,
 )
+from .settings import as_real
 from .time_offset import shifted
 
 #: Default low-pass cut-off in Hz. Voluntary leg motion (circling, gait) has almost all
@@ -233,13 +234,14 @@ def resolve_subsample(rate: float, cutoff: float | None, subsample: int | None) 
     Raises
     ------
     InputError
-        ``subsample`` is below 1 once made an int (``int()`` drops a fraction: 0.5 is
-        refused, 2.5 taken as 2).
+        ``subsample`` is no whole number of at least 1 (2.5 was taken as 2: a review).
     """
-    step = default_subsample(rate, cutoff) if subsample is None else int(subsample)
-    if step < 1:
-        raise InputError(f"subsample must be a positive integer, got {subsample}")
-    return step
+    if subsample is None:
+        return default_subsample(rate, cutoff)
+    number = as_real(subsample)
+    if number is None or number < 1 or number != int(number):
+        raise InputError(f"subsample must be a positive integer, got {subsample!r}")
+    return int(number)
 
 
 def _pandas_missing(arr: np.ndarray) -> np.ndarray:

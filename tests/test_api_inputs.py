@@ -442,3 +442,14 @@ def test_calibrate_takes_a_settings_object_as_the_estimators_do(rec):
         CalibrateSettings(smoothing_s=0.0)
     with pytest.raises(InputError, match="no joints given"):
         imucal.calibrate(rec, joints=[])
+
+
+def test_a_fractional_subsample_is_refused_not_truncated():
+    # resolve_subsample took 2.5 as 2 (int() drops the fraction; 0.5 was refused): a
+    # review of the Raises sections
+    from imucal.preprocess import resolve_subsample
+
+    assert resolve_subsample(100.0, 10.0, 2.0) == 2
+    for bad in (2.5, 0.5, 0, True):
+        with pytest.raises(InputError, match="subsample must be a positive integer"):
+            resolve_subsample(100.0, 10.0, bad)
