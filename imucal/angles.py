@@ -34,6 +34,7 @@ from .rest import (
 )
 from .settings import check_time_offset, is_bool
 from .time_offset import sampling_sigma, shifted
+from .timing import reported_rate
 from .vectors import joint_plane_rate
 
 if TYPE_CHECKING:
@@ -789,7 +790,7 @@ class JointAngles(ByValue):
         return clean({
             "imucal_version": __version__,
             "command": "angles",
-            "input": {"path": self.source, "sample_rate_hz": self.rate,
+            "input": {"path": self.source, "sample_rate_hz": reported_rate(self.rate),
                       "window_s": [float(self.time[0]), float(self.time[-1]) + 1 / self.rate],
                       "samples": int(self.time.shape[0])},
             "calibration": self.calibration,

@@ -26,6 +26,7 @@ from .quality import NOT_IDENTIFIABLE, is_still
 from .recording import Recording, check_recording, estimator_window, input_info
 from .sensor_names import normalised_name, segment_of
 from .settings import ACC_ERROR_M_S2, MAX_TIME_OFFSET_S, OFFSET_SEARCH_S
+from .timing import reported_rate
 
 FORMAT = "imucal-calibration"
 #: 2: the angle block's ``hinge_residual`` is relative to the angular rates, and its
@@ -487,7 +488,7 @@ def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int
     used = sorted({s for spec in specs for s in (spec.first, spec.second)})
     return Calibration(
         joints=out, source=recording.source, window_s=window_s,
-        sample_rate_hz=recording.rate,
+        sample_rate_hz=reported_rate(recording.rate),
         settings={"restarts": restarts, "seed": seed, "start": start, "end": end,
                   "time_offset": time_offset, "offset_search_s": offset_search,
                   "smoothing_s": smoothing_s,

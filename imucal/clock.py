@@ -43,7 +43,7 @@ import numpy as np
 
 from .errors import InputError
 from .formats import RawSensor
-from .timing import RATE_WARN, check_plausible_rate, rate_of
+from .timing import RATE_WARN, check_plausible_rate, reported_rate
 
 #: A header's claimed rate that differs from the time stamps' by more than this share
 #: is refused (one of them is wrong); more than :data:`imucal.timing.RATE_WARN` gives
@@ -462,7 +462,7 @@ def align(sensors: list[RawSensor], source: str, rate: float | None = None) -> A
         data[s.name], info[s.name], more = _onto_grid(s, clocks[s.name], grid, firsts[s.name],
                                                       ref, ref_name, cutters)
         notes += more
-    return Aligned(time=grid - grid[0], rate=rate_of(ref.period), data=data, info=info,
+    return Aligned(time=grid - grid[0], rate=1.0 / ref.period, data=data, info=info,
                    notes=notes, origin=round(float(grid[0]), 9), grid_sensor=ref_name)
 
 
@@ -589,7 +589,7 @@ def _onto_grid(s: RawSensor, clk, grid: np.ndarray, first: float, ref,
     info = {
         "label": s.name,
         "serial": s.serial,
-        "rate_hz": rate_of(clk.period),
+        "rate_hz": reported_rate(1.0 / clk.period),
         "claimed_rate_hz": s.claimed_rate,
         "time_from": clk.source_of_time,
         "start_s": first - grid[0],

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 
 from .recording import Recording
+from .timing import reported_rate
 
 #: How a device's clock gave its period (``sensor_info[...]["time_from"]``).
 _CLOCKS = {"time stamps": "its time stamps", "packet counter": "its packet counter at the "
@@ -62,7 +63,7 @@ def describe(recording: Recording) -> dict:
         }
     doc = clean({
         "path": recording.source,
-        "sample_rate_hz": recording.rate,
+        "sample_rate_hz": reported_rate(recording.rate),
         "sample_rate_from": rate_origin(recording),
         "samples": recording.n_samples,
         "duration_s": recording.duration,

@@ -40,7 +40,7 @@ from .sensor_checks import (
 )
 from .sensor_names import match_sensor
 from .settings import as_real
-from .timing import check_timing
+from .timing import check_timing, reported_rate
 
 
 @dataclass(frozen=True, eq=False)
@@ -808,7 +808,7 @@ def input_info(recording: Recording, names, used: Recording) -> dict:
     info = {
         "path": recording.source,
         "sensors": list(names),
-        "sample_rate_hz": recording.rate,
+        "sample_rate_hz": reported_rate(recording.rate),
         "samples_total": recording.n_samples,
         "duration_s": recording.duration,
         "units_in_file": {n: recording.units.get(n, {}) for n in names},
