@@ -415,7 +415,7 @@ def calibrate(
         if _is_study(rec, jobs if _given(ctx, "jobs") else None, scheduler):
             from .study import run_study
 
-            raise typer.Exit(run_study(job, rec, out=out, jobs=jobs or 1, scheduler=scheduler,
+            raise typer.Exit(run_study(job, rec, out=out, jobs=jobs, scheduler=scheduler,
                                        quiet=quiet))
         from .runner import run
 
@@ -608,8 +608,10 @@ def _angles_study(ctx: typer.Context, job, recs, *, out, plot, jobs, scheduler,
                                  "(standard input) has none: write its table with --out",
                                  ctx=ctx, param_hint="'--tables'")
     _check_scheduler(scheduler, quiet)
-    if len(recs) == 1:
-        scheduler = None  # (said so: one recording runs here)
+    if len(recs) == 1 and scheduler is not None:
+        # (it ran here without a word: a review)
+        say(f"imucal: warning: --scheduler {scheduler}: one recording runs here")
+        scheduler = None
     return run_study(job, recs, out=out, plot=plot, jobs=jobs, scheduler=scheduler,
                      quiet=quiet)
 
@@ -960,8 +962,9 @@ def _estimate(job, recs, *, out, plot, jobs, scheduler, quiet) -> int:
     if _is_study(recs, jobs, scheduler):
         from .study import run_study
 
-        return run_study(job, recs, out=out, plot=plot, jobs=jobs or 1, scheduler=scheduler,
-                         quiet=quiet)
+        # (not given: one process; 0: one per core, as --help says: "or 1" made it one)
+        return run_study(job, recs, out=out, plot=plot, jobs=1 if jobs is None else jobs,
+                         scheduler=scheduler, quiet=quiet)
     from .runner import run
 
     rec = recs[0]

@@ -592,3 +592,18 @@ def test_a_given_offsets_check_at_the_search_end_reads_as_a_bound():
              "at_edge": True, "contradicted": True}
     assert _offset_text(block) == ("+0.0 ms given (the data read at least +100.0 ms, the end "
                                    "of the search: contradicted)")
+
+
+@pytest.mark.parametrize("command", ["axis", "calibrate"])
+def test_jobs_0_means_one_process_per_core(command, monkeypatch, tmp_path):
+    # 'jobs or 1' made --jobs 0 one process for axis, position and calibrate, where
+    # --help says "0: one per CPU core" and angles' study did so (an independent review)
+    import imucal.study
+
+    seen = []
+    monkeypatch.setattr(imucal.study, "run_study",
+                        lambda job, files, **kw: seen.append(kw["jobs"]) or 0)
+    run = run_imucal(command, "a.h5", "b.h5", "--jobs", "0", cwd=tmp_path)
+    assert run.returncode == 0 and seen == [0]
+    run = run_imucal(command, "a.h5", "b.h5", cwd=tmp_path)
+    assert run.returncode == 0 and seen == [0, 1]
