@@ -1241,7 +1241,8 @@ def _sign_doubt(raw: np.ndarray, evidence: float, rate: float) -> str | None:
     (:data:`SIGN_MIN_SPAN_DEG`)."""
     seconds = raw.shape[0] / rate
     if seconds < SIGN_MIN_S:
-        return (f"evidence {evidence:+.2f} over {seconds:.2g} s, less than the "
+        # (``raw`` is the moving part, :func:`moving_part`: its seconds are of motion)
+        return (f"evidence {evidence:+.2f} over {seconds:.2g} s of motion, less than the "
                 f"{SIGN_MIN_S:g} s it needs")
     p5, p95 = np.percentile(raw, [5, 95])
     if p95 - p5 < SIGN_MIN_SPAN_DEG:

@@ -77,7 +77,8 @@ def _same_array(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def _number(x) -> bool:
-    return isinstance(x, numbers.Number) and not isinstance(x, bool | np.bool_)
+    # (numpy's bool is no numbers.Number: True == np.True_ read as different types)
+    return isinstance(x, numbers.Number | np.bool_)
 
 
 def _nan(x) -> bool:

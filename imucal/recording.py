@@ -564,6 +564,11 @@ def make_recording(
     for name, data in sensors.items():
         name = _sensor_name(name)
         if isinstance(data, SensorData):  # a recording's own sensors, e.g. filtered
+            declared = {k: u for k, u in units.get(name, {}).items()
+                        if u not in ("rad/s", "m/s^2")}
+            if declared:  # (rec.units, the file's, converted them a second time: a review)
+                raise InputError(f"{source}: sensor '{name}' is a SensorData, in rad/s and "
+                                 f"m/s^2 already; give it no other units (got {declared})")
             data = {"gyr": data.gyr, "acc": data.acc}
         if not isinstance(data, Mapping):
             raise InputError(f"{source}: sensor '{name}' must be a mapping {{'gyr': array, "
@@ -645,13 +650,15 @@ def _check_fields(rec: Recording) -> None:
                          "{name: SensorData}")
     for name, data in rec.sensors.items():
         _check_sensor(name, data, time.size, rec.gaps, source)
-    units = {n: dict(rec.units.get(n, {})) if isinstance(rec.units, Mapping) else {}
-             for n in rec.sensors}
+    if not isinstance(rec.units, Mapping) or not all(
+            isinstance(v, Mapping) for v in rec.units.values()):
+        raise InputError(f"{source}: the recording's units must be a mapping {{sensor: "
+                         f"{{'gyr': unit, 'acc': unit}}}}, got {rec.units!r:.60}")
+    units = {n: dict(rec.units.get(n, {})) for n in rec.sensors}
     for kinds in units.values():
         kinds.setdefault("gyr", next(iter(GYR_UNITS)))
         kinds.setdefault("acc", next(iter(ACC_UNITS)))
-    object.__setattr__(rec, "units", {**rec.units, **units}
-                       if isinstance(rec.units, Mapping) else units)
+    object.__setattr__(rec, "units", {**rec.units, **units})
 
 
 def _check_sensor(name, data, n: int, gaps, source) -> None:

@@ -402,9 +402,15 @@ def test_a_recording_built_directly_has_si_units_and_calibrates_as_loaded(rec):
     a = imucal.calibrate(built, restarts=5, seed=1, joints=knee)
     b = imucal.calibrate(rec, restarts=5, seed=1, joints=knee)
     assert np.array_equal(a.joints["knee"].j1, b.joints["knee"].j1)
-    # a recording's own sensors (filtered, say) make a recording again
-    again = imucal.make_recording(rec.sensors, rate=rec.rate)
+    # a recording's own sensors (filtered, say) make a recording again, in SI units: the
+    # file's units given with them converted them twice (a review)
+    again = imucal.make_recording(rec.sensors, rate=rec.rate, units=rec.units)
     assert np.array_equal(again.sensor("foot").acc, rec.sensor("foot").acc)
+    with pytest.raises(InputError, match="sensor 'thigh' is a SensorData, in rad/s and "
+                                         "m/s\\^2 already; give it no other units"):
+        imucal.make_recording(rec.sensors, rate=rec.rate, units={"thigh": {"gyr": "deg/s"}})
+    with pytest.raises(InputError, match="the recording's units must be a mapping"):
+        _built(rec, units=["deg/s"])
 
 
 def test_results_recordings_and_calibrations_compare_by_value(rec, cal, tmp_path):
