@@ -343,8 +343,10 @@ def _input_block(info: dict, result) -> dict:
     out.pop("load_warnings", None)
     t0 = out.pop("time_origin", 0.0)
     out["samples_used"] = result.samples_used
-    out["window_s"] = [t0 + result.window[0], t0 + result.window[1]]
-    out["time_ranges_s"] = t0 + np.asarray(result.time_ranges)
+    # to the nanosecond: a window of a 40 Hz time column read [5.000000000000032,
+    # 20.000000000000245] (samples over a measured rate; a new-user trial)
+    out["window_s"] = [round(t0 + result.window[0], 9), round(t0 + result.window[1], 9)]
+    out["time_ranges_s"] = np.round(t0 + np.asarray(result.time_ranges), 9)
     return out
 
 

@@ -361,3 +361,20 @@ def test_the_uncertainty_method_names_only_the_parts_its_result_has(rec):
         assert named == ("acc_error" in q["uncertainty_components"]) == (command == "position")
         assert "time_offset^2" in q["uncertainty_method"] and "gyr_bias^2" in \
             q["uncertainty_method"]
+
+
+def test_window_seconds_carry_no_float_noise(tmp_path):
+    # a window of a 40 Hz time column read [5.000000000000032, 20.000000000000245]: the
+    # samples over the rate the time steps measure (a new-user trial)
+    from imucal import load_recording, make_recording
+    from imucal.runner import Job, run
+    from imucal.settings import AxisSettings
+    from imucal.writers import save_recording
+
+    rec = load_recording(Path(__file__).resolve().parents[1] / "sample_data" / "circling.h5")
+    data = {n: {"gyr": s.gyr, "acc": s.acc} for n, s in rec.sensors.items()}
+    save_recording(make_recording(data, time=np.arange(rec.n_samples) / 40.0),
+                   tmp_path / "r.csv")
+    outcome = run(Job("axis", ("thigh", "shank"), AxisSettings(seed=1, restarts=5),
+                      start=5.0), str(tmp_path / "r.csv"))
+    assert outcome.document["input"]["window_s"] == [5.0, 50.0]
