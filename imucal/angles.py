@@ -1082,7 +1082,7 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
     check = _fit_check(jc, ref, s1, s2, fus, rec, flex, extended, context)
     if not check["fits"]:
         warnings.append(check["message"])
-    elif extended:
+    elif extended and reference is None:  # (a reference given is this recording's zero)
         warnings += _hyperextended(jc, flex)
     sigma, lagged = _sigma_with_clock(jc, fus, s2)
     if lagged:

@@ -443,6 +443,8 @@ def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int
     check_recording(recording)
     if isinstance(joints, str | JointSpec):  # one joint (a str was read letter by letter)
         joints = [joints]
+    elif joints is not None:
+        joints = list(joints)  # (a generator has no len, a review)
     if joints is not None and len(joints) == 0:
         raise InputError("no joints given")
     # usage errors before any joint runs (each joint's estimate would stop on them, and

@@ -650,6 +650,8 @@ def _check_fields(rec: Recording) -> None:
                          "{name: SensorData}")
     for name, data in rec.sensors.items():
         _check_sensor(name, data, time.size, rec.gaps, source)
+    if rec.units is None:  # (as make_recording takes it)
+        object.__setattr__(rec, "units", {})
     if not isinstance(rec.units, Mapping) or not all(
             isinstance(v, Mapping) for v in rec.units.values()):
         raise InputError(f"{source}: the recording's units must be a mapping {{sensor: "

@@ -261,6 +261,13 @@ class Job:
     force : report a result the data cannot identify (with its warnings) instead of
         failing with exit code 1.
     trace : add every restart's cost per iteration to the document.
+
+    Raises
+    ------
+    InputError
+        On building: an unknown command, settings of another command, sensors a command
+        does not take, a --start/--end that is no number or an end not after the start,
+        a --rate no recording has, or units imucal does not know.
     """
 
     command: str

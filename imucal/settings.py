@@ -251,8 +251,9 @@ class CalibrateSettings:
         from .calibration import JointSpec, parse_joint_spec
         from .fusion import check_smoothing
 
-        specs = tuple(j if isinstance(j, JointSpec) else parse_joint_spec(j)
-                      for j in self.joints)
+        # one joint given alone (a str was read letter by letter, a review)
+        joints = (self.joints,) if isinstance(self.joints, str | JointSpec) else self.joints
+        specs = tuple(j if isinstance(j, JointSpec) else parse_joint_spec(j) for j in joints)
         names = [s.name for s in specs]
         twice = sorted({n for n in names if names.count(n) > 1})
         if twice:
@@ -340,8 +341,11 @@ def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) ->
         return cls(**kwargs)
     if not isinstance(settings, cls):
         raise InputError(f"settings must be a {cls.__name__}, got {type(settings).__name__}")
+    from .equality import same_value
+
     defaults = {f.name: f.default for f in fields(cls)}
-    both = sorted(k for k, v in kwargs.items() if v is not defaults[k] and v != defaults[k])
+    # (by value: an array keyword raised numpy's "truth value ... ambiguous", a review)
+    both = sorted(k for k, v in kwargs.items() if not same_value(v, defaults[k]))
     if both:
         raise InputError(f"give settings or keyword arguments, not both ({', '.join(both)})")
     return settings

@@ -459,3 +459,32 @@ def test_a_fractional_subsample_is_refused_not_truncated():
     for bad in (2.5, 0.5, 0, True):
         with pytest.raises(InputError, match="subsample must be a positive integer"):
             resolve_subsample(100.0, 10.0, bad)
+
+
+def test_settings_and_joints_given_in_other_shapes(rec):
+    # an array keyword beside settings raised numpy's ambiguity error, a generator of
+    # joints a TypeError, a settings object's single joint string was read letter by
+    # letter, and a Recording took no units=None where make_recording does (a review)
+    from imucal.settings import AxisSettings, CalibrateSettings
+
+    th, sh = rec.sensor("thigh"), rec.sensor("shank")
+    with pytest.raises(InputError, match="give settings or keyword arguments, not both"):
+        imucal.estimate_axis(th.gyr, sh.gyr, rate=100.0, settings=AxisSettings(),
+                             restarts=np.array([5, 6]))
+    knee = "knee=hinge:thigh,shank"
+    assert [j.name for j in CalibrateSettings(joints=knee).joints] == ["knee"]
+    cal = imucal.calibrate(rec, joints=(j for j in [knee]), restarts=5, seed=1)
+    assert list(cal.joints) == ["knee"]
+    built = imucal.Recording(rate=rec.rate, sensors={"thigh": th}, time=rec.time, units=None)
+    assert built.units == {"thigh": {"gyr": "rad/s", "acc": "m/s^2"}}
+
+
+def test_a_rate_measured_from_time_steps_is_kept_unrounded():
+    # rounded (to tidy documents), a 4 h recording at 1024 Hz written with its stamps had
+    # its time axis rebuilt 0.58 samples off on reading (a review): documents round it,
+    # computations keep it
+    from imucal.timing import check_timing, reported_rate
+
+    t = np.arange(50) / 1024.0000123456
+    rate, _, _ = check_timing(None, t, t.size, "x")
+    assert rate == 1.0 / np.median(np.diff(t)) and reported_rate(rate) == 1024.0000
