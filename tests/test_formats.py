@@ -1371,6 +1371,21 @@ def test_a_shimmer_recordings_wall_clock_start_is_kept(tmp_path):
         loaded.provenance["notes"])
 
 
+def _edit_header_lines(fmt, path, edit) -> None:
+    """Each text file of the export ``path`` with its header line replaced by
+    ``edit(line, separator)``."""
+    head = {"xsens": "PacketCounter", "dot": "PacketCounter", "ximu3": "Timestamp",
+            "shimmer": "Shimmer_"}[fmt]
+    for f in ([path] if path.is_file() else
+              [p for p in path.rglob("*") if p.suffix in (".txt", ".csv")
+               and "Battery" not in p.name]):
+        lines = f.read_bytes().decode().split("\n")
+        i = next(k for k, ln in enumerate(lines) if ln.startswith(head))
+        sep = "\t" if lines[i].count("\t") > lines[i].count(",") else ","
+        lines[i] = edit(lines[i], sep)
+        f.write_bytes("\n".join(lines).encode())
+
+
 @pytest.mark.parametrize("fmt", ["xsens", "dot", "ximu3", "shimmer"])
 def test_a_header_ending_in_a_separator_names_no_column(fmt, tmp_path):
     # every complete data row read as "damaged" once rows were checked against the header's
@@ -1378,16 +1393,10 @@ def test_a_header_ending_in_a_separator_names_no_column(fmt, tmp_path):
     # last row was dropped as "cut off" (an independent review)
     rec = short()
     path = write(fmt, rec, tmp_path)
-    heads = {"xsens": "PacketCounter", "dot": "PacketCounter", "ximu3": "Timestamp",
-             "shimmer": "Shimmer_"}
-    for f in ([path] if path.is_file() else
-              [p for p in path.rglob("*") if p.suffix in (".txt", ".csv")
-               and "Battery" not in p.name]):
-        lines = f.read_bytes().decode().split("\n")
-        i = next(k for k, ln in enumerate(lines) if ln.startswith(heads[fmt]))
-        sep = "\t" if lines[i].count("\t") > lines[i].count(",") else ","
-        lines[i] = lines[i].rstrip("\r") + sep + ("\r" if lines[i].endswith("\r") else "")
-        f.write_bytes("\n".join(lines).encode())
+
+    def trailing(line, sep):
+        return line.rstrip("\r") + sep + ("\r" if line.endswith("\r") else "")
+    _edit_header_lines(fmt, path, trailing)
     loaded = load_recording(path)
     assert loaded.n_samples == rec.n_samples and not loaded.warnings
 
@@ -1476,17 +1485,8 @@ def test_quoted_header_names_read_as_the_names(fmt, tmp_path):
     # folder, and not an export imucal reads" (an independent review)
     rec = short()
     path = write(fmt, rec, tmp_path)
-    heads = {"xsens": "PacketCounter", "dot": "PacketCounter", "ximu3": "Timestamp",
-             "shimmer": "Shimmer_"}
-    files = ([path] if path.is_file() else
-             [p for p in path.rglob("*") if p.suffix in (".txt", ".csv")
-              and "Battery" not in p.name])
-    for f in files:
-        lines = f.read_text().split("\n")
-        i = next(k for k, ln in enumerate(lines) if ln.startswith(heads[fmt]))
-        sep = "\t" if lines[i].count("\t") > lines[i].count(",") else ","
-        lines[i] = sep.join(f'"{c.strip()}"' for c in lines[i].split(sep))
-        f.write_text("\n".join(lines))
+    _edit_header_lines(fmt, path,
+                       lambda line, sep: sep.join(f'"{c.strip()}"' for c in line.split(sep)))
     loaded = load_recording(path)
     assert loaded.n_samples == rec.n_samples and not loaded.warnings
     same(loaded, rec, NAMES[fmt])

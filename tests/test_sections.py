@@ -21,21 +21,24 @@ def _section(doc: str, name: str) -> bool:
     return re.search(rf"^\s*{name}\n\s*-+\n", doc, re.M) is not None
 
 
-def _returns_a_value(func) -> bool:
-    """Whether ``func`` itself (not a nested function) returns something or yields."""
+def _own_nodes(func):
+    """The nodes of ``func``'s own body: not those of a nested function or class."""
     todo = list(func.body)
     while todo:
         node = todo.pop()
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda,
                              ast.ClassDef)):
             continue
-        if isinstance(node, (ast.Yield, ast.YieldFrom)):
-            return True
-        if isinstance(node, ast.Return) and node.value is not None and not (
-                isinstance(node.value, ast.Constant) and node.value.value is None):
-            return True
+        yield node
         todo.extend(ast.iter_child_nodes(node))
-    return False
+
+
+def _returns_a_value(func) -> bool:
+    """Whether ``func`` itself (not a nested function) returns something or yields."""
+    return any(isinstance(node, (ast.Yield, ast.YieldFrom)) or (
+        isinstance(node, ast.Return) and node.value is not None and not (
+            isinstance(node.value, ast.Constant) and node.value.value is None))
+        for node in _own_nodes(func))
 
 
 def _is_property(func) -> bool:
@@ -72,12 +75,7 @@ def _raised_in_own_body(func, factories: dict[str, str]) -> set[str]:
     something else raised), and ``typer.*`` (``Exit``, ``BadParameter``): the command
     line's way to exit, which typer handles and no caller ever catches."""
     names = set()
-    todo = list(func.body)
-    while todo:
-        node = todo.pop()
-        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda,
-                             ast.ClassDef)):
-            continue
+    for node in _own_nodes(func):
         if isinstance(node, ast.Raise) and node.exc is not None:
             exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
             text = ast.unparse(exc)
@@ -88,7 +86,6 @@ def _raised_in_own_body(func, factories: dict[str, str]) -> set[str]:
                 names.add(name)
             elif isinstance(node.exc, ast.Call) and name in factories:
                 names.add(factories[name])
-        todo.extend(ast.iter_child_nodes(node))
     return names
 
 
