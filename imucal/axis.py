@@ -857,49 +857,87 @@ def _diagnose(p: Prepared, q: dict, decision, gravity: dict) -> tuple[list[str],
 
 
 def _blocking(p: Prepared, q: dict, decision, doubts: list[str]) -> list[str]:
-    """The first reason, if any, why the data cannot identify the axis."""
-    blocking = stillness_warning(*p.data)
-    if blocking:
-        return blocking
-    flex, ratio = q["excitation"]["flexion_rate_rms_deg_s"], q["singular_ratio"]
-    if flex < MIN_FLEXION_RATE_DEG_S:
-        return [f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
-                f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this "
-                "recording; record the joint flexing and extending"]
+    """The first reason, if any, why the data cannot identify the axis: the rules of
+    :data:`_BLOCKING_RULES` in order, each ``(p, q, decision, doubts) -> [reason] or []``."""
+    for rule in _BLOCKING_RULES:
+        reason = rule(p, q, decision, doubts)
+        if reason:
+            return reason
+    return []
+
+
+def _still(p: Prepared, q, decision, doubts) -> list[str]:
+    return stillness_warning(*p.data)
+
+
+def _barely_bent(p, q: dict, decision, doubts) -> list[str]:
+    flex = q["excitation"]["flexion_rate_rms_deg_s"]
+    if flex >= MIN_FLEXION_RATE_DEG_S:
+        return []
+    return [f"the joint barely bent (RMS flexion rate {flex:.1f} deg/s, below "
+            f"{MIN_FLEXION_RATE_DEG_S:g}): the axis is not identifiable from this "
+            "recording; record the joint flexing and extending"]
+
+
+def _bent_on_the_skin(p, q: dict, decision, doubts) -> list[str]:
+    flex = q["excitation"]["flexion_rate_rms_deg_s"]
     across = max(q["excitation"]["joint_plane_rate_rms_deg_s"])
-    if flex < MIN_BENT_FLEXION_RATE_DEG_S and flex < MIN_FLEXION_SHARE * across:
-        return [f"the joint barely bent while its segments turned (RMS flexion rate "
-                f"{flex:.1f} deg/s, {flex / across:.2f} of the {across:.0f} deg/s they turned "
-                f"across the axis; below {MIN_BENT_FLEXION_RATE_DEG_S:g} deg/s and "
-                f"{MIN_FLEXION_SHARE:g}): what bent may be the sensors moving on the skin, so "
-                "the axis is not identifiable from this recording; record the joint "
-                "flexing and extending"]
-    if ratio < MIN_SINGULAR_RATIO:
-        return [f"the data leave one direction of the axes undetermined (singular ratio "
-                f"{ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not identifiable "
-                "from this recording; record more varied motion"]
+    if not (flex < MIN_BENT_FLEXION_RATE_DEG_S and flex < MIN_FLEXION_SHARE * across):
+        return []
+    return [f"the joint barely bent while its segments turned (RMS flexion rate "
+            f"{flex:.1f} deg/s, {flex / across:.2f} of the {across:.0f} deg/s they turned "
+            f"across the axis; below {MIN_BENT_FLEXION_RATE_DEG_S:g} deg/s and "
+            f"{MIN_FLEXION_SHARE:g}): what bent may be the sensors moving on the skin, so "
+            "the axis is not identifiable from this recording; record the joint "
+            "flexing and extending"]
+
+
+def _undetermined(p, q: dict, decision, doubts) -> list[str]:
+    ratio = q["singular_ratio"]
+    if ratio >= MIN_SINGULAR_RATIO:
+        return []
+    return [f"the data leave one direction of the axes undetermined (singular ratio "
+            f"{ratio:.3f}, below {MIN_SINGULAR_RATIO:g}): the axis is not identifiable "
+            "from this recording; record more varied motion"]
+
+
+def _no_hinge(p, q: dict, decision, doubts) -> list[str]:
     fraction, relative = q["fraction"], q["relative"]
-    if fraction < MIN_AGREEING_FRACTION and relative > POOR_FIT_RESIDUAL:
-        return [f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge "
-                f"model fits poorly (residual {relative:.0%} of the signal): the joint does not "
-                "move like a hinge (a spheroidal joint such as the ankle?), so no axis is "
-                "identifiable"]
-    blocking = _uninformative(q["uncertainty"])
-    if blocking:
-        return blocking
+    if not (fraction < MIN_AGREEING_FRACTION and relative > POOR_FIT_RESIDUAL):
+        return []
+    return [f"restarts disagree ({fraction:.0%} reached the lowest cost) and the hinge "
+            f"model fits poorly (residual {relative:.0%} of the signal): the joint does not "
+            "move like a hinge (a spheroidal joint such as the ankle?), so no axis is "
+            "identifiable"]
+
+
+def _no_line(p, q: dict, decision, doubts) -> list[str]:
+    return _uninformative(q["uncertainty"])
+
+
+def _another_answer(p, q: dict, decision, doubts) -> list[str]:
     # an equally good answer outside the reported 1-sigma: the sigma cannot cover it
-    blocking = equal_minima_blocking(q["minima"], max(q["uncertainty"].values()),
-                                     2 * AGREEMENT_DEG, "deg", "different axes", "axis")
-    if blocking:
-        return blocking
+    return equal_minima_blocking(q["minima"], max(q["uncertainty"].values()),
+                                 2 * AGREEMENT_DEG, "deg", "different axes", "axis")
+
+
+def _beyond_a_knee(p, q, decision, doubts: list[str]) -> list[str]:
     span = min(decision.tests["range"].detail["span_deg"])
     # rates in the wrong units scale the span, too: then the unit warning is the finding
-    if not doubts and span > MAX_KNEE_SPAN_DEG:
-        return [f"the angle about this axis, integrated from j2.g2 - j1.g1, spans {span:.0f} "
-                f"deg within {RANGE_BLOCK_S:g} s (more than the {MAX_KNEE_SPAN_DEG:g} deg a "
-                "joint can flex) with either relative sign: the segments do not move as a "
-                "hinge here (soft tissue, impacts, or a joint that is not a hinge)"]
-    return []
+    if doubts or span <= MAX_KNEE_SPAN_DEG:
+        return []
+    return [f"the angle about this axis, integrated from j2.g2 - j1.g1, spans {span:.0f} "
+            f"deg within {RANGE_BLOCK_S:g} s (more than the {MAX_KNEE_SPAN_DEG:g} deg a "
+            "joint can flex) with either relative sign: the segments do not move as a "
+            "hinge here (soft tissue, impacts, or a joint that is not a hinge)"]
+
+
+#: Why the data may not identify the axis, in the order they are asked (the first that
+#: answers is the reason): no motion, too little flexion, flexion that may be the skin's,
+#: a direction the data leave open, no hinge at all, a 1-sigma that says nothing, another
+#: answer as good, an angle no knee reaches.
+_BLOCKING_RULES = (_still, _barely_bent, _bent_on_the_skin, _undetermined, _no_hinge,
+                   _no_line, _another_answer, _beyond_a_knee)
 
 
 def _uninformative(uncertainty: dict) -> list[str]:
