@@ -813,7 +813,8 @@ def info(
         w = max([16] + [len(n) + 2 for n in doc["sensors"]])  # long names keep the columns
         lines = [
             f"{doc['path']}: {doc['samples']} samples at {doc['sample_rate_hz']:g} Hz "
-            f"({doc['duration_s']:.1f} s, t = {doc['time_s'][0]:g} to {doc['time_s'][1]:g} s)",
+            f"({_seconds(doc['duration_s'])} s, t = {doc['time_s'][0]:g} to "
+            f"{doc['time_s'][1]:g} s)",
             f"sample rate from {doc['sample_rate_from']}",
             f"{'sensor':<{w}}{'file units':<18}{'gyro rms deg/s':>16}{'gyro peak deg/s':>17}"
             f"{'|acc|-g rms m/s^2':>19}  motion",
@@ -835,6 +836,12 @@ def info(
         for w in recording.warnings:
             lines.append(f"warning: {w}")
         write_stdout("\n".join(lines) + "\n")
+
+
+def _seconds(value: float) -> str:
+    """A duration for a headline: one decimal, but 0.02 s read "0.0 s" (a new-user
+    trial)."""
+    return f"{value:.1f}" if value >= 1 else f"{value:.2g}"
 
 
 @app.command(epilog=_examples("imucal convert opal.h5 walk.h5",

@@ -607,3 +607,13 @@ def test_jobs_0_means_one_process_per_core(command, monkeypatch, tmp_path):
     assert run.returncode == 0 and seen == [0]
     run = run_imucal(command, "a.h5", "b.h5", cwd=tmp_path)
     assert run.returncode == 0 and seen == [0, 1]
+
+
+def test_info_gives_a_short_recordings_duration(tmp_path):
+    # a 2-sample CSV read "(0.0 s, ...)" where --json gave 0.02 s (a new-user trial)
+    path = tmp_path / "two.csv"
+    path.write_text("time,t_gyr_x,t_gyr_y,t_gyr_z,t_acc_x,t_acc_y,t_acc_z\n"
+                    "0,0,0,0,0,0,9.8\n0.01,0,0,0,0,0,9.8\n")
+    run = run_imucal("info", path, text=True)
+    assert run.returncode == 0
+    assert run.stdout.splitlines()[0].endswith("2 samples at 100 Hz (0.02 s, t = 0 to 0.01 s)")
