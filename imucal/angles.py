@@ -1194,14 +1194,23 @@ def _choose_zero(jc, raw: np.ndarray, sign: int, reference, rec,
                 "time_s": reference, "time_in": "this recording"}, []
     zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
             "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
+    # a percentile zero is no straight knee: said where a pipeline reads it (the method's
+    # words alone left walks 5.7-7.1 deg low at a 1-sigma of 1 deg, "fits", no warning: a
+    # new-user trial)
+    level = [] if ref["zero_time_s"] is not None else [
+        f"{jc.name}: 0 deg is the calibration trial's most extended posture (it has no still "
+        "period), not a straight knee: every angle is low by the knee's flexion there (5-7 "
+        "deg in simulated walking protocols), which the 1-sigma does not include; for "
+        "absolute angles (peak flexion) give a reference ('standing' or a time) or calibrate "
+        "with a moment of still standing"]
     if sign == int(ref["flexion_sign"]) or abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN:
-        return zero, []  # (a sign pinned against a clear calibration just negates the angle)
+        return zero, level  # (a sign pinned against a clear calibration just negates it)
     # The calibration trial's zero is its most extended posture under the sign it guessed
     # (its evidence was weak), which is the most flexed one under this sign.
     if ref["zero_time_s"] is None:  # the 1st percentile: take the other end
         zero["raw_deg"] = ref["zero_deg"] + int(ref["flexion_sign"]) * ref["flexion_range_deg"][1]
         zero["method"] += " (with the flexion direction used here)"
-        return zero, []
+        return zero, level
     return zero, [f"{jc.name}: the calibration's zero (its most extended still period) was "
                   "chosen for the opposite flexion direction; give a reference ('standing' "
                   "or a time) for a meaningful zero"]

@@ -1047,3 +1047,18 @@ def test_angles_far_beyond_a_straight_zero_are_warned(session):
                       if "beyond the calibration's straight knee" in w]
     assert not said[0.0] and not said[5.0]
     assert said[20.0][0].startswith("knee: the knee reads down to -19 deg (1st percentile)")
+
+
+def test_a_percentile_zero_is_said_to_be_no_straight_knee(session):
+    # without a still period in the calibration trial, 0 deg is its most extended
+    # posture: walks read 5.7-7.1 deg low at a 1-sigma of about 1 deg, "fits", and only the
+    # zero's method said so in words (a new-user trial)
+    from imucal.angles import joint_angles
+
+    calibration, walk, _ = session
+    assert calibration.joints["knee"].angle["zero_time_s"] is None
+    said = [w for w in joint_angles(walk, calibration, end=20.0).joints["knee"].warnings
+            if "0 deg is the calibration trial's most extended posture" in w]
+    assert len(said) == 1 and "give a reference ('standing' or a time)" in said[0]
+    given = joint_angles(walk, calibration, end=20.0, reference=5.0).joints["knee"]
+    assert not [w for w in given.warnings if "most extended posture" in w]
