@@ -1230,12 +1230,17 @@ def _sigma_with_clock(jc, fus, s2) -> tuple[np.ndarray, str | None]:
     if not lag:
         return sigma, None
     given = jc.axis["time_offset"].get("mode") == "given"
-    found = (f"the calibration's data put the second sensor's clock {abs(1000 * lag):.0f} ms "
-             f"{'later' if lag > 0 else 'earlier'} than the offset it was given"
+    read = jc.axis["time_offset"].get("sigma_s")
+    # (with the reading's 1-sigma: "found 10 ms early" where the calibration said +-24 ms,
+    # the truth 0: a new-user trial)
+    within = (f" (1-sigma {1000 * read:.0f} ms)" if isinstance(read, int | float)
+              and math.isfinite(read) else "")
+    found = (f"the calibration's data put the second sensor's clock {abs(1000 * lag):.0f} ms"
+             f"{within} {'later' if lag > 0 else 'earlier'} than the offset it was given"
              if given else
-             f"the calibration found the second sensor's clock {abs(1000 * lag):.0f} ms "
-             f"{'late' if lag > 0 else 'early'} but did not apply it (too little gain to "
-             "tell it from soft tissue)")
+             f"the calibration read the second sensor's clock {abs(1000 * lag):.0f} ms"
+             f"{within} {'late' if lag > 0 else 'early'} but did not apply it (too little "
+             "gain to tell it from soft tissue)")
     return sigma, (
         f"{jc.name}: {found}; if the clocks differ by that, the angles "
         f"{'lag' if lag > 0 else 'lead'} by up to "
@@ -1390,13 +1395,18 @@ def _fit_check(jc, ref, s1, s2, fus, rec, flex: np.ndarray, extended: bool,
         # a clock offset that changed between trials reads as a misfit too (a shank 10 ms
         # later than in the calibration trial: disagreement 5 deg over a 2.9 deg limit),
         # and nothing had named it (a new-user trial)
+        mounting = "sensors re-strapped, swapped or another subject"
+        clocks = (f"the two sensors' clocks offset otherwise than {_offset_words(jc)} "
+                  f"{signed_ms(out['clock_offset_s'], 0)} ms")
+        # the likelier first: a hinge residual beyond its limit says the axes are not this
+        # joint's; within it, a clock shift or another motion spoils only the acc angle (a
+        # re-strapped subject and a 5 ms shift got one list: a new-user trial)
+        first, second = (mounting, clocks) if res > res_lim else (clocks, mounting)
         out["message"] = (f"{jc.name}: the calibration does not fit this recording ("
                           + "; ".join(bad) + "): " + _pinned_sign_doubt(jc)
-                          + "sensors re-strapped, swapped or another "
-                          "subject, the two sensors' clocks offset otherwise than "
-                          f"{_offset_words(jc)} {signed_ms(out['clock_offset_s'], 0)} ms, "
-                          "or a motion far from the calibration trial's (a circling "
-                          "trial's small values leave a walk little room)? "
+                          + f"{first}, {second}, or a motion far from the calibration "
+                          "trial's (a trial of small steady motions, such as circling, "
+                          "leaves a walk little room)? "
                           + ("give this recording's (--time-offset SECONDS) or calibrate "
                              if out["clock_offset_source"] == "calibration" else
                              "check the offset given (--time-offset), or calibrate ")
