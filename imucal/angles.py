@@ -897,9 +897,9 @@ def _check_reference(reference) -> float | str | None:
     return t_ref
 
 
-def joint_angles(recording, calibration: Calibration, *, reference=None,
-                 flexion_sign="auto", start: float | None = None, end: float | None = None,
-                 smoothing_s: float | None = None,
+def joint_angles(recording, calibration: Calibration | None = None, *, settings=None,
+                 reference=None, flexion_sign="auto", start: float | None = None,
+                 end: float | None = None, smoothing_s: float | None = None,
                  time_offset: float | None = None) -> JointAngles:
     """Flexion of every usable hinge of ``calibration`` over ``recording`` (module docstring).
 
@@ -910,7 +910,12 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
         (found by name as :meth:`imucal.Recording.resolve` does).
     calibration
         A :class:`imucal.calibration.Calibration` (:func:`imucal.calibration.calibrate` or
-        :func:`imucal.calibration.load_calibration`).
+        :func:`imucal.calibration.load_calibration`); None: the file of ``settings``.
+    settings
+        A :class:`imucal.settings.AnglesSettings` holding ``reference``,
+        ``flexion_sign``, ``smoothing_s`` and ``time_offset`` instead of the keywords (not
+        both), and the calibration file read when ``calibration`` is None (its
+        ``tables`` are the runner's: not used here).
     reference
         What 0 deg means. None: the calibration's zero (its trial's most extended still
         period, else its most extended posture), so every trial of one mounting shares it;
@@ -970,10 +975,19 @@ def joint_angles(recording, calibration: Calibration, *, reference=None,
     >>> walk.fits, list(walk.to_frame().columns)
     (True, ['time', 'knee_flexion_deg', 'knee_flexion_sigma_deg'])
     """
-    from .calibration import Calibration
+    from .calibration import Calibration, load_calibration
     from .recording import check_recording
+    from .settings import AnglesSettings, resolve
 
     check_recording(recording)
+    if settings is not None:
+        # one settings object for the angles as for the estimators (an independent review)
+        s = resolve(AnglesSettings, settings, reference=reference, flexion_sign=flexion_sign,
+                    smoothing_s=smoothing_s, time_offset=time_offset)
+        reference, flexion_sign = s.reference, s.flexion_sign
+        smoothing_s, time_offset = s.smoothing_s, s.time_offset
+        if calibration is None:
+            calibration = load_calibration(s.calibration)
     if not isinstance(calibration, Calibration):
         hint = (" (load it first: imucal.load_calibration(path))"
                 if isinstance(calibration, str | os.PathLike) else "")

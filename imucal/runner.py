@@ -143,9 +143,7 @@ def _process_angles(job, recording, outcome) -> None:
 
     s = job.settings
     cal = load_calibration(s.calibration)
-    result = joint_angles(recording, cal, reference=s.reference,
-                          flexion_sign=s.flexion_sign, start=job.start, end=job.end,
-                          time_offset=s.time_offset)
+    result = joint_angles(recording, cal, settings=s, start=job.start, end=job.end)
     # (the recording's own warnings are among the result's)
     outcome.warnings.extend(f"{recording.source}: {w}" for w in (
         *result.warnings, *(w for j in result.joints.values() for w in j.warnings)))

@@ -292,11 +292,14 @@ class AnglesSettings:
     time_offset : float or None
         Every recording's own clock offset of the hinges' second sensors, s, as in
         :func:`imucal.joint_angles`; None: the calibration's.
+    smoothing_s : float or None
+        The fusion's kernel, s, as in :func:`imucal.joint_angles`; None: the
+        calibration's.
 
     Raises
     ------
     InputError
-        An empty calibration name, a reference, flexion sign or time offset
+        An empty calibration name, a reference, flexion sign, time offset or smoothing
         :func:`imucal.joint_angles` refuses, or an empty tables name.
     """
 
@@ -305,9 +308,11 @@ class AnglesSettings:
     flexion_sign: str = "auto"
     tables: str | None = None
     time_offset: float | None = None
+    smoothing_s: float | None = None
 
     def __post_init__(self) -> None:
         from .angles import _check_reference, _check_sign, check_trial_offset
+        from .fusion import check_smoothing
 
         if not isinstance(self.calibration, str | PathLike) or not str(self.calibration):
             raise InputError(f"calibration must be a file name, got {self.calibration!r}")
@@ -315,6 +320,8 @@ class AnglesSettings:
         object.__setattr__(self, "reference", _check_reference(self.reference))
         _check_sign(self.flexion_sign)
         object.__setattr__(self, "time_offset", check_trial_offset(self.time_offset))
+        if self.smoothing_s is not None:
+            object.__setattr__(self, "smoothing_s", check_smoothing(self.smoothing_s))
         if self.tables is not None:
             if not isinstance(self.tables, str | PathLike) or not str(self.tables):
                 raise InputError(f"tables must be a folder name, got {self.tables!r}")

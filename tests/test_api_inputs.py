@@ -488,3 +488,22 @@ def test_a_rate_measured_from_time_steps_is_kept_unrounded():
     t = np.arange(50) / 1024.0000123456
     rate, _, _ = check_timing(None, t, t.size, "x")
     assert rate == 1.0 / np.median(np.diff(t)) and reported_rate(rate) == 1024.0000
+
+
+def test_joint_angles_take_an_angles_settings_object(rec, cal, tmp_path):
+    # the angles took keywords only, where the estimators and calibrate take settings (an
+    # independent review of the estimator skeleton); the file is read when no calibration
+    # object is given
+    from imucal.settings import AnglesSettings
+
+    cal.write(tmp_path / "cal.json")
+    settings = AnglesSettings(calibration=str(tmp_path / "cal.json"), reference=1.0,
+                              flexion_sign="+", smoothing_s=2.0)
+    a = imucal.joint_angles(rec, settings=settings)
+    b = imucal.joint_angles(rec, imucal.load_calibration(tmp_path / "cal.json"),
+                            reference=1.0, flexion_sign="+", smoothing_s=2.0)
+    assert a == b and a.joints["knee"].sign_source == "user"
+    with pytest.raises(InputError, match=r"not both \(flexion_sign\)"):
+        imucal.joint_angles(rec, settings=settings, flexion_sign="-")
+    with pytest.raises(InputError, match="smoothing_s must be from"):
+        AnglesSettings(calibration="x.json", smoothing_s=-1.0)
