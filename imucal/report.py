@@ -138,31 +138,29 @@ def position_report(result: PositionResult, *, input_info: dict, trace: bool = F
     return clean(doc)
 
 
-UNCERTAINTY_METHOD = (
-    "sqrt(max(curvature, time_blocks)^2 + cutoff_shift^2 + model^2 + gyr_bias^2 + "
-    "acc_error^2 + time_offset^2): curvature of the cost "
-    "at the estimate ((J^T J)^-1 S (J^T J)^-1, Newey-West S), delete-one-block jackknife "
-    "over 10 contiguous time blocks, the largest shift of the cut-off refits (axis: 10 and "
-    "20 Hz low-pass, or the cut-off halved and doubled; position: the cut-off x 0.75 and "
-    "x 1.5), a model-error term (axis: a bound from the residual's smooth part; "
-    "position: 3 x the move of a refit weighing each sample by (|r1| + |r2|)^2), a "
-    "gyroscope-bias part (axis: the widening by a removed bias; position: the move when "
-    "a constant bias of each gyroscope is fitted with it), for a joint centre an "
-    "accelerometer part (its response to an offset and a scale error of each "
-    "accelerometer, settings.acc_error_m_s2 at 1 g, that the motion cannot tell from a "
-    "move of the centre), and with an automatic clock offset the "
-    "estimate's move per ms of offset times the offset's 1-sigma (for the axis, with "
-    "an applied offset, also its move from offset 0, capped at 3 x model; see "
-    "uncertainty_components and docs/quality.md)"
-)
-#: The axis's: it has no accelerometer part (its text named acc_error^2, which no axis
-#: has, an independent check's point from a new-user trial).
-AXIS_UNCERTAINTY_METHOD = (UNCERTAINTY_METHOD
-                           .replace("gyr_bias^2 + acc_error^2 + ", "gyr_bias^2 + ")
-                           .replace(", for a joint centre an accelerometer part (its response "
-                                    "to an offset and a scale error of each accelerometer, "
-                                    "settings.acc_error_m_s2 at 1 g, that the motion cannot "
-                                    "tell from a move of the centre)", ""))
+def _uncertainty_method(centre: bool) -> str:
+    """The reported 1-sigma's formula in words; an axis's has no accelerometer part (its
+    text named acc_error^2, which no axis has: a new-user trial)."""
+    return (
+        "sqrt(max(curvature, time_blocks)^2 + cutoff_shift^2 + model^2 + gyr_bias^2 + "
+        + ("acc_error^2 + " if centre else "") + "time_offset^2): curvature of the cost "
+        "at the estimate ((J^T J)^-1 S (J^T J)^-1, Newey-West S), delete-one-block jackknife "
+        "over 10 contiguous time blocks, the largest shift of the cut-off refits (axis: 10 "
+        "and 20 Hz low-pass, or the cut-off halved and doubled; position: the cut-off x 0.75 "
+        "and x 1.5), a model-error term (axis: a bound from the residual's smooth part; "
+        "position: 3 x the move of a refit weighing each sample by (|r1| + |r2|)^2), a "
+        "gyroscope-bias part (axis: the widening by a removed bias; position: the move when "
+        "a constant bias of each gyroscope is fitted with it)"
+        + (", for a joint centre an accelerometer part (its response to an offset and a "
+           "scale error of each accelerometer, settings.acc_error_m_s2 at 1 g, that the "
+           "motion cannot tell from a move of the centre)" if centre else "")
+        + ", and with an automatic clock offset the estimate's move per ms of offset times "
+        "the offset's 1-sigma (for the axis, with an applied offset, also its move from "
+        "offset 0, capped at 3 x model; see uncertainty_components and docs/quality.md)")
+
+
+UNCERTAINTY_METHOD = _uncertainty_method(centre=True)
+AXIS_UNCERTAINTY_METHOD = _uncertainty_method(centre=False)
 SPREAD_METHOD = (
     "RMS distance between the estimate and the results of the restarts that reached it, "
     "each fitted on a random half of the samples (leaving out subset fits stuck in a local "

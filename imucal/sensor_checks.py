@@ -319,7 +319,8 @@ def unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
             continue
         with np.errstate(over="ignore"):  # absurd values overflow to Inf, still evidence
             peak = float(np.linalg.norm(sd.gyr, axis=1).max())
-            median = float(np.median(np.linalg.norm(sd.acc, axis=1)))
+            acc_norm = np.linalg.norm(sd.acc, axis=1)
+            median = float(np.median(acc_norm))
         if peak > MAX_LIMB_RATE:
             notes.append(
                 f"sensor '{name}' gyr peaks at {peak:.0f} rad/s ({units[name]['gyr']}), faster "
@@ -335,7 +336,7 @@ def unit_warnings(sensors: Mapping[str, SensorData], units) -> list[str]:
             notes.append(f"sensor '{name}' acc "
                          f"{acc_scale_doubt(median)} (--acc-units or a 'units' attribute)")
         if units.get(name, {}).get("gyr") == "deg/s" and peak < SLOW_DEG_S_PEAK:
-            p1, p99 = np.percentile(np.linalg.norm(sd.acc, axis=1), [1, 99])
+            p1, p99 = np.percentile(acc_norm, [1, 99])
             if p99 - p1 >= ACC_MOVING_SPAN:
                 notes.append(
                     f"sensor '{name}' gyr peaks at {np.degrees(peak):.1f} deg/s (declared "
