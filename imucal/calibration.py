@@ -741,7 +741,8 @@ def _study_lines_hint(data: bytes) -> str:
         return ("; it is one line of an imucal study's JSON Lines, and its result is no "
                 "calibration")
     return ("; it is a study's JSON Lines, one line per recording: pick one recording's, "
-            "e.g. jq -c 'select(.file == \"CAL.h5\") | .result' FILE > cal.json")
+            "e.g. jq -c 'select(.file == \"CAL.h5\") | .result' FILE > cal.json, or "
+            "calibrate with --calibrations DIR for one file per recording")
 
 
 def _json_problem(err: Exception) -> str:

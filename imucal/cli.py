@@ -351,6 +351,8 @@ def position(
         "    --joint right_knee=hinge:right_thigh,right_shank --seed 1 --out cal.json",
         "imucal angles walk1.h5 --calibration cal.json --out walk1_knee.csv",
         "imucal calibrate session*/calibration.h5 --jobs 4 --out cals.jsonl   # a study",
+        "imucal calibrate s*/calibration.h5 --calibrations cal/ --jobs 0 > cals.jsonl",
+        "imucal angles s01/walk*.h5 -c cal/s01/calibration.json --tables knee/s01/",
         "jq '.joints | map_values(.verdict)' cal.json",
     )
 )
@@ -393,6 +395,13 @@ def calibrate(
         "failed. The calibration is written either way, such joints marked by their "
         "verdict (a failed one without vectors); without --force the exit status is 1.")]
     = False,
+    calibrations: Annotated[Path | None, typer.Option(
+        "--calibrations", metavar="DIR", show_default=False, parser=_output_folder,
+        help="A study (of one REC or several): also write each recording's calibration "
+        "file (what --out writes for one) as DIR/NAME.json, NAME its file or folder name "
+        "without suffix, with as many of its folders as tell recordings of one name apart "
+        "(s1/cal.h5 s2/cal.h5: DIR/s1/cal.json, DIR/s2/cal.json); each line's result "
+        "names it (calibration_file). A recording that fails writes none.")] = None,
     jobs: CalibrateJobs = 1,
     scheduler: Scheduler = None,
     quiet: Quiet = False,
@@ -407,12 +416,14 @@ def calibrate(
         settings = _settings(ctx, CalibrateSettings, joints=tuple(joint or ()),
                              restarts=restarts, seed=seed, time_offset=time_offset,
                              offset_search=offset_search, acc_error=acc_error, sign=sign,
-                             j2_sign=j2_sign)
+                             j2_sign=j2_sign,
+                             calibrations=None if calibrations is None else str(calibrations))
         job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)
         _check_scheduler(scheduler, quiet)
-        if _is_study(rec, jobs if _given(ctx, "jobs") else None, scheduler):
+        if _is_study(rec, jobs if _given(ctx, "jobs") else None, scheduler) \
+                or calibrations is not None:
             from .study import run_study
 
             raise typer.Exit(run_study(job, rec, out=out, jobs=jobs, scheduler=scheduler,
@@ -495,7 +506,8 @@ def angles(
     tables: Annotated[Path | None, typer.Option(
         "--tables", metavar="DIR", show_default=False, parser=_output_folder,
         help="A study (of one REC or several): write each recording's table as DIR/NAME.csv "
-        "(NAME: its file or folder name without suffix; DIR is made when the first table "
+        "(NAME: its file or folder name without suffix, with as many of its folders as "
+        "tell recordings of one name apart; DIR is made when the first table "
         "is written, or at the start for an --out inside it; none may be a recording or "
         "the calibration) and print one JSON "
         "line per recording {file, exit_code, error, warnings, result}, result the angles' "

@@ -39,6 +39,7 @@ from .recording import estimator_window, input_info
 from .signals import unreported
 
 __all__ = ["COMMANDS", "Command", "Job", "Outcome", "run", "parse_sensors", "table_name",
+           "output_names",
            "check_table"]
 
 @dataclass(frozen=True)
@@ -122,6 +123,8 @@ def _process_calibrate(job, recording, outcome) -> None:
                         f"({recording.duration:.1f} s){_window_text(job, cal.window_s)}")
     outcome.warnings.extend(f"{recording.source}: {w}" for w in recording.warnings)
     outcome.document, outcome.result = cal.to_document(), cal
+    if s.calibrations is not None:
+        outcome.document = _write_calibration(job, outcome.file, outcome.document)
     bad = [j for j in cal.joints.values() if j.verdict in ("not identifiable", "failed")]
     if bad and not job.force:
         # each joint with its own reason: they differ (one not identifiable, one failed)
@@ -130,6 +133,22 @@ def _process_calibrate(job, recording, outcome) -> None:
         outcome.error = (f"{recording.source}: {which}; the calibration is written with "
                          f"{'them' if len(bad) > 1 else 'it'} marked (--force: exit 0)")
         outcome.exception = NotIdentifiableError(outcome.error)
+
+
+def _write_calibration(job, file: str, doc: dict) -> dict:
+    """``doc`` written as ``file``'s calibration file in the settings' ``calibrations``
+    folder (what ``calibrate --out`` writes); the document with ``calibration_file``, its
+    path, for the study's line."""
+    from .atomic import check_not_inputs, write_text_atomic
+    from .report import dumps
+
+    path = Path(job.settings.calibrations) / f"{_output_name(job, file)}.json"
+    # (a study checks this once for all; a library caller's run, here)
+    check_not_inputs([("--calibrations", path)], [file])
+    # made when the first file is written: a study whose runs all fail leaves no folder
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(path, dumps(doc))
+    return {**doc, "calibration_file": str(path)}
 
 
 def _process_angles(job, recording, outcome) -> None:
@@ -154,7 +173,7 @@ def _process_angles(job, recording, outcome) -> None:
             "written (--force writes the angles with these warnings)")
     doc = result.to_document()
     if s.tables is not None:
-        table = Path(s.tables) / f"{table_name(outcome.file)}.csv"
+        table = Path(s.tables) / f"{_output_name(job, outcome.file)}.csv"
         # (a study checks this once for all; a library caller's run, here)
         check_table(table, [outcome.file], s.calibration)
         # made when the first table is written: a run that writes none leaves no folder
@@ -199,6 +218,11 @@ def check_table(table: Path, recordings, calibration: str, option: str = "--tabl
                          "the tables another folder") from None
 
 
+def _output_name(job: Job, file: str) -> str:
+    """The name of ``file``'s output in ``job``'s study (:func:`output_names`)."""
+    return dict(job.output_names or ()).get(file) or table_name(file)
+
+
 def table_name(file: str) -> str:
     """The name a study gives a recording's angle table: its file's (or vendor export
     folder's) name without suffix.
@@ -215,6 +239,61 @@ def table_name(file: str) -> str:
     ('walk_01', 'walk_01')
     """
     return Path(file).stem or Path(file).resolve().stem  # ('.' has no stem of its own)
+
+
+def output_names(files, output: str = "{}") -> dict[str, str]:
+    """The names a study gives its recordings' output files (angle tables, calibration
+    files): each file's (or vendor export folder's) name without suffix
+    (:func:`table_name`); where several recordings share that name, their folders are
+    added, as few as tell them apart, the same number for each of them
+    (``s1/cal.h5``, ``s2/cal.h5`` -> ``s1/cal``, ``s2/cal``). One file given twice keeps
+    one name.
+
+    Parameters
+    ----------
+    files
+        The recordings as given (paths, ``-`` for standard input).
+    output
+        The output file a name makes (``"knee/{}.csv"``), for the error message only.
+
+    Returns
+    -------
+    dict
+        file -> name (a relative POSIX path without suffix).
+
+    Raises
+    ------
+    InputError
+        Two recordings whose names cannot be told apart by their folders (``walk.h5`` and
+        ``walk.csv`` in one folder): the message names both.
+
+    Examples
+    --------
+    >>> from imucal.runner import output_names
+    >>> output_names(["s1/cal.h5", "s2/cal.h5", "s2/walk.h5"])
+    {'s1/cal.h5': 's1/cal', 's2/cal.h5': 's2/cal', 's2/walk.h5': 'walk'}
+    """
+    import os
+
+    files = list(dict.fromkeys(str(f) for f in files))
+    # (the folders as given, links not followed: a lab's subject folder may be one)
+    parts = {f: Path(os.path.abspath(f)).parts[1:] for f in files}
+    real = {f: os.path.realpath(f) for f in files}
+    names = {f: table_name(f) for f in files}
+    for name in sorted(set(names.values())):
+        group = [f for f in files if names[f] == name]
+        if len({real[f] for f in group}) == 1:
+            continue
+        for depth in range(1, max(len(parts[f]) for f in group)):
+            tails = {f: "/".join((*parts[f][:-1][-depth:], name)) for f in group}
+            if all(tails[a] != tails[b] for a in group for b in group if real[a] != real[b]):
+                names.update(tails)
+                break
+        else:
+            first, second = sorted(group)[:2]
+            raise InputError(f"{first} and {second} would both write "
+                             f"{output.format(name)}; give the recordings different names")
+    return names
 
 
 def _window_text(job: Job, window) -> str:
@@ -256,6 +335,9 @@ class Job:
     sensor_map : a ``--map`` file, or None.
     sensor_map_pairs : the map's (key, name) pairs as read once by a study
         (:func:`imucal.study.run_study`), or None: each recording reads ``sensor_map``.
+    output_names : (file, name) pairs of a study's recordings (:func:`output_names`), for
+        their angle tables and calibration files; None, or a file not among them: its
+        own name (:func:`table_name`).
     force : report a result the data cannot identify (with its warnings) instead of
         failing with exit code 1.
     trace : add every restart's cost per iteration to the document.
@@ -278,6 +360,7 @@ class Job:
     acc_units: str | None = None
     sensor_map: Path | None = None
     sensor_map_pairs: tuple[tuple[str, str], ...] | None = None
+    output_names: tuple[tuple[str, str], ...] | None = None
     force: bool = False
     trace: bool = False
 

@@ -228,6 +228,11 @@ class CalibrateSettings:
     smoothing_s : float or None
         The angle fusion's kernel, s (:data:`imucal.fusion.SMOOTHING_S` when None),
         stored in the calibration for :func:`imucal.joint_angles`.
+    calibrations : str or None
+        A folder: a study writes each recording's calibration file there as
+        ``<name>.json`` (:func:`imucal.runner.output_names`) and names it in its line
+        (``calibration_file``); None: none is written (the runner's: not used by
+        :func:`imucal.calibrate`).
 
     Raises
     ------
@@ -246,6 +251,7 @@ class CalibrateSettings:
     sign: str = "auto"
     j2_sign: str = "auto"
     smoothing_s: float | None = None
+    calibrations: str | None = None
 
     def __post_init__(self) -> None:
         from .calibration import JointSpec, parse_joint_spec
@@ -268,6 +274,7 @@ class CalibrateSettings:
         _check_signs(self)
         if self.smoothing_s is not None:
             object.__setattr__(self, "smoothing_s", check_smoothing(self.smoothing_s))
+        _check_folder(self, "calibrations")
 
 
 @dataclass(frozen=True)
@@ -286,7 +293,8 @@ class AnglesSettings:
         "auto", "+" or "-", as in :func:`imucal.joint_angles`.
     tables : str or None
         A folder: each recording's table is written there as ``<name>.csv`` (its file or
-        folder name without suffix) and named in its document (``table``); a study's
+        folder name without suffix, :func:`imucal.runner.output_names`) and named in its
+        document (``table``); a study's
         recordings need it, one ``--out`` cannot hold their tables. None: no table is
         written (a single recording's command line writes its own).
     time_offset : float or None
@@ -322,10 +330,16 @@ class AnglesSettings:
         object.__setattr__(self, "time_offset", check_trial_offset(self.time_offset))
         if self.smoothing_s is not None:
             object.__setattr__(self, "smoothing_s", check_smoothing(self.smoothing_s))
-        if self.tables is not None:
-            if not isinstance(self.tables, str | PathLike) or not str(self.tables):
-                raise InputError(f"tables must be a folder name, got {self.tables!r}")
-            object.__setattr__(self, "tables", str(self.tables))
+        _check_folder(self, "tables")
+
+
+def _check_folder(settings, name: str) -> None:
+    """An output folder's setting: None, or its name as a str."""
+    value = getattr(settings, name)
+    if value is not None:
+        if not isinstance(value, str | PathLike) or not str(value):
+            raise InputError(f"{name} must be a folder name, got {value!r}")
+        object.__setattr__(settings, name, str(value))
 
 
 def resolve(cls: type[AxisSettings], settings: AxisSettings | None, **kwargs) -> AxisSettings:

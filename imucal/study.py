@@ -222,58 +222,62 @@ def _checked_study(job: Job, files: list[str], out: Path | None, plot: Path | No
         job = replace(job, sensor_map_pairs=tuple(read_sensor_map(sensor_map).items()))
     if out is not None:
         check_not_inputs([("--out", out)], files + ([sensor_map] if sensor_map else []))
-    if job.command == "angles":
-        _check_tables(job, files, out)
+    if job.command in ("angles", "calibrate"):
+        job = _checked_folder(job, files, out)
     if out is not None:
         check_writable(out)
     return job
 
 
-def _check_tables(job: Job, files: list[str], out: Path | None) -> None:
-    """An angles study's outputs, before anything runs: a tables folder that can be
-    written, one table name per recording, no table (nor ``out``) where a recording or
-    the calibration is, and a calibration that reads (a broken one is one error, not one
-    per recording). The folder is made by each run, when it writes."""
+def _checked_folder(job: Job, files: list[str], out: Path | None) -> Job:
+    """An angles study's tables folder or a calibrate study's calibrations folder, before
+    anything runs: one that can be written, one name per recording (the job gets them,
+    :func:`imucal.runner.output_names`), no output (nor ``out``) where a recording, the
+    map or the calibration is, and a calibration that reads (a broken one is one error,
+    not one per recording). The folder is made by each run, when it writes."""
     from .calibration import load_calibration
-    from .runner import check_table, table_name
+    from .runner import check_table, output_names
 
     s = job.settings
-    if s.tables is None:
-        raise InputError("an angles study writes one table per recording: give a tables "
-                         "folder (--tables DIR, AnglesSettings(tables=...))")
-    tables = Path(s.tables)
-    if tables.exists() and not tables.is_dir():
-        raise InputError(f"{tables}: the tables folder is a file")
-    names: dict[str, str] = {}
-    for f in files:
-        name = table_name(f)
-        if name in names and Path(names[name]).resolve() != Path(f).resolve():
-            raise InputError(f"{names[name]} and {f} would both write "
-                             f"{tables / (name + '.csv')}; give the recordings different "
-                             "names")
-        names.setdefault(name, f)
-    outputs = [("--tables", tables / f"{name}.csv") for name in names]
+    angles = job.command == "angles"
+    folder, option, suffix = ((s.tables, "--tables", ".csv") if angles
+                              else (s.calibrations, "--calibrations", ".json"))
+    if folder is None:
+        if angles:
+            raise InputError("an angles study writes one table per recording: give a tables "
+                             "folder (--tables DIR, AnglesSettings(tables=...))")
+        return job
+    what = "tables" if angles else "calibrations"
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"{folder}: the {what} folder is a file")
+    names = output_names(files, f"{folder}/{{}}{suffix}")
+    outputs = [(option, folder / f"{name}{suffix}") for name in dict.fromkeys(names.values())]
     inputs = files + ([job.sensor_map] if job.sensor_map else [])
-    for _, table in outputs:
-        check_table(table, inputs, s.calibration)
-    check_not_inputs(outputs + [("--out", out)], inputs + [s.calibration])
-    folder = next((p for p in (tables, *tables.parents) if p.exists()), Path("."))
-    if not folder.is_dir():
-        raise InputError(f"{tables}: the tables folder cannot be made: {folder} is a file")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise InputError(f"{tables}: the tables folder cannot be written ({folder} is not "
+    if angles:
+        for _, table in outputs:
+            check_table(table, inputs, s.calibration)
+        inputs = inputs + [s.calibration]
+    check_not_inputs(outputs + [("--out", out)], inputs)
+    made = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
+    if not made.is_dir():
+        raise InputError(f"{folder}: the {what} folder cannot be made: {made} is a file")
+    if not os.access(made, os.W_OK | os.X_OK):
+        raise InputError(f"{folder}: the {what} folder cannot be written ({made} is not "
                          "writable)")
-    load_calibration(s.calibration)
-    if out is not None and not tables.exists() and Path(out).parent.resolve() == \
-            tables.resolve():
+    if angles:
+        load_calibration(s.calibration)
+    if out is not None and not folder.exists() and Path(out).parent.resolve() == \
+            folder.resolve():
         # the lines beside their tables: their file is opened as the study starts, the
         # folder otherwise made with the first table ("folder does not exist", a
         # new-user trial)
         try:
-            tables.mkdir(parents=True, exist_ok=True)
+            folder.mkdir(parents=True, exist_ok=True)
         except OSError as err:
-            raise InputError(f"{tables}: the tables folder cannot be made "
+            raise InputError(f"{folder}: the {what} folder cannot be made "
                              f"({err.strerror or err})") from None
+    return replace(job, output_names=tuple(names.items()))
 
 
 def _workers(job: Job, files: list[str], scheduler: str | None, jobs: int, quiet: bool):

@@ -462,13 +462,69 @@ def test_angles_study_usage_errors(cal_file, extra, phrase):
 
 
 def test_angles_study_refuses_two_recordings_writing_one_table(cal_file, tmp_path):
+    # one name in one folder: no folder tells them apart
     path, _ = cal_file
-    (tmp_path / "a").mkdir()
-    twin = tmp_path / "a" / "walking.h5"
-    twin.write_bytes((SAMPLE / "walking.h5").read_bytes())
-    run = cli("angles", SAMPLE / "walking.h5", twin, "-c", path, "--tables", tmp_path / "t")
-    assert run.returncode == 2 and "would both write" in run.stderr
+    twin = tmp_path / "walking.csv"
+    assert cli("convert", SAMPLE / "walking.h5", twin).returncode == 0
+    (tmp_path / "walking.h5").write_bytes((SAMPLE / "walking.h5").read_bytes())
+    run = cli("angles", tmp_path / "walking.h5", twin, "-c", path, "--tables",
+              tmp_path / "t")
+    assert run.returncode == 2
+    assert f"would both write {tmp_path / 't' / 'walking.csv'}" in run.stderr
     assert not (tmp_path / "t").exists()
+
+
+def test_angles_study_names_tables_of_one_name_by_their_folders(cal_file, tmp_path,
+                                                                 monkeypatch):
+    # a lab's layout, one folder per subject: "would both write knee/walk.csv" (F7 of a
+    # gait-lab trial); names that differ keep their own, folders are added only where
+    # needed
+    path, _ = cal_file
+    for subject in ("s1", "s2"):
+        (tmp_path / subject).mkdir()
+        (tmp_path / subject / "walk.h5").write_bytes((SAMPLE / "walking.h5").read_bytes())
+    (tmp_path / "s2" / "stairs.h5").write_bytes((SAMPLE / "walking.h5").read_bytes())
+    monkeypatch.chdir(tmp_path)
+    run = cli("angles", "s1/walk.h5", "s2/walk.h5", "s2/stairs.h5", "-c", path, "--tables",
+              "knee", "-q")
+    assert run.returncode == 0, run.stderr
+    lines = [json.loads(line) for line in run.stdout.splitlines()]
+    assert [o["result"]["table"] for o in lines] == ["knee/s1/walk.csv", "knee/s2/walk.csv",
+                                                      "knee/stairs.csv"]
+    assert (tmp_path / "knee" / "s1" / "walk.csv").read_bytes() == \
+        (tmp_path / "knee" / "stairs.csv").read_bytes()
+
+
+def test_a_calibrate_study_writes_each_recordings_calibration_file(tmp_path, monkeypatch):
+    # a calibrate study's lines fed `angles` only through a jq step per subject (F7 of a
+    # gait-lab trial): --calibrations writes each file as --out would
+    for subject in ("s1", "s2"):
+        (tmp_path / subject).mkdir()
+        (tmp_path / subject / "cal.h5").write_bytes((SAMPLE / "circling.h5").read_bytes())
+    monkeypatch.chdir(tmp_path)
+    knee = ("--joint", "knee=hinge:thigh,shank", "--restarts", "5", "--seed", "1", "-q")
+    run = cli("calibrate", "s1/cal.h5", "s2/cal.h5", "s3/cal.h5", *knee, "--calibrations",
+              "cal")
+    assert run.returncode == 2  # s3 does not exist: its line says so, and no file
+    lines = [json.loads(line) for line in run.stdout.splitlines()]
+    assert [o["exit_code"] for o in lines] == [0, 0, 2]
+    assert [(o["result"] or {}).get("calibration_file") for o in lines] == [
+        "cal/s1/cal.json", "cal/s2/cal.json", None]
+    assert sorted(str(p.relative_to("cal")) for p in Path("cal").rglob("*.json")) == [
+        "s1/cal.json", "s2/cal.json"]
+    assert cli("calibrate", "s1/cal.h5", *knee, "--out", "one.json").returncode == 0
+    assert Path("cal/s1/cal.json").read_bytes() == Path("one.json").read_bytes()
+    written = json.loads(Path("cal/s2/cal.json").read_text())
+    assert {**written, "calibration_file": "cal/s2/cal.json"} == lines[1]["result"]
+    run = cli("angles", SAMPLE / "walking.h5", "-c", "cal/s2/cal.json", "--force", "-q")
+    assert run.returncode == 0 and run.stdout.startswith("time,knee_flexion_deg")
+    # one REC is a study too; a folder that is a file is refused before anything runs
+    Path("taken").write_text("")
+    run = cli("calibrate", "s1/cal.h5", *knee, "--calibrations", "taken")
+    assert run.returncode == 2 and "taken: the calibrations folder is a file" in run.stderr
+    run = cli("calibrate", "s1/cal.h5", *knee, "--calibrations", "one")
+    assert run.returncode == 0 and Path("one/cal.json").exists()
+    assert json.loads(run.stdout)["result"]["calibration_file"] == "one/cal.json"
 
 
 def test_angles_study_writes_its_lines_beside_its_tables(cal_file, tmp_path):
