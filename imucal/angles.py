@@ -552,6 +552,7 @@ def reference_statistics(rec, jc, *, smoothing_s: float = SMOOTHING_S,
         "zero_deg": zero,
         "zero_method": method,
         "zero_time_s": zero_t,
+        "zero_trial": None,
         "reference_x1": x1.tolist(),
         "reference_x2": x2.tolist(),
         "smoothing_s": smoothing_s,
@@ -1207,7 +1208,9 @@ def _choose_zero(jc, raw: np.ndarray, sign: int, reference, rec,
                 "raw_deg": float(raw[max(0, i - half):i + half + 1].mean()),
                 "time_s": reference, "time_in": "this recording"}, []
     zero = {"method": "calibration: " + ref["zero_method"], "raw_deg": ref["zero_deg"],
-            "time_s": ref["zero_time_s"], "time_in": "calibration trial"}
+            "time_s": ref["zero_time_s"],
+            "time_in": (f"standing trial {ref['zero_trial']}" if ref.get("zero_trial")
+                        else "calibration trial")}
     # a percentile zero is no straight knee: said where a pipeline reads it (the method's
     # words alone left walks 5.7-7.1 deg low at a 1-sigma of 1 deg, "fits", no warning: a
     # new-user trial)
@@ -1217,8 +1220,11 @@ def _choose_zero(jc, raw: np.ndarray, sign: int, reference, rec,
         "deg in simulated walking protocols), which the 1-sigma does not include; for "
         "absolute angles (peak flexion) give a reference ('standing' or a time) or calibrate "
         "with a moment of still standing"]
-    if sign == int(ref["flexion_sign"]) or abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN:
-        return zero, level  # (a sign pinned against a clear calibration just negates it)
+    if sign == int(ref["flexion_sign"]) or abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN \
+            or ref.get("zero_trial"):
+        # (a sign pinned against a clear calibration just negates it; a standing trial's
+        # zero is the same posture under either direction: zero_from_standing)
+        return zero, level
     # The calibration trial's zero is its most extended posture under the sign it guessed
     # (its evidence was weak), which is the most flexed one under this sign.
     if ref["zero_time_s"] is None:  # the 1st percentile: take the other end

@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -378,7 +378,7 @@ def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int
               seed: int | None = None, start: float | None = None, end: float | None = None,
               time_offset: float | str = "auto", offset_search: float = OFFSET_SEARCH_S,
               smoothing_s: float | None = None, sign: str = "auto", j2_sign: str = "auto",
-              acc_error: float = ACC_ERROR_M_S2) -> Calibration:
+              acc_error: float = ACC_ERROR_M_S2, standing=None) -> Calibration:
     """Calibrate every joint of ``recording`` (module docstring).
 
     Parameters
@@ -404,6 +404,12 @@ def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int
     sign, j2_sign
         Every hinge axis's overall and relative sign, as in :func:`imucal.estimate_axis`
         ("auto", or "+x" ... "-z" to pin that component of j1 / j2 positive).
+    standing
+        A standing trial of the same mounting (a :class:`imucal.recording.Recording`, or
+        its file, read with :func:`imucal.load_recording`): every hinge's zero is then its
+        most extended still period (a straight knee, as a lab's static trial defines it)
+        instead of the calibration trial's (:func:`zero_from_standing`); None (default):
+        the settings' ``standing`` file, if any.
 
     Returns
     -------
@@ -420,7 +426,8 @@ def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int
         ``recording`` is not a Recording, ``joints`` is an empty list, a joint spec that
         cannot be parsed or names a missing sensor, no joint the sensors allow, invalid
         settings, a window outside the recording, or bad input that stops every joint's estimate
-        (a window too short for any: the first joint's error). A joint whose estimate
+        (a window too short for any: the first joint's error); a ``standing`` trial
+        :func:`zero_from_standing` refuses. A joint whose estimate
         stops (not identifiable, a sensor gap in the window) is kept with verdict
         ``failed`` and the reason in its warnings; the others are unaffected.
 
@@ -488,7 +495,7 @@ def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int
     window_s = (min((w[0] for w in windows), default=t0 + asked.start / recording.rate),
                 max((w[1] for w in windows), default=t0 + asked.stop / recording.rate))
     used = sorted({s for spec in specs for s in (spec.first, spec.second)})
-    return Calibration(
+    cal = Calibration(
         joints=out, source=recording.source, window_s=window_s,
         sample_rate_hz=reported_rate(recording.rate),
         settings={"restarts": restarts, "seed": seed, "start": start, "end": end,
@@ -499,6 +506,110 @@ def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int
         sensors={n: dict(recording.sensor_info.get(n, {}), units_in_file=dict(
             recording.units.get(n, {}))) for n in used},
     )
+    standing = checked.standing if standing is None else standing
+    return cal if standing is None else zero_from_standing(cal, standing)
+
+
+def zero_from_standing(cal: Calibration, standing) -> Calibration:
+    """``cal`` with every hinge's zero taken from a standing trial of the same mounting:
+    the raw angle of its most extended still period (>= 1 s), measured with ``cal``
+    (:func:`imucal.joint_angles` with ``reference="standing"``), becomes ``zero_deg``
+    (``zero_trial`` names the trial). A calibration trial without a still stand otherwise
+    sets 0 deg at its most extended posture, 5-7 deg of flexion in simulated walking
+    protocols (a gait-lab trial: peak flexion read 57-59.5 deg for 64-66 deg).
+
+    Parameters
+    ----------
+    cal
+        The calibration (its hinges' flexion sign and fit-check references stay).
+    standing
+        The standing trial: a :class:`imucal.recording.Recording` or its file.
+
+    Returns
+    -------
+    Calibration
+        A new calibration; hinges without an ``angle`` block (not identifiable, failed)
+        and spheroidal joints as they were.
+
+    Raises
+    ------
+    InputError
+        The standing trial cannot be read, lacks a hinge's sensors, has no still period
+        of at least 1 s, or the calibration does not fit it (re-strapped in between): a
+        zero from it would be wrong, so nothing is made (the message names the trial).
+
+    Examples
+    --------
+    >>> import imucal
+    >>> from imucal.calibration import zero_from_standing
+    >>> from imucal.simulate import simulate
+    >>> cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"),
+    ...                        joints=["knee=hinge:thigh,shank"], restarts=10, seed=1)
+    >>> stand, truth = simulate(seed=9, mounting_seed=7, duration=5.0, motion="static")
+    >>> knee = zero_from_standing(cal, stand).joints["knee"].angle
+    >>> knee["zero_method"][:14], knee["zero_trial"]
+    ('standing trial', '<simulated>')
+    """
+    from .angles import joint_angles
+    from .loaders import load_recording
+    from .rest import STILL_MIN_S
+
+    if not isinstance(standing, Recording):
+        standing = load_recording(standing)
+    check_recording(standing)
+    hinges = [j for j in cal.joints.values() if j.angle is not None]
+    if not hinges:
+        return cal
+    try:
+        # under either flexion direction: which still period is the most extended may
+        # depend on it, and a trial too weak to decide leaves it to each recording
+        measured = {sign: joint_angles(standing, cal, reference="standing",
+                                       flexion_sign=text)
+                    for sign, text in ((1, "+"), (-1, "-"))}
+    except ImucalError as err:
+        text = str(err)
+        if "no still period" in text:  # (joint_angles' advice, a time, is not for this)
+            text = (f"{standing.source}: no still period of at least {STILL_MIN_S:g} s: no "
+                    "standing to take the knees' zero from")
+        raise InputError(f"{text} (the standing trial)") from None
+    _check_one_posture(standing, hinges, measured)
+    measured = {jc.name: measured[int(jc.angle["flexion_sign"])].joints[jc.name]
+                for jc in hinges}
+    # (a knee the calibration could not identify keeps its zero: no angle is read with it)
+    usable = [jc for jc in hinges
+              if measured[jc.name].check["calibration_verdict"] != "not identifiable"]
+    misfits = [w for jc in usable if not measured[jc.name].fits
+               for w in measured[jc.name].warnings if "does not fit" in w]
+    if misfits:
+        raise InputError(f"{standing.source} (the standing trial, for the zero): "
+                         f"{'; '.join(misfits)}; no zero taken from it")
+    joints = dict(cal.joints)
+    for jc in usable:
+        zero = measured[jc.name].zero
+        angle = dict(jc.angle, zero_deg=zero["raw_deg"], zero_time_s=zero["time_s"],
+                     zero_method=f"standing trial: {zero['method']}",
+                     zero_trial=standing.source)
+        joints[jc.name] = replace(jc, angle=angle)
+    return replace(cal, joints=joints)
+
+
+def _check_one_posture(standing, hinges, measured) -> None:
+    """Refuse a standing trial whose most extended still period depends on the flexion
+    direction where the calibration trial did not decide that direction: a trial of
+    standing and sitting would give the sitting knee's zero to the recordings that read
+    the other direction."""
+    from .angles import SIGN_EVIDENCE_MIN
+
+    for jc in hinges:
+        plus, minus = (measured[s].joints[jc.name].zero for s in (1, -1))
+        if abs(jc.angle["sign_evidence"]) < SIGN_EVIDENCE_MIN and \
+                plus["time_s"] != minus["time_s"]:
+            raise InputError(
+                f"{standing.source} (the standing trial, for the zero): {jc.name}: its still "
+                f"periods at {minus['time_s']:g} s and {plus['time_s']:g} s hold different "
+                "postures, and which is the straighter depends on the flexion direction, "
+                "which the calibration trial did not decide; give a trial of standing "
+                "alone")
 
 
 def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, time_offset,
@@ -993,6 +1104,8 @@ def _angle_from_doc(name: str, angle: dict | None, identified: bool = True) -> d
         raise bad("flexion_range_deg", "[p1, p99] in deg, p1 <= p99")
     if not isinstance(angle["zero_method"], str):
         raise bad("zero_method", "a text")
+    if not isinstance(angle.get("zero_trial"), str | None):
+        raise bad("zero_trial", "a file name or null")
     if not (isinstance(angle.get("warnings", []), list)
             and all(isinstance(w, str) for w in angle.get("warnings", []))):
         raise bad("warnings", "a list of texts")

@@ -347,6 +347,7 @@ def position(
 @app.command(
     epilog=_examples(
         "imucal calibrate cal_trial.h5 --out cal.json",
+        "imucal calibrate cal_trial.h5 --standing static.h5 --out cal.json   # 0 deg: standing",
         "imucal calibrate cal_trial.h5 --joint left_knee=hinge:left_thigh,left_shank \\",
         "    --joint right_knee=hinge:right_thigh,right_shank --seed 1 --out cal.json",
         "imucal angles walk1.h5 --calibration cal.json --out walk1_knee.csv",
@@ -395,6 +396,15 @@ def calibrate(
         "failed. The calibration is written either way, such joints marked by their "
         "verdict (a failed one without vectors); without --force the exit status is 1.")]
     = False,
+    standing: Annotated[str | None, typer.Option(
+        "--standing", metavar="FILE", show_default=False,
+        help="A standing trial of the same mounting (the lab's static trial): every "
+        "knee's 0 deg is then its most extended still period (>= 1 s), a straight knee, "
+        "instead of the calibration trial's (its most extended still period, else its "
+        "most extended posture: 5-7 deg of flexion in a walking protocol). Read as REC "
+        "is (--rate, units, --map); {folder} stands for each REC's folder (a study of "
+        "s*/cal.h5 with --standing '{folder}/static.h5': each subject's own). Refused "
+        "when the calibration does not fit it.")] = None,
     calibrations: Annotated[Path | None, typer.Option(
         "--calibrations", metavar="DIR", show_default=False, parser=_output_folder,
         help="A study (of one REC or several): also write each recording's calibration "
@@ -416,7 +426,7 @@ def calibrate(
         settings = _settings(ctx, CalibrateSettings, joints=tuple(joint or ()),
                              restarts=restarts, seed=seed, time_offset=time_offset,
                              offset_search=offset_search, acc_error=acc_error, sign=sign,
-                             j2_sign=j2_sign,
+                             j2_sign=j2_sign, standing=standing,
                              calibrations=None if calibrations is None else str(calibrations))
         job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
@@ -927,7 +937,7 @@ _OPTIONS = {"restarts": "--restarts", "seed": "--seed", "cutoff": "--cutoff",
             "subsample": "--subsample", "max_samples": "--max-samples", "sign": "--sign",
             "j2_sign": "--j2-sign", "time offset": "--time-offset", "joint": "--joint",
             "offset_search": "--offset-search",
-            "acc_error": "--acc-error"}
+            "acc_error": "--acc-error", "standing": "--standing"}
 
 
 def _usage_error(ctx: typer.Context, text: str) -> typer.BadParameter:

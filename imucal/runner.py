@@ -113,7 +113,14 @@ def _process_calibrate(job, recording, outcome) -> None:
     s = job.settings
     # one seed for every joint, drawn here when none is given, so the file can say it
     seed = resolve_seed(s.seed)
-    cal = calibrate(recording, settings=replace(s, seed=seed), start=job.start, end=job.end)
+    standing = None
+    if s.standing is not None:
+        try:  # (read as the trial is: the same units, rate and sensor map)
+            standing = load(job, standing_file(s.standing, outcome.file))
+        except InputError as err:
+            raise InputError(f"{err} (the standing trial)") from None
+    cal = calibrate(recording, settings=replace(s, seed=seed), start=job.start, end=job.end,
+                    standing=standing)
     if job.sensor_map is not None:
         cal.settings["sensor_map"] = str(job.sensor_map)
     names = ", ".join(f"{j.name} ({j.sensors[0]} -> {j.sensors[1]})"
@@ -551,11 +558,45 @@ def error_of(err: BaseException, file: str) -> tuple[int, str]:
                                     "(rerun this file alone with --debug and report it)")
 
 
-def _run(job: Job, file: str, outcome: Outcome) -> None:
+def standing_file(standing: str, file: str) -> str:
+    """The standing trial of the calibration trial ``file``: ``standing`` with
+    ``{folder}`` replaced by ``file``'s folder (``.`` for none): a study of
+    ``s*/calibration.h5`` with ``--standing '{folder}/static.h5'`` takes each subject's
+    own.
+
+    Returns
+    -------
+    str
+        The standing trial's path.
+
+    Examples
+    --------
+    >>> from imucal.runner import standing_file
+    >>> standing_file("{folder}/static.h5", "s01/calibration.h5")
+    's01/static.h5'
+    >>> standing_file("{folder}/static.h5", "cal.h5"), standing_file("st.h5", "s01/cal.h5")
+    ('./static.h5', 'st.h5')
+    """
+    import os
+
+    return standing.replace("{folder}", os.path.dirname(file.rstrip("/")) or ".")
+
+
+def load(job: Job, file: str):
+    """``file`` read with ``job``'s loading options and sensor map.
+
+    Returns
+    -------
+    Recording
+        The recording, its sensors named as the map says.
+
+    Raises
+    ------
+    InputError
+        What :func:`imucal.load_recording` and the sensor map refuse.
+    """
     from .loaders import load_recording
 
-    command = COMMANDS[job.command]
-    names = job.sensors
     recording = load_recording(file, rate=job.rate, gyr_units=job.gyr_units,
                                acc_units=job.acc_units,
                                names=None if job.sensor_map_pairs is not None
@@ -565,6 +606,13 @@ def _run(job: Job, file: str, outcome: Outcome) -> None:
 
         recording = apply_sensor_map(recording, dict(job.sensor_map_pairs),
                                      source=str(job.sensor_map))
+    return recording
+
+
+def _run(job: Job, file: str, outcome: Outcome) -> None:
+    command = COMMANDS[job.command]
+    names = job.sensors
+    recording = load(job, file)
     if command.process is not None:
         command.process(job, recording, outcome)
         return

@@ -228,6 +228,10 @@ class CalibrateSettings:
     smoothing_s : float or None
         The angle fusion's kernel, s (:data:`imucal.fusion.SMOOTHING_S` when None),
         stored in the calibration for :func:`imucal.joint_angles`.
+    standing : str or None
+        A standing trial's file (same mounting): every hinge's zero is its most extended
+        still period (:func:`imucal.calibration.zero_from_standing`); None: the
+        calibration trial's.
     calibrations : str or None
         A folder: a study writes each recording's calibration file there as
         ``<name>.json`` (:func:`imucal.runner.output_names`) and names it in its line
@@ -251,6 +255,7 @@ class CalibrateSettings:
     sign: str = "auto"
     j2_sign: str = "auto"
     smoothing_s: float | None = None
+    standing: str | None = None
     calibrations: str | None = None
 
     def __post_init__(self) -> None:
@@ -275,6 +280,10 @@ class CalibrateSettings:
         if self.smoothing_s is not None:
             object.__setattr__(self, "smoothing_s", check_smoothing(self.smoothing_s))
         _check_folder(self, "calibrations")
+        if self.standing is not None:
+            if not isinstance(self.standing, str | PathLike) or not str(self.standing):
+                raise InputError(f"standing must be a file name, got {self.standing!r}")
+            object.__setattr__(self, "standing", str(self.standing))
 
 
 @dataclass(frozen=True)

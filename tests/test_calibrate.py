@@ -502,3 +502,88 @@ def test_a_window_on_a_clock_that_starts_below_zero(tmp_path):
     assert cal.window_s == (-5.0, 5.0) and type(cal.window_s[1]) is float
     with pytest.raises(InputError, match="window end 3 s must be after its start 5 s"):
         calibrate(neg, start=5, end=3, restarts=5, seed=1)
+
+
+# ----------------------------------------------------------------- a standing trial's zero
+
+@pytest.fixture(scope="module")
+def knee_only():
+    """The sample circling trial's knee (mounting 7), and its walk and truth."""
+    import imucal
+
+    cal = imucal.calibrate(imucal.load_recording("sample_data/circling.h5"),
+                           joints=["knee=hinge:thigh,shank"], restarts=20, seed=1)
+    walk = imucal.load_recording("sample_data/walking.h5")
+    truth = np.asarray(json.loads(open("sample_data/walking.truth.json").read())
+                       ["knee_flexion_deg"])
+    return cal, walk, truth
+
+
+def test_a_standing_trial_sets_the_knees_zero(knee_only, tmp_path):
+    # the circling trial has no still stand: its zero, the most extended posture, read
+    # the sample walk 19.2 deg low; a static trial of the same mounting (a knee flexed
+    # 12.7 deg as it stands) makes the angles read from that posture
+    import imucal
+    from imucal.calibration import load_calibration, zero_from_standing
+
+    cal, walk, truth = knee_only
+    stand, stand_truth = simulate(seed=9, mounting_seed=7, duration=5.0, motion="static")
+    standing_deg = float(np.mean(stand_truth["knee_flexion_deg"]))
+    assert standing_deg == pytest.approx(12.67, abs=0.01)
+    zeroed = zero_from_standing(cal, stand)
+    angle = zeroed.joints["knee"].angle
+    assert angle["zero_trial"] == "<simulated>" and angle["zero_time_s"] == 0.0
+    assert angle["zero_method"].startswith("standing trial: most extended still period")
+    # the sign and the fit check's references stay the calibration trial's
+    assert {k: v for k, v in angle.items() if not k.startswith("zero")} == \
+        {k: v for k, v in cal.joints["knee"].angle.items() if not k.startswith("zero")}
+    before = imucal.joint_angles(walk, cal)
+    after = imucal.joint_angles(walk, zeroed)
+    error = (after.to_frame()["knee_flexion_deg"].to_numpy() - truth) + standing_deg
+    assert abs(np.mean(error)) < 0.1 and np.sqrt(np.mean(error ** 2)) < 0.6
+    old = before.to_frame()["knee_flexion_deg"].to_numpy() - truth
+    assert np.mean(old) == pytest.approx(-19.18, abs=0.1)
+    # no "not a straight knee" and no "chosen for the opposite direction": the walk
+    # decides the direction the circling trial could not, and a stand is the same posture
+    # under either
+    assert before.joints["knee"].warnings and not after.joints["knee"].warnings
+    assert after.joints["knee"].zero["time_in"] == "standing trial <simulated>"
+    path = tmp_path / "cal.json"
+    zeroed.write(path)
+    assert load_calibration(path) == zeroed
+
+
+@pytest.mark.parametrize(("which", "phrase"), [
+    ("walk", "no still period of at least 1 s: no standing to take the knees' zero from "
+     "(the standing trial)"),
+    ("other mounting", "(the standing trial, for the zero): knee: the calibration does not "
+     "fit this recording (at rest the axis makes angles with the vertical"),
+])
+def test_a_standing_trial_that_cannot_give_the_zero_is_refused(knee_only, which, phrase):
+    from imucal.calibration import zero_from_standing
+
+    cal, walk, _ = knee_only
+    stand = walk if which == "walk" else simulate(seed=9, mounting_seed=3, duration=5.0,
+                                                  motion="static")[0]
+    with pytest.raises(InputError, match="^.*$") as err:
+        zero_from_standing(cal, stand)
+    assert phrase in str(err.value)
+
+
+def test_a_standing_trial_of_two_postures_is_refused_where_the_direction_is_open():
+    # which still period is the straighter depends on the flexion direction; a
+    # calibration trial that did not decide it cannot say which (a sitting knee's zero)
+    from types import SimpleNamespace
+
+    from imucal.calibration import JointCalibration, _check_one_posture
+
+    knee = JointCalibration("knee", "hinge", ("thigh", "shank"), "good",
+                            angle={"sign_evidence": 0.05})
+    measured = {s: SimpleNamespace(joints={"knee": SimpleNamespace(zero={"time_s": t})})
+                for s, t in ((1, 2.0), (-1, 9.0))}
+    stand = SimpleNamespace(source="stand.h5")
+    with pytest.raises(InputError, match="stand.h5 .*still periods at 9 s and 2 s hold "
+                       "different postures"):
+        _check_one_posture(stand, [knee], measured)
+    knee.angle["sign_evidence"] = 0.4  # decided: the calibration's direction picks one
+    _check_one_posture(stand, [knee], measured)

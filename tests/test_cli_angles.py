@@ -666,3 +666,34 @@ def test_a_missing_calibration_is_said_before_the_recording_is_read(tmp_path, mo
     run = run_imucal("angles", "walk.h5", "-c", "missing.json", cwd=tmp_path, text=True)
     assert run.returncode == 2
     assert run.stderr == "imucal: error: missing.json: calibration file not found\n"
+
+
+def test_calibrate_takes_the_knees_zero_from_a_standing_trial(tmp_path, monkeypatch):
+    # a study of subjects' calibration trials, each with its own standing trial
+    # ({folder}); one subject's missing stand is that subject's error line alone
+    for subject in ("s1", "s2"):
+        (tmp_path / subject).mkdir()
+        (tmp_path / subject / "cal.h5").write_bytes((SAMPLE / "circling.h5").read_bytes())
+    save_recording(simulate(seed=9, mounting_seed=7, duration=5.0, motion="static")[0],
+                   tmp_path / "s1" / "static.h5")
+    monkeypatch.chdir(tmp_path)
+    knee = ("--joint", "knee=hinge:thigh,shank", "--restarts", "5", "--seed", "1", "-q")
+    run = cli("calibrate", "s1/cal.h5", "s2/cal.h5", *knee, "--standing",
+              "{folder}/static.h5")
+    assert run.returncode == 2
+    one, two = (json.loads(line) for line in run.stdout.splitlines())
+    angle = one["result"]["joints"]["knee"]["angle"]
+    assert (one["exit_code"], angle["zero_trial"], angle["zero_time_s"]) == (0, "s1/static.h5",
+                                                                              0.0)
+    assert two["error"] == "s2/static.h5: no such file (the standing trial)"
+    run = cli("calibrate", "s1/cal.h5", *knee, "--standing", "s1/static.h5", "--out",
+              "cal.json")
+    assert run.returncode == 0, run.stderr
+    assert json.loads(Path("cal.json").read_text())["joints"]["knee"] == \
+        one["result"]["joints"]["knee"]
+    run = cli("angles", SAMPLE / "walking.h5", "-c", "cal.json")
+    assert run.returncode == 0 and "not a straight knee" not in run.stderr
+    table = pd.read_csv(io.StringIO(run.stdout))
+    truth = json.loads((SAMPLE / "walking.truth.json").read_text())["knee_flexion_deg"]
+    # read from the standing posture (12.67 deg flexed in this static trial)
+    assert np.mean(table["knee_flexion_deg"] - truth) == pytest.approx(-12.67, abs=0.15)
