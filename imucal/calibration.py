@@ -572,12 +572,12 @@ def zero_from_standing(cal: Calibration, standing) -> Calibration:
             text = (f"{standing.source}: no still period of at least {STILL_MIN_S:g} s: no "
                     "standing to take the knees' zero from")
         raise InputError(f"{text} (the standing trial)") from None
-    _check_one_posture(standing, hinges, measured)
-    measured = {jc.name: measured[int(jc.angle["flexion_sign"])].joints[jc.name]
-                for jc in hinges}
     # (a knee the calibration could not identify keeps its zero: no angle is read with it)
-    usable = [jc for jc in hinges
-              if measured[jc.name].check["calibration_verdict"] != "not identifiable"]
+    usable = [jc for jc in hinges if measured[1].joints[jc.name].check[
+        "calibration_verdict"] != "not identifiable"]
+    _check_one_posture(standing, usable, measured)
+    measured = {jc.name: measured[int(jc.angle["flexion_sign"])].joints[jc.name]
+                for jc in usable}
     misfits = [w for jc in usable if not measured[jc.name].fits
                for w in measured[jc.name].warnings if "does not fit" in w]
     if misfits:

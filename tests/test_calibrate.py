@@ -587,3 +587,17 @@ def test_a_standing_trial_of_two_postures_is_refused_where_the_direction_is_open
         _check_one_posture(stand, [knee], measured)
     knee.angle["sign_evidence"] = 0.4  # decided: the calibration's direction picks one
     _check_one_posture(stand, [knee], measured)
+
+
+def test_a_standing_trial_leaves_knees_the_calibration_could_not_identify(real_recording):
+    # the shared recording's knees are not identifiable over all of it; their zeros are
+    # read by no angle, so their stands' postures (0 s and 12.4 s differ) refused the whole
+    # calibration (exit 2) instead of leaving it as it was (exit 1, knees marked)
+    import imucal
+    from imucal.calibration import zero_from_standing
+
+    cal = imucal.calibrate(real_recording, restarts=10, seed=1,
+                           joints=["left_knee=hinge:left_thigh,left_shank"])
+    knee = cal.joints["left_knee"]
+    assert knee.verdict == "not identifiable" and abs(knee.angle["sign_evidence"]) < 0.15
+    assert zero_from_standing(cal, real_recording) == cal
