@@ -567,10 +567,14 @@ def angles(
                                      ctx=ctx, param_hint="'--out'")
         _check_outputs(out, plot, rec[0], sensor_map)
         check_not_inputs([("--out", out), ("--plot", plot)], [calibration])
+        from dataclasses import replace
+
         from .calibration import load_calibration
         from .runner import run
 
-        load_calibration(calibration)  # missing or broken: said before the recording loads
+        # missing or broken: said before the recording loads; read once (a pipe, -c <(...),
+        # is empty the second time: a new-user trial)
+        job = replace(job, calibration_read=load_calibration(calibration))
         outcome = run(job, rec[0])
         for w in outcome.warnings:  # (in a loop over trials, they say which trial)
             say(f"imucal: warning: {w}")

@@ -168,7 +168,7 @@ def _process_angles(job, recording, outcome) -> None:
     from .calibration import load_calibration
 
     s = job.settings
-    cal = load_calibration(s.calibration)
+    cal = job.calibration_read or load_calibration(s.calibration)
     result = joint_angles(recording, cal, settings=s, start=job.start, end=job.end)
     # (the recording's own warnings are among the result's)
     outcome.warnings.extend(f"{recording.source}: {w}" for w in (
@@ -342,6 +342,10 @@ class Job:
     sensor_map : a ``--map`` file, or None.
     sensor_map_pairs : the map's (key, name) pairs as read once by a study
         (:func:`imucal.study.run_study`), or None: each recording reads ``sensor_map``.
+    calibration_read : an angles job's calibration
+        (:class:`imucal.calibration.Calibration`) as read once by the command or the
+        study, or None: each recording reads ``settings.calibration`` (a pipe,
+        ``-c <(...)``, can be read once only).
     output_names : (file, name) pairs of a study's recordings (:func:`output_names`), for
         their angle tables and calibration files; None, or a file not among them: its
         own name (:func:`table_name`).
@@ -368,6 +372,7 @@ class Job:
     sensor_map: Path | None = None
     sensor_map_pairs: tuple[tuple[str, str], ...] | None = None
     output_names: tuple[tuple[str, str], ...] | None = None
+    calibration_read: Any = None
     force: bool = False
     trace: bool = False
 

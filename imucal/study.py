@@ -265,8 +265,8 @@ def _checked_folder(job: Job, files: list[str], out: Path | None) -> Job:
     if not os.access(made, os.W_OK | os.X_OK):
         raise InputError(f"{folder}: the {what} folder cannot be written ({made} is not "
                          "writable)")
-    if angles:
-        load_calibration(s.calibration)
+    if angles:  # (read once: a pipe, -c <(...), gave every run after this one nothing)
+        job = replace(job, calibration_read=load_calibration(s.calibration))
     if out is not None and not folder.exists() and Path(out).parent.resolve() == \
             folder.resolve():
         # the lines beside their tables: their file is opened as the study starts, the

@@ -74,6 +74,29 @@ def test_a_pipe_as_rec_is_read_once_and_whole(tmp_path, kind):
     assert json.loads(piped.stdout)["j1"] == json.loads(direct.stdout)["j1"]
 
 
+@pytest.mark.skipif(not Path("/dev/fd").exists(), reason="needs /dev/fd (Linux, macOS)")
+def test_a_calibration_given_as_a_pipe_is_read_once(tmp_path):
+    # `angles -c <(...)` read the calibration twice (the command's check, then the run;
+    # a study: the check, then each recording): "not a calibration file (it is empty)"
+    # for the only recording, and for every one of a study (a new-user trial)
+    cal = tmp_path / "cal.json"
+    assert run_imucal("calibrate", SAMPLE, "--joint", "knee=hinge:thigh,shank", "--seed", 1,
+                      "--restarts", 5, "--out", cal, "-q").returncode == 0
+    walk = SAMPLE.with_name("walking.h5")
+    direct = run_imucal("angles", walk, "-c", cal, "-q")
+    assert direct.returncode == 0, direct.stderr
+    with _feed(cal.read_bytes()) as piped_path:
+        piped = run_imucal("angles", walk, "-c", piped_path, "-q")
+    assert piped.returncode == 0, piped.stderr
+    assert piped.stdout == direct.stdout
+    with _feed(cal.read_bytes()) as piped_path:
+        study = run_imucal("angles", walk, SAMPLE, "-c", piped_path, "--tables",
+                           tmp_path / "t", "-q", "--force")
+    lines = [json.loads(line) for line in study.stdout.splitlines()]
+    assert [o["error"] for o in lines] == [None, None], study.stderr
+    assert (tmp_path / "t" / "walking.csv").read_text() == direct.stdout
+
+
 def test_a_stream_without_an_end_is_refused_at_the_cap(monkeypatch):
     # read in chunks: one read of the whole allowance reserved 4 GiB before reading
     # anything (a small pipe failed under a 3 GB memory limit)
