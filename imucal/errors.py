@@ -1,6 +1,7 @@
 """The project's exception types, the exit codes the command line maps them to, and how
 a message becomes one stderr line."""
 
+import os
 import sys
 
 
@@ -132,5 +133,14 @@ def as_line(text) -> str:
 
 
 def say(text) -> None:
-    """Print one message line on stderr (:func:`as_line`)."""
-    print(as_line(text), file=sys.stderr, flush=True)
+    """Print one message line on stderr (:func:`as_line`). A standard error that cannot
+    be written (a full disk, a read-only descriptor) loses this and later messages, never
+    the result or the exit status; a reader gone (a broken pipe) ends the run as anywhere."""
+    try:
+        print(as_line(text), file=sys.stderr, flush=True)
+    except BrokenPipeError:
+        raise
+    except OSError:
+        # (the first message's ENOSPC left the command, and main's error message failed
+        # again: exit 1, "not identifiable", with nothing written; a new-user trial)
+        sys.stderr = open(os.devnull, "w")

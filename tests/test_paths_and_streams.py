@@ -231,8 +231,9 @@ def test_usage_errors_and_figure_names_are_one_clear_line():
 
 def _process(*args, **popen):
     popen.setdefault("stdout", subprocess.PIPE)
-    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)],
-                          stderr=subprocess.PIPE, timeout=120, **popen)
+    popen.setdefault("stderr", subprocess.PIPE)
+    return subprocess.run([sys.executable, "-m", "imucal", *map(str, args)], timeout=120,
+                          **popen)
 
 
 @pytest.mark.skipif(os.name != "posix", reason="closes descriptors in the child")
@@ -351,6 +352,22 @@ def test_a_full_standard_output_is_named(args):
     assert run.returncode == 2
     assert run.stderr.decode() == ("imucal: error: standard output: cannot write (No space "
                                    "left on device)\n")
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
+@pytest.mark.parametrize(("args", "documents", "code"), [
+    (AXIS[:-1], 1, 0), (("axis", SAMPLE, SAMPLE, *AXIS[2:-1]), 2, 0),
+    (("axis", "missing.h5"), 0, 2)])
+def test_a_full_standard_error_keeps_the_result_and_the_status(args, documents, code):
+    # the first message's ENOSPC left the command and main's error line failed again:
+    # exit 1 ("not identifiable") with nothing written (a new-user trial)
+    with open("/dev/full", "w") as full:
+        run = _process(*args, stderr=full)
+    assert run.returncode == code
+    text = run.stdout.decode()
+    docs = ([json.loads(text)] if documents == 1 else
+            [json.loads(line)["result"] for line in text.splitlines()])
+    assert [d["command"] for d in docs] == ["axis"] * documents
 
 
 def test_every_line_break_python_knows_is_escaped_in_a_message():
