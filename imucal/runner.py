@@ -152,6 +152,7 @@ def _write_calibration(job, file: str, doc: dict) -> dict:
     path = Path(job.settings.calibrations) / f"{_output_name(job, file)}.json"
     # (a study checks this once for all; a library caller's run, here)
     check_not_inputs([("--calibrations", path)], [file])
+    check_replaceable(path, "--calibrations")
     # made when the first file is written: a study whose runs all fail leaves no folder
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, dumps(doc))
@@ -183,6 +184,7 @@ def _process_angles(job, recording, outcome) -> None:
         table = Path(s.tables) / f"{_output_name(job, outcome.file)}.csv"
         # (a study checks this once for all; a library caller's run, here)
         check_table(table, [outcome.file], s.calibration)
+        check_replaceable(table, "--tables")
         # made when the first table is written: a run that writes none leaves no folder
         table.parent.mkdir(parents=True, exist_ok=True)
         result.write(table)
@@ -223,6 +225,44 @@ def check_table(table: Path, recordings, calibration: str, option: str = "--tabl
     except InputError:
         raise InputError(f"{table}: {option} would overwrite the calibration file; give "
                          "the tables another folder") from None
+
+
+#: What the start of an output a study replaces holds: an angle table's header, a
+#: calibration file's format.
+_OWN_OUTPUTS = {".csv": (b"time,", b"_flexion_deg"),
+                ".json": (b"{", b'"format": "imucal-calibration"')}
+
+
+def check_replaceable(path: Path, option: str) -> None:
+    """Refuse a study's output named after its recording (``--tables``,
+    ``--calibrations``) where a file is that is no such output: a vendor's
+    ``session1/walk_01.csv`` beside ``walk_01.h5`` was replaced by its angle table with
+    ``--tables session1`` (a new-user trial). An earlier run's table or calibration file
+    is replaced.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    InputError
+        ``path`` exists and does not start as an angle table (``time,`` ...
+        ``_flexion_deg``) or a calibration file does.
+    """
+    path = Path(path)
+    first, mark = _OWN_OUTPUTS.get(path.suffix, (b"", b""))
+    try:
+        with open(path, "rb") as fh:
+            start = fh.read(4096)
+    except FileNotFoundError:
+        return
+    except OSError:  # a folder, unreadable: refused as not ours
+        start = b""
+    if not (start.lstrip().startswith(first) and mark in start):
+        what = "angle table" if path.suffix == ".csv" else "calibration file"
+        raise InputError(f"{path}: a file is there that is no {what} of imucal (a "
+                         f"recording?); {option} would overwrite it: give another folder")
 
 
 def _output_name(job: Job, file: str) -> str:

@@ -236,7 +236,7 @@ def _checked_folder(job: Job, files: list[str], out: Path | None) -> Job:
     map or the calibration is, and a calibration that reads (a broken one is one error,
     not one per recording). The folder is made by each run, when it writes."""
     from .calibration import load_calibration
-    from .runner import check_table, output_names
+    from .runner import check_replaceable, check_table, output_names
 
     s = job.settings
     angles = job.command == "angles"
@@ -258,6 +258,8 @@ def _checked_folder(job: Job, files: list[str], out: Path | None) -> Job:
         for _, table in outputs:
             check_table(table, inputs, s.calibration)
         inputs = inputs + [s.calibration]
+    for _, path in outputs:
+        check_replaceable(path, option)
     check_not_inputs(outputs + [("--out", out)], inputs)
     made = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
     if not made.is_dir():

@@ -697,3 +697,32 @@ def test_calibrate_takes_the_knees_zero_from_a_standing_trial(tmp_path, monkeypa
     truth = json.loads((SAMPLE / "walking.truth.json").read_text())["knee_flexion_deg"]
     # read from the standing posture (12.67 deg flexed in this static trial)
     assert np.mean(table["knee_flexion_deg"] - truth) == pytest.approx(-12.67, abs=0.15)
+
+
+def test_a_study_replaces_its_own_outputs_but_no_other_file(cal_file, tmp_path,
+                                                            monkeypatch):
+    # --tables session1 replaced the vendor's session1/walk.csv beside walk.h5 with the
+    # walk's angle table, exit 0 (a new-user trial); an earlier run's table or
+    # calibration file is replaced as before
+    path, _ = cal_file
+    monkeypatch.chdir(tmp_path)
+    Path("walk.h5").write_bytes((SAMPLE / "walking.h5").read_bytes())
+    assert cli("convert", "walk.h5", "walk.csv", "-q").returncode == 0
+    recording = Path("walk.csv").read_bytes()
+    run = cli("angles", "walk.h5", "-c", path, "--tables", ".", "-q")
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr == ("imucal: error: walk.csv: a file is there that is no angle table "
+                          "of imucal (a recording?); --tables would overwrite it: give "
+                          "another folder\n")
+    assert Path("walk.csv").read_bytes() == recording
+    for _ in range(2):
+        assert cli("angles", "walk.h5", "-c", path, "--tables", "knee", "-q").returncode == 0
+    knee = ("--joint", "knee=hinge:thigh,shank", "--restarts", "5", "--seed", "1", "-q")
+    Path("cal.h5").write_bytes((SAMPLE / "circling.h5").read_bytes())
+    for _ in range(2):
+        assert cli("calibrate", "cal.h5", *knee, "--calibrations", "c").returncode == 0
+    Path("c/cal.json").write_text('{"format": "imucal-axis"}')
+    run = cli("calibrate", "cal.h5", *knee, "--calibrations", "c")
+    assert run.returncode == 2 and "c/cal.json: a file is there that is no calibration " \
+        "file of imucal" in run.stderr
+    assert Path("c/cal.json").read_text() == '{"format": "imucal-axis"}'
