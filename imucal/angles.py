@@ -1091,9 +1091,11 @@ def _one_joint(rec, jc, *, reference, pinned, smoothing_s, context) -> JointAngl
     # not from a user's time, a pinned sign, a zero chosen for the other direction, or a
     # calibration trial without a still period (its zero is its 1st percentile, 19 deg
     # low on the sample circling: a trial that never straightens reads stance at -40)
+    # (a standing trial's zero is one posture under either direction: zero_from_standing;
+    # left out, a sitting "stand" read a walk -86 to -24 deg, "fits", a review)
     extended = (source != "user" and (reference == "standing" or (
         reference is None and ref["zero_time_s"] is not None
-        and sign == int(ref["flexion_sign"]))))
+        and (sign == int(ref["flexion_sign"]) or bool(ref.get("zero_trial"))))))
     check = _fit_check(jc, ref, s1, s2, fus, rec, flex, extended, context)
     if not check["fits"]:
         warnings.append(check["message"])

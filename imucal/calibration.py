@@ -506,8 +506,33 @@ def calibrate(recording: Recording, *, settings=None, joints=None, restarts: int
         sensors={n: dict(recording.sensor_info.get(n, {}), units_in_file=dict(
             recording.units.get(n, {}))) for n in used},
     )
-    standing = checked.standing if standing is None else standing
+    if standing is None and checked.standing is not None:
+        standing = standing_file(checked.standing, recording.source)
     return cal if standing is None else zero_from_standing(cal, standing)
+
+
+def standing_file(standing: str, file: str) -> str:
+    """The standing trial of the calibration trial ``file``: ``standing`` with
+    ``{folder}`` replaced by ``file``'s folder (``.`` for none): a study of
+    ``s*/calibration.h5`` with ``--standing '{folder}/static.h5'`` takes each subject's
+    own.
+
+    Returns
+    -------
+    str
+        The standing trial's path.
+
+    Examples
+    --------
+    >>> from imucal.calibration import standing_file
+    >>> standing_file("{folder}/static.h5", "s01/calibration.h5")
+    's01/static.h5'
+    >>> standing_file("{folder}/static.h5", "cal.h5"), standing_file("st.h5", "s01/cal.h5")
+    ('./static.h5', 'st.h5')
+    """
+    import os
+
+    return standing.replace("{folder}", os.path.dirname(file.rstrip("/")) or ".")
 
 
 def zero_from_standing(cal: Calibration, standing) -> Calibration:
@@ -575,7 +600,7 @@ def zero_from_standing(cal: Calibration, standing) -> Calibration:
     # (a knee the calibration could not identify keeps its zero: no angle is read with it)
     usable = [jc for jc in hinges if measured[1].joints[jc.name].check[
         "calibration_verdict"] != "not identifiable"]
-    _check_one_posture(standing, usable, measured)
+    _check_posture(standing, usable, measured)
     measured = {jc.name: measured[int(jc.angle["flexion_sign"])].joints[jc.name]
                 for jc in usable}
     misfits = [w for jc in usable if not measured[jc.name].fits
@@ -593,23 +618,51 @@ def zero_from_standing(cal: Calibration, standing) -> Calibration:
     return replace(cal, joints=joints)
 
 
-def _check_one_posture(standing, hinges, measured) -> None:
-    """Refuse a standing trial whose most extended still period depends on the flexion
-    direction where the calibration trial did not decide that direction: a trial of
-    standing and sitting would give the sitting knee's zero to the recordings that read
-    the other direction."""
+#: How far, deg, a standing trial's two candidate stands (the most extended still period
+#: under either flexion direction) may differ and still be one posture: a weight shift
+#: between two stands moves the knee a degree or two, and one of them won by noise (their
+#: start times refused ordinary trials, a review).
+STAND_SPREAD_DEG = 5.0
+
+#: How much more flexed, deg, than the calibration trial's most extended posture a
+#: standing trial's knee may be (where the calibration decided the direction): a sitting
+#: trial given as the stand (84 deg more) was taken, and every walk then failed its fit
+#: check blaming clocks or straps (a review).
+STAND_FLEXED_DEG = 15.0
+
+
+def _check_posture(standing, hinges, measured) -> None:
+    """Refuse a standing trial that is no stand: where the calibration trial decided the
+    flexion direction, a knee more flexed than that trial's most extended posture by more
+    than :data:`STAND_FLEXED_DEG`; where it did not, still periods whose postures differ by
+    more than :data:`STAND_SPREAD_DEG`, since which is the straighter then depends on the
+    direction each recording decides."""
     from .angles import SIGN_EVIDENCE_MIN
 
+    def turn(a, b):  # a - b, deg, on the circle
+        return (a - b + 180.0) % 360.0 - 180.0
+
+    where = f"{standing.source} (the standing trial, for the zero): "
     for jc in hinges:
         plus, minus = (measured[s].joints[jc.name].zero for s in (1, -1))
-        if abs(jc.angle["sign_evidence"]) < SIGN_EVIDENCE_MIN and \
-                plus["time_s"] != minus["time_s"]:
+        if abs(jc.angle["sign_evidence"]) >= SIGN_EVIDENCE_MIN:
+            sign = int(jc.angle["flexion_sign"])
+            chosen = plus if sign == 1 else minus
+            flexed = sign * turn(chosen["raw_deg"], jc.angle["zero_deg"])
+            if flexed > STAND_FLEXED_DEG:
+                raise InputError(
+                    f"{where}{jc.name}: its knee stands {flexed:.0f} deg more flexed than "
+                    "the calibration trial's most extended posture (more than "
+                    f"{STAND_FLEXED_DEG:g}): no straight stand (sitting? another "
+                    "subject's trial?)")
+        elif abs(turn(plus["raw_deg"], minus["raw_deg"])) > STAND_SPREAD_DEG:
             raise InputError(
-                f"{standing.source} (the standing trial, for the zero): {jc.name}: its still "
-                f"periods at {minus['time_s']:g} s and {plus['time_s']:g} s hold different "
-                "postures, and which is the straighter depends on the flexion direction, "
-                "which the calibration trial did not decide; give a trial of standing "
-                "alone")
+                f"{where}{jc.name}: its still periods at {minus['time_s']:g} s and "
+                f"{plus['time_s']:g} s differ by "
+                f"{abs(turn(plus['raw_deg'], minus['raw_deg'])):.0f} deg (more than "
+                f"{STAND_SPREAD_DEG:g}), and which is the straighter depends on the "
+                "flexion direction, which the calibration trial did not decide; give a "
+                "trial of one standing posture")
 
 
 def _calibrate_joint(recording, spec: JointSpec, *, restarts, seed, start, end, time_offset,

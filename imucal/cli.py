@@ -399,12 +399,15 @@ def calibrate(
     standing: Annotated[str | None, typer.Option(
         "--standing", metavar="FILE", show_default=False,
         help="A standing trial of the same mounting (the lab's static trial): every "
-        "knee's 0 deg is then its most extended still period (>= 1 s), a straight knee, "
+        "knee's 0 deg is then its most extended still period (>= 1 s), the subject's stand, "
         "instead of the calibration trial's (its most extended still period, else its "
         "most extended posture: 5-7 deg of flexion in a walking protocol). Read as REC "
         "is (--rate, units, --map); {folder} stands for each REC's folder (a study of "
         "s*/cal.h5 with --standing '{folder}/static.h5': each subject's own). Refused "
-        "when the calibration does not fit it.")] = None,
+        "(exit 2, nothing written) without such a period, when the calibration does not "
+        "fit it, when its knee stands more than 15 deg more flexed than the calibration "
+        "trial's most extended posture, or when its still periods differ by more than 5 "
+        "deg and the calibration trial left the flexion direction open.")] = None,
     calibrations: Annotated[Path | None, typer.Option(
         "--calibrations", metavar="DIR", show_default=False, parser=_output_folder,
         help="A study (of one REC or several): also write each recording's calibration "
@@ -431,6 +434,10 @@ def calibrate(
         job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)
+        if standing == "-" and (len(rec) > 1 or "-" in rec):
+            # (the second recording found standard input empty: a review)
+            raise typer.BadParameter("- (standard input) is one standing trial for one REC "
+                                     "read from a file", ctx=ctx, param_hint="'--standing'")
         _check_scheduler(scheduler, quiet)
         if _is_study(rec, jobs if _given(ctx, "jobs") else None, scheduler) \
                 or calibrations is not None:

@@ -107,7 +107,7 @@ def _process_calibrate(job, recording, outcome) -> None:
     """``imucal calibrate``: every joint of the recording in one document. Joints that
     are not identifiable or failed stay in it, marked; they make the outcome exit code 1
     (with the document) unless ``job.force``."""
-    from .calibration import calibrate
+    from .calibration import calibrate, standing_file
     from .restarts import resolve_seed
 
     s = job.settings
@@ -119,6 +119,8 @@ def _process_calibrate(job, recording, outcome) -> None:
             standing = load(job, standing_file(s.standing, outcome.file))
         except InputError as err:
             raise InputError(f"{err} (the standing trial)") from None
+        outcome.warnings.extend(f"{standing.source} (the standing trial): {w}"
+                                for w in standing.warnings)
     cal = calibrate(recording, settings=replace(s, seed=seed), start=job.start, end=job.end,
                     standing=standing)
     if job.sensor_map is not None:
@@ -152,7 +154,7 @@ def _write_calibration(job, file: str, doc: dict) -> dict:
     path = Path(job.settings.calibrations) / f"{_output_name(job, file)}.json"
     # (a study checks this once for all; a library caller's run, here)
     check_not_inputs([("--calibrations", path)], [file])
-    check_replaceable(path, "--calibrations")
+    check_replaceable(path, "--calibrations", file)
     # made when the first file is written: a study whose runs all fail leaves no folder
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, dumps(doc))
@@ -233,12 +235,14 @@ _OWN_OUTPUTS = {".csv": (b"time,", b"_flexion_deg"),
                 ".json": (b"{", b'"format": "imucal-calibration"')}
 
 
-def check_replaceable(path: Path, option: str) -> None:
+def check_replaceable(path: Path, option: str, file: str | None = None) -> None:
     """Refuse a study's output named after its recording (``--tables``,
     ``--calibrations``) where a file is that is no such output: a vendor's
     ``session1/walk_01.csv`` beside ``walk_01.h5`` was replaced by its angle table with
-    ``--tables session1`` (a new-user trial). An earlier run's table or calibration file
-    is replaced.
+    ``--tables session1`` (a new-user trial); or, given the recording ``file``, a
+    calibration file of another recording (one subject per run into one folder: each
+    ``s*/cal.h5`` is ``cal.json``, and subject 2's replaced subject 1's, a review). An
+    earlier run's output of this recording is replaced.
 
     Returns
     -------
@@ -248,7 +252,8 @@ def check_replaceable(path: Path, option: str) -> None:
     ------
     InputError
         ``path`` exists and does not start as an angle table (``time,`` ...
-        ``_flexion_deg``) or a calibration file does.
+        ``_flexion_deg``) or a calibration file does, or is the calibration file of
+        another recording than ``file``.
     """
     path = Path(path)
     first, mark = _OWN_OUTPUTS.get(path.suffix, (b"", b""))
@@ -263,6 +268,25 @@ def check_replaceable(path: Path, option: str) -> None:
         what = "angle table" if path.suffix == ".csv" else "calibration file"
         raise InputError(f"{path}: a file is there that is no {what} of imucal (a "
                          f"recording?); {option} would overwrite it: give another folder")
+    if file is not None and path.suffix == ".json":
+        _check_same_trial(path, option, file)
+
+
+def _check_same_trial(path: Path, option: str, file: str) -> None:
+    """Refuse replacing the calibration file ``path`` of another recording than ``file``."""
+    import json
+    import os
+
+    try:
+        made_from = json.loads(path.read_text(encoding="utf-8"))["input"]["path"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return  # (damaged: nothing to keep)
+    if not isinstance(made_from, str) or made_from == file or \
+            os.path.realpath(made_from) == os.path.realpath(file):
+        return
+    raise InputError(f"{path}: holds the calibration of {made_from}; {option} would replace "
+                     f"it with {file}'s (names follow the recordings of one run: calibrate "
+                     "the subjects in one run, or give each run its own folder)")
 
 
 def _output_name(job: Job, file: str) -> str:
@@ -601,30 +625,6 @@ def error_of(err: BaseException, file: str) -> tuple[int, str]:
         return INTERNAL_ERROR, f"{file}: out of memory"
     return INTERNAL_ERROR, one_line(f"{file}: internal error: {type(err).__name__}: {err} "
                                     "(rerun this file alone with --debug and report it)")
-
-
-def standing_file(standing: str, file: str) -> str:
-    """The standing trial of the calibration trial ``file``: ``standing`` with
-    ``{folder}`` replaced by ``file``'s folder (``.`` for none): a study of
-    ``s*/calibration.h5`` with ``--standing '{folder}/static.h5'`` takes each subject's
-    own.
-
-    Returns
-    -------
-    str
-        The standing trial's path.
-
-    Examples
-    --------
-    >>> from imucal.runner import standing_file
-    >>> standing_file("{folder}/static.h5", "s01/calibration.h5")
-    's01/static.h5'
-    >>> standing_file("{folder}/static.h5", "cal.h5"), standing_file("st.h5", "s01/cal.h5")
-    ('./static.h5', 'st.h5')
-    """
-    import os
-
-    return standing.replace("{folder}", os.path.dirname(file.rstrip("/")) or ".")
 
 
 def load(job: Job, file: str):

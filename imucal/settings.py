@@ -230,8 +230,9 @@ class CalibrateSettings:
         stored in the calibration for :func:`imucal.joint_angles`.
     standing : str or None
         A standing trial's file (same mounting): every hinge's zero is its most extended
-        still period (:func:`imucal.calibration.zero_from_standing`); None: the
-        calibration trial's.
+        still period (:func:`imucal.calibration.zero_from_standing`); ``{folder}`` in it
+        stands for the calibration trial's folder
+        (:func:`imucal.calibration.standing_file`); None: the calibration trial's.
     calibrations : str or None
         A folder: a study writes each recording's calibration file there as
         ``<name>.json`` (:func:`imucal.runner.output_names`) and names it in its line

@@ -248,6 +248,9 @@ def _checked_folder(job: Job, files: list[str], out: Path | None) -> Job:
                              "folder (--tables DIR, AnglesSettings(tables=...))")
         return job
     what = "tables" if angles else "calibrations"
+    if "-" in files:
+        raise InputError(f"{option}: each file is named after its recording's, and - "
+                         "(standard input) has none: write its output with --out")
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise InputError(f"{folder}: the {what} folder is a file")
@@ -258,8 +261,8 @@ def _checked_folder(job: Job, files: list[str], out: Path | None) -> Job:
         for _, table in outputs:
             check_table(table, inputs, s.calibration)
         inputs = inputs + [s.calibration]
-    for _, path in outputs:
-        check_replaceable(path, option)
+    for file, name in names.items():
+        check_replaceable(folder / f"{name}{suffix}", option, file)
     check_not_inputs(outputs + [("--out", out)], inputs)
     made = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
     if not made.is_dir():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -570,23 +571,97 @@ def test_a_standing_trial_that_cannot_give_the_zero_is_refused(knee_only, which,
     assert phrase in str(err.value)
 
 
-def test_a_standing_trial_of_two_postures_is_refused_where_the_direction_is_open():
-    # which still period is the straighter depends on the flexion direction; a
-    # calibration trial that did not decide it cannot say which (a sitting knee's zero)
-    from types import SimpleNamespace
+def _stand(monkeypatch, knee_deg, then=None, hip_deg=0.0):
+    """A static trial of the sample's mounting (7) with the knee flexed ``knee_deg``; with
+    ``then`` = (t, knee_deg, hip_deg) it moves to that posture at t s (a second stand)."""
+    import imucal.simulate as sim
 
-    from imucal.calibration import JointCalibration, _check_one_posture
+    draw = sim._draw_motion
+    deg = np.pi / 180
 
-    knee = JointCalibration("knee", "hinge", ("thigh", "shank"), "good",
-                            angle={"sign_evidence": 0.05})
-    measured = {s: SimpleNamespace(joints={"knee": SimpleNamespace(zero={"time_s": t})})
-                for s, t in ((1, 2.0), (-1, 9.0))}
-    stand = SimpleNamespace(source="stand.h5")
-    with pytest.raises(InputError, match="stand.h5 .*still periods at 9 s and 2 s hold "
-                       "different postures"):
-        _check_one_posture(stand, [knee], measured)
-    knee.angle["sign_evidence"] = 0.4  # decided: the calibration's direction picks one
-    _check_one_posture(stand, [knee], measured)
+    def posture(rng, motion):
+        m = draw(rng, motion)
+        knee, hip = sim._Sines(knee_deg * deg), sim._Sines(hip_deg * deg)
+        if then is not None:
+            step = sim._Step(then[0], 0.1)
+            knee = sim._Blend(step, knee, sim._Sines(then[1] * deg))
+            hip = sim._Blend(step, hip, sim._Sines(then[2] * deg))
+        return replace(m, knee_flexion=knee, hip_flexion=hip)
+
+    monkeypatch.setattr(sim, "_draw_motion", posture)
+    rec, truth = simulate(seed=9, mounting_seed=7, duration=10.0, motion="static")
+    monkeypatch.setattr(sim, "_draw_motion", draw)
+    return rec, truth
+
+
+@pytest.fixture(scope="module")
+def protocol_knee():
+    """A protocol trial of the sample's mounting: it decides the flexion direction."""
+    import imucal
+
+    rec, _ = simulate(seed=11, mounting_seed=7, duration=30.0, motion="protocol")
+    cal = imucal.calibrate(rec, joints=["knee=hinge:thigh,shank"], restarts=20, seed=1)
+    assert abs(cal.joints["knee"].angle["sign_evidence"]) >= 0.15
+    return cal
+
+
+def test_two_stands_of_one_posture_give_the_zero_and_two_postures_are_refused(
+        knee_only, monkeypatch):
+    # a weight shift between two stands (hip 15 deg, knee 1 deg) won by noise under one
+    # direction or the other: their start times refused the trial where the circling
+    # calibration left the direction open (a review)
+    from imucal.calibration import zero_from_standing
+
+    cal, walk, truth = knee_only
+    stand, _ = _stand(monkeypatch, 5.0, then=(5.0, 6.0, 15.0))
+    zeroed = zero_from_standing(cal, stand)
+    import imucal
+
+    angles = imucal.joint_angles(walk, zeroed).to_frame()["knee_flexion_deg"].to_numpy()
+    assert np.mean(angles - truth) == pytest.approx(-5.5, abs=0.7)
+    # sitting after standing: which is the straighter depends on the direction
+    sit, _ = _stand(monkeypatch, 5.0, then=(5.0, 90.0, 80.0))
+    with pytest.raises(InputError, match=r"knee: its still periods at .* differ by 85 deg "
+                       r"\(more than 5\), and which is the straighter depends on the "
+                       "flexion direction"):
+        zero_from_standing(cal, sit)
+
+
+@pytest.mark.parametrize(("knee_deg", "refused"), [(0.0, False), (12.0, False),
+                                                   (30.0, True), (90.0, True)])
+def test_a_stand_more_flexed_than_the_calibration_ever_straightened_is_refused(
+        protocol_knee, monkeypatch, knee_deg, refused):
+    # a sitting trial given as the stand was taken, and every walk then failed its fit
+    # check blaming clocks or straps (a review); the protocol's most extended posture is
+    # about 6 deg of flexion
+    from imucal.calibration import zero_from_standing
+
+    stand, _ = _stand(monkeypatch, knee_deg, hip_deg=80.0 if knee_deg == 90 else 0.0)
+    if not refused:
+        assert zero_from_standing(protocol_knee, stand).joints["knee"].angle["zero_trial"]
+        return
+    with pytest.raises(InputError, match=r"knee: its knee stands \d+ deg more flexed than "
+                       "the calibration trial's most extended posture"):
+        zero_from_standing(protocol_knee, stand)
+
+
+def test_a_standing_zero_keeps_the_angles_checks_under_the_other_direction(knee_only,
+                                                                          monkeypatch):
+    # the circling calibration guessed the direction and the walk decides the other: a
+    # sitting "stand" read the walk -86 to -24 deg, "fits", no warning (a review)
+    import imucal
+    from imucal.calibration import zero_from_standing
+
+    cal, walk, _ = knee_only
+    sit, _ = _stand(monkeypatch, 90.0, hip_deg=80.0)
+    angles = imucal.joint_angles(walk, zero_from_standing(cal, sit))
+    assert angles.joints["knee"].sign_source != "calibration"
+    assert angles.problems() == ["joint 'knee': the calibration does not fit"]
+    flexed, _ = _stand(monkeypatch, 30.0, hip_deg=10.0)
+    angles = imucal.joint_angles(walk, zero_from_standing(cal, flexed))
+    assert angles.problems() == []
+    assert any("more than 15 deg beyond the calibration's straight knee" in w
+               for w in angles.joints["knee"].warnings)
 
 
 def test_a_standing_trial_leaves_knees_the_calibration_could_not_identify(real_recording):

@@ -697,6 +697,20 @@ def test_calibrate_takes_the_knees_zero_from_a_standing_trial(tmp_path, monkeypa
     truth = json.loads((SAMPLE / "walking.truth.json").read_text())["knee_flexion_deg"]
     # read from the standing posture (12.67 deg flexed in this static trial)
     assert np.mean(table["knee_flexion_deg"] - truth) == pytest.approx(-12.67, abs=0.15)
+    # from Python, {folder} as on the command line (it read a file named '{folder}', a
+    # review)
+    import imucal
+    from imucal.settings import CalibrateSettings
+
+    cal = imucal.calibrate(imucal.load_recording("s1/cal.h5"), settings=CalibrateSettings(
+        joints=("knee=hinge:thigh,shank",), restarts=5, seed=1,
+        standing="{folder}/static.h5"))
+    assert cal.joints["knee"].angle == one["result"]["joints"]["knee"]["angle"]
+    # standard input has no name for a calibration file (it wrote '-.json', a review)
+    run = run_imucal("calibrate", "-", *knee, "--calibrations", "c",
+                     stdin=(tmp_path / "s1" / "cal.h5").read_bytes(), text=True)
+    assert run.returncode == 2 and "--calibrations: each file is named after its " \
+        "recording's, and - (standard input) has none" in run.stderr
 
 
 def test_a_study_replaces_its_own_outputs_but_no_other_file(cal_file, tmp_path,
@@ -726,3 +740,40 @@ def test_a_study_replaces_its_own_outputs_but_no_other_file(cal_file, tmp_path,
     assert run.returncode == 2 and "c/cal.json: a file is there that is no calibration " \
         "file of imucal" in run.stderr
     assert Path("c/cal.json").read_text() == '{"format": "imucal-axis"}'
+
+
+def test_a_calibrate_study_keeps_another_recordings_calibration_file(tmp_path,
+                                                                     monkeypatch):
+    # one subject per run into one folder: each s*/cal.h5 is cal/cal.json, and subject
+    # 2's silently replaced subject 1's (a review); a standing trial's loading warnings
+    # reach the run, and --standing - serves one REC read from a file
+    for subject in ("s1", "s2"):
+        (tmp_path / subject).mkdir()
+        (tmp_path / subject / "cal.h5").write_bytes((SAMPLE / "circling.h5").read_bytes())
+    monkeypatch.chdir(tmp_path)
+    knee = ("--joint", "knee=hinge:thigh,shank", "--restarts", "5", "--seed", "1", "-q")
+    assert cli("calibrate", "s1/cal.h5", *knee, "--calibrations", "cal").returncode == 0
+    assert cli("calibrate", "./s1/cal.h5", *knee, "--calibrations", "cal").returncode == 0
+    run = cli("calibrate", "s2/cal.h5", *knee, "--calibrations", "cal")
+    assert run.returncode == 2 and run.stdout == ""
+    assert "cal/cal.json: holds the calibration of ./s1/cal.h5; --calibrations would " \
+        "replace it with s2/cal.h5's" in run.stderr
+    assert json.loads(Path("cal/cal.json").read_text())["input"]["path"] == "./s1/cal.h5"
+    for recs in (("s1/cal.h5", "s2/cal.h5"), ("-",)):
+        run = cli("calibrate", *recs, *knee, "--standing", "-")
+        assert run.returncode == 2 and "'--standing': - (standard input) is one standing " \
+            "trial for one REC read from a file" in run.stderr
+    # a standing trial with a 3-sample gap in the shank's gyroscope
+    import h5py
+
+    save_recording(simulate(seed=9, mounting_seed=7, duration=5.0, motion="static")[0],
+                   "stand.h5")
+    with h5py.File("stand.h5", "r+") as h5:
+        gyr = h5["shank"]["gyr"][...]
+        gyr[100:103] = np.nan
+        h5["shank"]["gyr"][...] = gyr
+    run = cli("calibrate", "s1/cal.h5", *knee[:-1], "--standing", "stand.h5", "--out",
+              "z.json")
+    assert run.returncode == 0, run.stderr
+    assert "imucal: warning: stand.h5 (the standing trial): sensor 'shank' gyr: 3 " \
+        "non-finite sample(s)" in run.stderr
