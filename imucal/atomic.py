@@ -198,7 +198,8 @@ def write_atomic(path: str | Path, write: Callable[[Path], None]) -> None:
     """Call ``write(tmp)`` to create a temporary file beside ``path``, then rename it.
 
     The temporary file keeps the target's suffix (libraries pick formats by it) and gets
-    the usual umask-based permissions rather than tempfile's 0600. A target that is not a
+    the permissions of the file it replaces, else the usual umask-based ones rather than
+    tempfile's 0600. A target that is not a
     regular file is written through (:func:`_write_through`).
 
     Raises
@@ -256,9 +257,7 @@ def staged(path: str | Path, write: Callable[[Path], None]):
             os.close(fd)
         try:
             write(tmp)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o666 & ~umask)
+            os.chmod(tmp, _mode_of(target))
         except OSError as err:
             raise InputError(f"{path}: cannot write file ({err.strerror or err})") from None
         yield
@@ -269,6 +268,18 @@ def staged(path: str | Path, write: Callable[[Path], None]):
     finally:
         if tmp is not None:
             tmp.unlink(missing_ok=True)
+
+
+def _mode_of(target: Path) -> int:
+    """The permissions an output gets: those of the file it replaces (a result set to
+    0600 by hand came back 0644, readable by all: a new-user trial), else a new file's
+    under the umask."""
+    try:
+        return stat.S_IMODE(os.stat(target).st_mode)
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
 
 
 def _suffix(path: Path) -> str:

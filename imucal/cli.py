@@ -159,7 +159,8 @@ AccUnits = Annotated[str | None, typer.Option(
 Quiet = Annotated[bool, typer.Option(
     "--quiet", "-q", help="No progress, summary or estimate warnings on stderr (the JSON "
     "carries those); warnings about reading the file, and angles' warnings (a table cannot "
-    "carry them), still print, as errors do.")]
+    "carry them), still print, as errors do, but in a study, whose JSON lines carry them "
+    "too.")]
 # (simulate and convert estimate nothing and write no JSON: Quiet's text was not theirs)
 SimulateQuiet = Annotated[bool, typer.Option(
     "--quiet", "-q", help="No summary line on stderr; errors still print.")]

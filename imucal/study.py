@@ -181,7 +181,9 @@ def run_study(job: Job, files: Sequence[str], *, out: Path | None = None,
         # are cancelled while the client is still open
         with closing(entries):
             for result in entries:
-                for message in result.messages:  # -q or not, as the single-file command
+                # the lines carry the warnings: -q leaves them there (150 recordings of a
+                # study printed one calibration's warning 150 times: a new-user trial)
+                for message in () if quiet else result.messages:
                     progress.message(message)
                 if result.error is not None:
                     progress.message(f"imucal: error: {result.error}")

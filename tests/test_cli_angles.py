@@ -777,3 +777,31 @@ def test_a_calibrate_study_keeps_another_recordings_calibration_file(tmp_path,
     assert run.returncode == 0, run.stderr
     assert "imucal: warning: stand.h5 (the standing trial): sensor 'shank' gyr: 3 " \
         "non-finite sample(s)" in run.stderr
+
+
+def test_a_quiet_study_leaves_the_warnings_to_its_lines(cal_file, tmp_path):
+    # 150 recordings of a study printed one calibration's warning 150 times with -q,
+    # though each line carries it (a new-user trial)
+    path, _ = cal_file
+    loud = cli("angles", SAMPLE / "walking.h5", "-c", path, "--tables", tmp_path / "a")
+    quiet = cli("angles", SAMPLE / "walking.h5", "-c", path, "--tables", tmp_path / "b",
+                "-q")
+    assert loud.returncode == quiet.returncode == 0
+    warnings = json.loads(quiet.stdout)["warnings"]
+    assert warnings and warnings == json.loads(loud.stdout)["warnings"]
+    assert quiet.stderr == ""
+    assert all(f"imucal: warning: {w}" in loud.stderr for w in warnings)
+
+
+def test_an_output_keeps_the_permissions_of_the_file_it_replaces(tmp_path):
+    # a result set to 0600 by hand came back 0644, readable by all (a new-user trial)
+    import os
+    import stat
+
+    out = tmp_path / "cal.json"
+    out.write_text("{}")
+    out.chmod(0o600)
+    run = cli("calibrate", SAMPLE / "circling.h5", "--joint", "knee=hinge:thigh,shank",
+              "--restarts", "5", "--seed", "1", "-q", "--out", out)
+    assert run.returncode == 0 and json.loads(out.read_text())["command"] == "calibrate"
+    assert stat.S_IMODE(os.stat(out).st_mode) == 0o600
