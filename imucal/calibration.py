@@ -694,12 +694,16 @@ def _estimate_joint(jc: JointCalibration, around, spec: JointSpec, info: dict, c
     """The hinge axis (a hinge) and the joint centre into ``jc``: their reports (the
     calibration file's ``axis`` and ``position``) and vectors."""
     from . import estimate_axis, estimate_position
+    from .axis import DOUBTED_SIGN, refuse_doubted_sign
     from .report import axis_report, position_report
 
     s1, s2 = around.sensors[spec.first], around.sensors[spec.second]
     axis = None
     if spec.kind == "hinge":
         axis = estimate_axis(s1.gyr, s2.gyr, acc1=s1.acc, acc2=s2.acc, **common, **signs)
+        # (asked again below, once the knee centre has confirmed or replaced the offset:
+        # the centre then has no "axis: " copy of it)
+        axis.blocking[:] = [b for b in axis.blocking if not b.startswith(DOUBTED_SIGN)]
         jc.axis = axis_report(axis, input_info=info)
         jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
     pos = estimate_position(s1.gyr, s1.acc, s2.gyr, s2.acc, joint=spec.kind, axis=axis,
@@ -709,6 +713,7 @@ def _estimate_joint(jc: JointCalibration, around, spec: JointSpec, info: dict, c
             axis, pos = _one_clock(axis, pos, s1, s2, common, acc_error, signs)
         else:
             _one_check(axis, pos, s1, s2, common)
+        axis = refuse_doubted_sign(axis)
         jc.axis = axis_report(axis, input_info=info)
         jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
     jc.position = position_report(pos, input_info=info)
