@@ -1220,8 +1220,8 @@ def _choose_zero(jc, raw: np.ndarray, sign: int, reference, rec,
         f"{jc.name}: 0 deg is the calibration trial's most extended posture (it has no still "
         "period), not a straight knee: every angle is low by the knee's flexion there (5-7 "
         "deg in simulated walking protocols), which the 1-sigma does not include; for "
-        "absolute angles (peak flexion) give a reference ('standing' or a time) or calibrate "
-        "with a moment of still standing"]
+        "absolute angles (peak flexion) give a reference ('standing' or a time), or calibrate "
+        "with a moment of still standing or with a standing trial (--standing)"]
     if sign == int(ref["flexion_sign"]) or abs(ref["sign_evidence"]) >= SIGN_EVIDENCE_MIN \
             or ref.get("zero_trial"):
         # (a sign pinned against a clear calibration just negates it; a standing trial's
