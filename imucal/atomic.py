@@ -275,7 +275,7 @@ def _mode_of(target: Path) -> int:
     0600 by hand came back 0644, readable by all: a new-user trial), else a new file's
     under the umask."""
     try:
-        return stat.S_IMODE(os.stat(target).st_mode)
+        return stat.S_IMODE(os.stat(target).st_mode) & 0o777  # (not set-id bits)
     except OSError:
         umask = os.umask(0)
         os.umask(umask)

@@ -955,7 +955,8 @@ def _uninformative(uncertainty: dict) -> list[str]:
 DOUBTED_SIGN = "the relative sign of j1 and j2 is barely decided"
 
 
-def refuse_doubted_sign(result: AxisResult) -> AxisResult:
+def refuse_doubted_sign(result: AxisResult, advice: str = ", or use imucal calibrate (the "
+                        "knee centre checks the offset)") -> AxisResult:
     """``result`` refused (or, re-asked, no longer) where its relative sign is barely
     decided (``sign_evidence`` below :data:`SIGN_DECIDED_EVIDENCE`, not pinned) and its
     clock offset is in doubt too: applied from the rates alone where a smooth residual can
@@ -964,7 +965,8 @@ def refuse_doubted_sign(result: AxisResult) -> AxisResult:
     honesty audit: 171-177 deg off at a 1-sigma of 5-13 deg, "use with care"; a spurious
     +69 to +115 ms applied in three); no result of evidence 2.5 or more had the wrong
     sign. ``calibrate`` asks again once the knee centre has confirmed or replaced the
-    offset.
+    offset (``advice`` then names no calibrate). Only with ``time_offset="auto"``: a
+    given offset is no doubted one.
 
     Returns
     -------
@@ -974,7 +976,8 @@ def refuse_doubted_sign(result: AxisResult) -> AxisResult:
     result.blocking[:] = [b for b in result.blocking if not b.startswith(DOUBTED_SIGN)]
     offset = result.time_offset if isinstance(result.time_offset, dict) else {}
     doubted = any(w.startswith(DOUBT_WARNING) for w in result.warnings)
-    if (result.blocking or result.settings.get("j2_sign", "auto") != "auto"
+    if (result.blocking or offset.get("mode") != "auto"
+            or result.settings.get("j2_sign", "auto") != "auto"
             or not result.sign_evidence < SIGN_DECIDED_EVIDENCE
             or not (doubted or offset.get("at_edge"))):
         return result
@@ -984,9 +987,9 @@ def refuse_doubted_sign(result: AxisResult) -> AxisResult:
     result.blocking.append(
         f"{DOUBTED_SIGN} (evidence {result.sign_evidence:.2f}, below "
         f"{SIGN_DECIDED_EVIDENCE:g}) and the clock offset is in doubt, {why}: together they "
-        "turned j2 over (170-177 deg off at a 1-sigma of 5-13 deg) in 4 of 14 simulated "
-        "walks with soft tissue; pin the relative sign (--j2-sign), give the clock offset "
-        "(--time-offset), or use imucal calibrate (the knee centre checks the offset)")
+        "turned j2 over (171-177 deg off at a 1-sigma of 5-13 deg) in 4 of 14 simulated "
+        "walks with soft tissue; pin the relative sign (--j2-sign) or give the clock offset "
+        f"(--time-offset){advice}")
     return result
 
 

@@ -713,7 +713,7 @@ def _estimate_joint(jc: JointCalibration, around, spec: JointSpec, info: dict, c
             axis, pos = _one_clock(axis, pos, s1, s2, common, acc_error, signs)
         else:
             _one_check(axis, pos, s1, s2, common)
-        axis = refuse_doubted_sign(axis)
+        axis = refuse_doubted_sign(axis, advice="")
         jc.axis = axis_report(axis, input_info=info)
         jc.j1, jc.j2 = np.asarray(axis.j1, float), np.asarray(axis.j2, float)
     jc.position = position_report(pos, input_info=info)

@@ -22,6 +22,9 @@ Example::
 
 from __future__ import annotations
 
+import os
+import re
+import stat
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -230,9 +233,9 @@ def check_table(table: Path, recordings, calibration: str, option: str = "--tabl
 
 
 #: What the start of an output a study replaces holds: an angle table's header, a
-#: calibration file's format.
-_OWN_OUTPUTS = {".csv": (b"time,", b"_flexion_deg"),
-                ".json": (b"{", b'"format": "imucal-calibration"')}
+#: calibration file's format (indented or compact: jq -c).
+_OWN_OUTPUTS = {".csv": (b"time,", re.compile(rb"_flexion_deg")),
+                ".json": (b"{", re.compile(rb'"format"\s*:\s*"imucal-calibration"'))}
 
 
 def check_replaceable(path: Path, option: str, file: str | None = None) -> None:
@@ -256,15 +259,18 @@ def check_replaceable(path: Path, option: str, file: str | None = None) -> None:
         another recording than ``file``.
     """
     path = Path(path)
-    first, mark = _OWN_OUTPUTS.get(path.suffix, (b"", b""))
+    first, mark = _OWN_OUTPUTS.get(path.suffix, (b"", re.compile(b"")))
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode) and not path.is_dir():
+            return  # a device or pipe is written through (/dev/null), as --out
         with open(path, "rb") as fh:
             start = fh.read(4096)
     except FileNotFoundError:
         return
     except OSError:  # a folder, unreadable: refused as not ours
         start = b""
-    if not (start.lstrip().startswith(first) and mark in start):
+    start = start.removeprefix(b"\xef\xbb\xbf").lstrip()  # (a BOM: a Notepad edit)
+    if not (start.startswith(first) and mark.search(start)):
         what = "angle table" if path.suffix == ".csv" else "calibration file"
         raise InputError(f"{path}: a file is there that is no {what} of imucal (a "
                          f"recording?); {option} would overwrite it: give another folder")
@@ -273,16 +279,22 @@ def check_replaceable(path: Path, option: str, file: str | None = None) -> None:
 
 
 def _check_same_trial(path: Path, option: str, file: str) -> None:
-    """Refuse replacing the calibration file ``path`` of another recording than ``file``."""
+    """Refuse replacing the calibration file ``path`` of another recording than ``file``:
+    the recording it names (as given, from wherever that run was) is ``file`` where the
+    one path ends as the other (a study run again from another folder was refused, a
+    review)."""
     import json
-    import os
 
     try:
-        made_from = json.loads(path.read_text(encoding="utf-8"))["input"]["path"]
+        made_from = json.loads(path.read_text(encoding="utf-8-sig"))["input"]["path"]
     except (OSError, ValueError, KeyError, TypeError):
         return  # (damaged: nothing to keep)
-    if not isinstance(made_from, str) or made_from == file or \
-            os.path.realpath(made_from) == os.path.realpath(file):
+    if not isinstance(made_from, str):
+        return
+    old = Path(os.path.normpath(os.path.abspath(made_from))).parts
+    new = Path(os.path.normpath(os.path.abspath(file))).parts
+    tail = min(len(Path(os.path.normpath(p)).parts) for p in (made_from, file))
+    if old[-tail:] == new[-tail:] or os.path.realpath(made_from) == os.path.realpath(file):
         return
     raise InputError(f"{path}: holds the calibration of {made_from}; {option} would replace "
                      f"it with {file}'s (names follow the recordings of one run: calibrate "

@@ -761,6 +761,7 @@ class _Progress:
     def __init__(self, total: int, label: str, *, enabled: bool, stream=None):
         self.total, self.label, self.enabled = total, label, enabled
         self.stream = stream if stream is not None else sys.stderr
+        self.says = stream is None  # (say drops what an unwritable stderr cannot take)
         self.started = time.perf_counter()
         self.state = (0, 0)
         self.shown = False
@@ -772,7 +773,10 @@ class _Progress:
     def message(self, text: str) -> None:
         """Print a line above the bar (the bar is redrawn below it)."""
         self._clear()
-        print(as_line(text), file=self.stream, flush=True)
+        if self.says:
+            say(text)
+        else:
+            print(as_line(text), file=self.stream, flush=True)
         self._draw()
 
     def close(self) -> None:

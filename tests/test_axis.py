@@ -219,9 +219,17 @@ def test_a_barely_decided_sign_with_a_doubted_clock_offset_is_refused():
     assert result.sign_evidence < 2.5 and result.time_offset["applied"]
     assert result.blocking and result.blocking[0].startswith(
         "the relative sign of j1 and j2 is barely decided (evidence 1.37")
+    assert result.blocking[0].endswith("or use imucal calibrate (the knee centre checks "
+                                       "the offset)")
     pinned = imucal.estimate_axis(thigh.gyr, shank.gyr, acc1=thigh.acc, acc2=shank.acc,
                                   rate=rec.rate, seed=1, j2_sign="-x")
     assert not pinned.blocking
+    # a given offset is no doubted one (calibrate --time-offset 0 was told to give one, a
+    # review)
+    from imucal.axis import refuse_doubted_sign
+
+    result.time_offset["mode"] = "given"
+    assert not refuse_doubted_sign(result).blocking
     knee = imucal.calibrate(rec, joints=["knee=hinge:thigh,shank"], seed=1).joints["knee"]
     assert knee.verdict == "use with care"
     assert max(axis_error_deg(knee.j1, knee.j2, truth["knee"]["j1"], truth["knee"]["j2"])) < 6.0

@@ -759,6 +759,14 @@ def test_a_calibrate_study_keeps_another_recordings_calibration_file(tmp_path,
     assert "cal/cal.json: holds the calibration of ./s1/cal.h5; --calibrations would " \
         "replace it with s2/cal.h5's" in run.stderr
     assert json.loads(Path("cal/cal.json").read_text())["input"]["path"] == "./s1/cal.h5"
+    # the same recording from another folder is the same (refused as "holds the
+    # calibration of s1/cal.h5", a review), and so is a file with a BOM or compact JSON
+    monkeypatch.chdir(tmp_path / "s1")
+    assert cli("calibrate", "cal.h5", *knee, "--calibrations", "../cal").returncode == 0
+    monkeypatch.chdir(tmp_path)
+    doc = json.loads(Path("cal/cal.json").read_text())
+    Path("cal/cal.json").write_bytes(b"\xef\xbb\xbf" + json.dumps(doc).encode())
+    assert cli("calibrate", "s1/cal.h5", *knee, "--calibrations", "cal").returncode == 0
     for recs in (("s1/cal.h5", "s2/cal.h5"), ("-",)):
         run = cli("calibrate", *recs, *knee, "--standing", "-")
         assert run.returncode == 2 and "'--standing': - (standard input) is one standing " \

@@ -370,6 +370,21 @@ def test_a_full_standard_error_keeps_the_result_and_the_status(args, documents, 
     assert [d["command"] for d in docs] == ["axis"] * documents
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
+def test_a_study_with_a_full_standard_error_keeps_its_lines(tmp_path):
+    # the study's messages (an angles warning, an error line) bypassed errors.say: no
+    # line and exit 2 with 2>/dev/full, also with -q (a review)
+    cal = tmp_path / "cal.json"
+    assert run_imucal("calibrate", SAMPLE, "--joint", "knee=hinge:thigh,shank", "--seed", 1,
+                      "--restarts", 5, "--out", cal, "-q").returncode == 0
+    walk = SAMPLE.with_name("walking.h5")
+    with open("/dev/full", "w") as full:
+        run = _process("angles", walk, tmp_path / "none.h5", "-c", cal, "--tables",
+                       tmp_path / "t", stderr=full)
+    lines = [json.loads(line) for line in run.stdout.splitlines()]
+    assert run.returncode == 2 and [o["exit_code"] for o in lines] == [0, 2]
+
+
 def test_every_line_break_python_knows_is_escaped_in_a_message():
     # only \n and \r were: a name with \v, \x1c or \u2028 still split str.splitlines()
     from imucal.errors import as_line
