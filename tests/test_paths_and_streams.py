@@ -74,14 +74,21 @@ def test_a_pipe_as_rec_is_read_once_and_whole(tmp_path, kind):
     assert json.loads(piped.stdout)["j1"] == json.loads(direct.stdout)["j1"]
 
 
+@pytest.fixture(scope="module")
+def knee_calibration(tmp_path_factory):
+    """The sample circling trial's knee calibration file."""
+    cal = tmp_path_factory.mktemp("knee") / "cal.json"
+    assert run_imucal("calibrate", SAMPLE, "--joint", "knee=hinge:thigh,shank", "--seed", 1,
+                      "--restarts", 5, "--out", cal, "-q").returncode == 0
+    return cal
+
+
 @pytest.mark.skipif(not Path("/dev/fd").exists(), reason="needs /dev/fd (Linux, macOS)")
-def test_a_calibration_given_as_a_pipe_is_read_once(tmp_path):
+def test_a_calibration_given_as_a_pipe_is_read_once(knee_calibration, tmp_path):
     # `angles -c <(...)` read the calibration twice (the command's check, then the run;
     # a study: the check, then each recording): "not a calibration file (it is empty)"
     # for the only recording, and for every one of a study (a new-user trial)
-    cal = tmp_path / "cal.json"
-    assert run_imucal("calibrate", SAMPLE, "--joint", "knee=hinge:thigh,shank", "--seed", 1,
-                      "--restarts", 5, "--out", cal, "-q").returncode == 0
+    cal = knee_calibration
     walk = SAMPLE.with_name("walking.h5")
     direct = run_imucal("angles", walk, "-c", cal, "-q")
     assert direct.returncode == 0, direct.stderr
@@ -371,12 +378,10 @@ def test_a_full_standard_error_keeps_the_result_and_the_status(args, documents, 
 
 
 @pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
-def test_a_study_with_a_full_standard_error_keeps_its_lines(tmp_path):
+def test_a_study_with_a_full_standard_error_keeps_its_lines(knee_calibration, tmp_path):
     # the study's messages (an angles warning, an error line) bypassed errors.say: no
     # line and exit 2 with 2>/dev/full, also with -q (a review)
-    cal = tmp_path / "cal.json"
-    assert run_imucal("calibrate", SAMPLE, "--joint", "knee=hinge:thigh,shank", "--seed", 1,
-                      "--restarts", 5, "--out", cal, "-q").returncode == 0
+    cal = knee_calibration
     walk = SAMPLE.with_name("walking.h5")
     with open("/dev/full", "w") as full:
         run = _process("angles", walk, tmp_path / "none.h5", "-c", cal, "--tables",
