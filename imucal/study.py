@@ -263,6 +263,11 @@ def _checked_folder(job: Job, files: list[str], out: Path | None) -> Job:
         for _, table in outputs:
             check_table(table, inputs, s.calibration)
         inputs = inputs + [s.calibration]
+    for _, path in outputs:  # (a name's own folders: found after fitting, a review)
+        near = next(p for p in (path.parent, *path.parent.parents) if p.exists() or
+                    p == Path("."))
+        if not near.is_dir():
+            raise InputError(f"{path}: {option} cannot make its folder: {near} is a file")
     for file, name in names.items():
         check_replaceable(folder / f"{name}{suffix}", option, file)
     check_not_inputs(outputs + [("--out", out)], inputs)

@@ -525,6 +525,13 @@ def test_a_calibrate_study_writes_each_recordings_calibration_file(tmp_path, mon
     run = cli("calibrate", "s1/cal.h5", *knee, "--calibrations", "one")
     assert run.returncode == 0 and Path("one/cal.json").exists()
     assert json.loads(run.stdout)["result"]["calibration_file"] == "one/cal.json"
+    # a name's folder that is a file: found before anything runs (after fitting, a review)
+    Path("two").mkdir()
+    Path("two/s1").write_text("")
+    run = cli("calibrate", "s1/cal.h5", "s2/cal.h5", *knee, "--calibrations", "two")
+    assert run.returncode == 2 and run.stdout == ""
+    assert "two/s1/cal.json: --calibrations cannot make its folder: two/s1 is a file" in \
+        run.stderr
 
 
 def test_angles_study_writes_its_lines_beside_its_tables(cal_file, tmp_path):
