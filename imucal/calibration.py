@@ -580,7 +580,10 @@ def zero_from_standing(cal: Calibration, standing) -> Calibration:
     from .rest import STILL_MIN_S
 
     if not isinstance(standing, Recording):
-        standing = load_recording(standing)
+        try:
+            standing = load_recording(standing)
+        except InputError as err:
+            raise InputError(f"{err} (the standing trial)") from None
     check_recording(standing)
     hinges = [j for j in cal.joints.values() if j.angle is not None]
     if not hinges:
@@ -630,11 +633,19 @@ STAND_SPREAD_DEG = 5.0
 #: check blaming clocks or straps (a review).
 STAND_FLEXED_DEG = 15.0
 
+#: How much more extended, deg, than the calibration trial's most extended posture a
+#: standing trial's knee may be there: another subject's static trial was taken (10 of
+#: 11 such pairings accepted read -23 to -126 deg; the right stands -1.9 to +7.5 deg, a
+#: gait-lab trial), and its walks read up to 121 deg too flexed, "fits". Wider than the
+#: flexed side: a calibration trial may never quite straighten the knee.
+STAND_EXTENDED_DEG = 20.0
+
 
 def _check_posture(standing, hinges, measured) -> None:
     """Refuse a standing trial that is no stand: where the calibration trial decided the
     flexion direction, a knee more flexed than that trial's most extended posture by more
-    than :data:`STAND_FLEXED_DEG`; where it did not, still periods whose postures differ by
+    than :data:`STAND_FLEXED_DEG`, or more extended by more than
+    :data:`STAND_EXTENDED_DEG`; where it did not, still periods whose postures differ by
     more than :data:`STAND_SPREAD_DEG`, since which is the straighter then depends on the
     direction each recording decides."""
     from .angles import SIGN_EVIDENCE_MIN
@@ -654,6 +665,12 @@ def _check_posture(standing, hinges, measured) -> None:
                     f"{where}{jc.name}: its knee stands {flexed:.0f} deg more flexed than "
                     "the calibration trial's most extended posture (more than "
                     f"{STAND_FLEXED_DEG:g}): no straight stand (sitting? another "
+                    "subject's trial?)")
+            if flexed < -STAND_EXTENDED_DEG:
+                raise InputError(
+                    f"{where}{jc.name}: its knee stands {-flexed:.0f} deg more extended "
+                    "than the calibration trial's most extended posture (more than "
+                    f"{STAND_EXTENDED_DEG:g}): no knee of this mounting bends so (another "
                     "subject's trial?)")
         elif abs(turn(plus["raw_deg"], minus["raw_deg"])) > STAND_SPREAD_DEG:
             raise InputError(

@@ -406,9 +406,10 @@ def calibrate(
         "is (--rate, units, --map); {folder} stands for each REC's folder (a study of "
         "s*/cal.h5 with --standing '{folder}/static.h5': each subject's own). Refused "
         "(exit 2, nothing written) without such a period, when the calibration does not "
-        "fit it, when its knee stands more than 15 deg more flexed than the calibration "
-        "trial's most extended posture, or when its still periods differ by more than 5 "
-        "deg and the calibration trial left the flexion direction open.")] = None,
+        "fit it, when its knee stands more than 15 deg more flexed (20 more extended) than "
+        "the calibration trial's most extended posture, or when its still periods differ "
+        "by more than 5 deg and the calibration trial left the flexion direction open; "
+        "without {folder} for RECs in several folders.")] = None,
     calibrations: Annotated[Path | None, typer.Option(
         "--calibrations", metavar="DIR", show_default=False, parser=_output_folder,
         help="A study (of one REC or several): also write each recording's calibration "
@@ -435,6 +436,15 @@ def calibrate(
         job = _job(ctx, "calibrate", None, settings, start=start, end=end, rate=rate,
                    gyr_units=gyr_units, acc_units=acc_units, sensor_map=sensor_map,
                    force=force)
+        folders = {os.path.dirname(r.rstrip("/")) for r in rec}
+        if standing and standing != "-" and "{folder}" not in standing and len(folders) > 1:
+            # (one subject's stand for every subject: walks 93-121 deg off, "fits", a
+            # gait-lab trial)
+            raise typer.BadParameter(
+                f"{standing} would be every REC's standing trial, and they lie in "
+                f"{len(folders)} folders: give each its own with {{folder}} (e.g. "
+                "'{folder}/static.h5'), or calibrate them apart", ctx=ctx,
+                param_hint="'--standing'")
         if standing == "-" and (len(rec) > 1 or "-" in rec):
             # (the second recording found standard input empty: a review)
             raise typer.BadParameter("- (standard input) is one standing trial for one REC "

@@ -693,6 +693,12 @@ def test_calibrate_takes_the_knees_zero_from_a_standing_trial(tmp_path, monkeypa
     assert (one["exit_code"], angle["zero_trial"], angle["zero_time_s"]) == (0, "s1/static.h5",
                                                                               0.0)
     assert two["error"] == "s2/static.h5: no such file (the standing trial)"
+    # one subject's stand for every subject: walks 93-121 deg off, "fits" (a gait-lab
+    # trial)
+    run = cli("calibrate", "s1/cal.h5", "s2/cal.h5", *knee, "--standing", "s1/static.h5")
+    assert run.returncode == 2 and run.stdout == ""
+    assert "s1/static.h5 would be every REC's standing trial, and they lie in 2 folders" \
+        in run.stderr
     run = cli("calibrate", "s1/cal.h5", *knee, "--standing", "s1/static.h5", "--out",
               "cal.json")
     assert run.returncode == 0, run.stderr
