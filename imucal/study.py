@@ -263,13 +263,6 @@ def _checked_folder(job: Job, files: list[str], out: Path | None) -> Job:
         for _, table in outputs:
             check_table(table, inputs, s.calibration)
         inputs = inputs + [s.calibration]
-    for _, path in outputs:  # (a name's own folders: found after fitting, a review)
-        near = next(p for p in (path.parent, *path.parent.parents) if p.exists() or
-                    p == Path("."))
-        if not near.is_dir():
-            raise InputError(f"{path}: {option} cannot make its folder: {near} is a file")
-    for file, name in names.items():
-        check_replaceable(folder / f"{name}{suffix}", option, file)
     check_not_inputs(outputs + [("--out", out)], inputs)
     made = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
     if not made.is_dir():
@@ -277,6 +270,14 @@ def _checked_folder(job: Job, files: list[str], out: Path | None) -> Job:
     if not os.access(made, os.W_OK | os.X_OK):
         raise InputError(f"{folder}: the {what} folder cannot be written ({made} is not "
                          "writable)")
+    # then each name's own folders below it (found after fitting, a review)
+    for _, path in outputs:
+        near = next(p for p in (path.parent, *path.parent.parents) if p.exists() or
+                    p == Path("."))
+        if not near.is_dir():
+            raise InputError(f"{path}: {option} cannot make its folder: {near} is a file")
+    for file, name in names.items():
+        check_replaceable(folder / f"{name}{suffix}", option, file)
     if angles:  # (read once: a pipe, -c <(...), gave every run after this one nothing)
         job = replace(job, calibration_read=load_calibration(s.calibration))
     if out is not None and not folder.exists() and Path(out).parent.resolve() == \
